@@ -1,0 +1,23 @@
+"""``terrascape bench NAME`` — one sub-command per benchmark case module."""
+
+from __future__ import annotations
+
+import typer
+
+from terrascape.bench import available_cases, get_case, print_tables
+from terrascape.cli.app import bench_app
+
+
+def _make_command(name: str) -> None:
+    def command(
+        quick: bool = typer.Option(False, "--quick", help="Small sizes, same table layout."),
+    ) -> None:
+        print_tables(get_case(name)(quick=quick))
+
+    command.__doc__ = f"Run the {name!r} benchmark and print its tables."
+    bench_app.command(name=name)(command)
+
+
+for _name in available_cases():
+    if _name != "report":  # `bench report` has its own options (cli/cmd_report.py)
+        _make_command(_name)

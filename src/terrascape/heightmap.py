@@ -1,0 +1,156 @@
+"""The heightmap model (MISSION H1): float32 heights in world units on a regular X/Z grid, Y up.
+
+Arrays are indexed ``[row, col]`` = ``[z, x]``. ``spacing`` is the world distance between
+neighbouring samples along X (columns) and Z (rows).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from terrascape._validate import (
+    as_height_array,
+    check_positive,
+    check_pow2_plus1_square,
+    is_pow2_plus1,
+)
+from terrascape.errors import InvalidParameterError
+
+
+@dataclass(frozen=True, eq=False)
+class Heightmap:
+    """Heights (float32, world units) plus sample spacing; immutable, operations return new maps.
+
+    Parameters
+    ----------
+    heights
+        2-D array ``[rows(z), cols(x)]``; converted to C-contiguous float32. NaN is rejected.
+    spacing
+        ``(dx, dz)``: world units between samples along X (columns) and Z (rows).
+    """
+
+    heights: np.ndarray
+    spacing: tuple[float, float] = (1.0, 1.0)
+    metadata: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "heights", as_height_array(self.heights))
+        sp = self.spacing
+        if np.isscalar(sp):
+            sp = (sp, sp)
+        if len(sp) != 2:
+            raise InvalidParameterError(f"spacing must be (dx, dz), got {self.spacing!r}")
+        sp = (check_positive(sp[0], "spacing dx"), check_positive(sp[1], "spacing dz"))
+        object.__setattr__(self, "spacing", sp)
+        self.heights.flags.writeable = False
+
+    # --- shape -------------------------------------------------------------------------
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.heights.shape  # type: ignore[return-value]
+
+    @property
+    def rows(self) -> int:
+        return self.heights.shape[0]
+
+    @property
+    def cols(self) -> int:
+        return self.heights.shape[1]
+
+    @property
+    def extent(self) -> tuple[float, float]:
+        """World size ``(width_x, depth_z)`` covered by the samples."""
+        return ((self.cols - 1) * self.spacing[0], (self.rows - 1) * self.spacing[1])
+
+    @property
+    def min(self) -> float:
+        return float(self.heights.min())
+
+    @property
+    def max(self) -> float:
+        return float(self.heights.max())
+
+    @property
+    def is_pow2_plus1(self) -> bool:
+        """True when the map is square with side 2**n + 1."""
+        return self.rows == self.cols and is_pow2_plus1(self.rows)
+
+    def require_pow2_plus1(self, algorithm: str) -> int:
+        """Return the side or raise :class:`~terrascape.errors.HeightmapSizeError`."""
+        return check_pow2_plus1_square(self.shape, algorithm=algorithm)
+
+    # --- pure operations ---------------------------------------------------------------
+    def with_heights(self, heights: np.ndarray) -> Heightmap:
+        """Same spacing and metadata, new heights."""
+        return Heightmap(heights, self.spacing, dict(self.metadata))
+
+    def to_pow2_plus1(self, mode: str = "pad") -> Heightmap:
+        """Make a square 2**n + 1 map.
+
+        ``mode="pad"`` extends to the next 2**n + 1 >= max(rows, cols) by repeating edge
+        samples (original samples unchanged, spacing unchanged); ``mode="resample"`` resizes
+        with cubic interpolation to the nearest 2**n + 1 of the larger side, adjusting the
+        spacing so the world extent is kept.
+        """
+        if self.is_pow2_plus1:
+            return self
+        n = max(self.rows, self.cols)
+        if mode == "pad":
+            side = 3
+            while side < n:
+                side = (side - 1) * 2 + 1
+            padded = np.pad(
+                self.heights, ((0, side - self.rows), (0, side - self.cols)), mode="edge"
+            )
+            return self.with_heights(padded)
+        if mode == "resample":
+            lo = 3
+            while (lo - 1) * 2 + 1 <= n:
+                lo = (lo - 1) * 2 + 1
+            hi = (lo - 1) * 2 + 1
+            side = lo if (n - lo) <= (hi - n) else hi
+            zoom = ((side - 1) / (self.rows - 1), (side - 1) / (self.cols - 1))
+            out = ndimage.zoom(self.heights, zoom, order=3, mode="nearest", grid_mode=False)
+            out = out[:side, :side]
+            if out.shape != (side, side):  # zoom rounding guard
+                out = np.pad(out, ((0, side - out.shape[0]), (0, side - out.shape[1])), "edge")
+            spacing = (self.extent[0] / (side - 1), self.extent[1] / (side - 1))
+            return Heightmap(out, spacing, dict(self.metadata))
+        raise InvalidParameterError(f"mode must be 'pad' or 'resample', got {mode!r}")
+
+    def normalised(self, lo: float = 0.0, hi: float = 1.0) -> Heightmap:
+        """Heights linearly mapped to ``[lo, hi]`` (a flat map becomes all ``lo``)."""
+        h = self.heights.astype(np.float64)
+        span = h.max() - h.min()
+        unit = (h - h.min()) / span if span > 0 else np.zeros_like(h)
+        return self.with_heights((lo + unit * (hi - lo)).astype(np.float32))
+
+    def scaled(self, factor: float) -> Heightmap:
+        """Heights multiplied by ``factor`` (vertical exaggeration)."""
+        return self.with_heights(self.heights * np.float32(factor))
+
+    def gradient(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(dh/dx, dh/dz)`` in world units per world unit (central differences inside)."""
+        dz, dx = np.gradient(self.heights.astype(np.float64), self.spacing[1], self.spacing[0])
+        return dx.astype(np.float32), dz.astype(np.float32)
+
+    def normals(self) -> np.ndarray:
+        """Unit surface normals ``(rows, cols, 3)`` as ``(x, y, z)``, Y up: ``(-hx, 1, -hz)``."""
+        hx, hz = self.gradient()
+        n = np.stack([-hx, np.ones_like(hx), -hz], axis=-1)
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        return n.astype(np.float32)
+
+    def slope(self) -> np.ndarray:
+        """Slope angle in radians (0 = flat), ``(rows, cols)`` float32."""
+        hx, hz = self.gradient()
+        return np.arctan(np.hypot(hx, hz)).astype(np.float32)
+
+    def __repr__(self) -> str:
+        return (
+            f"Heightmap({self.cols}×{self.rows}, spacing={self.spacing}, "
+            f"range=[{self.min:.4g}, {self.max:.4g}])"
+        )
