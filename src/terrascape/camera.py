@@ -1,0 +1,203 @@
+"""Perspective camera: position + yaw/pitch (an FPS camera, seed 000 §2.6.4), look-at and orbit
+constructors, view/projection matrices and frustum planes. Pure numpy, no OpenGL.
+
+Conventions: X east, Y up, Z south (see :mod:`terrascape.lighting.sun`). ``yaw`` is degrees
+clockwise from north (0 looks toward -Z, 90 toward +X); ``pitch`` is degrees above the
+horizon, clamped to ±89.9 so looking straight up/down never yields a NaN matrix.
+
+Matrices are float64 ``(4, 4)`` for column vectors (``clip = P @ V @ [x, y, z, 1]``), the
+OpenGL convention; upload them to GL as ``M.T.astype("f4").tobytes()`` (column-major).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from terrascape._validate import check_finite, check_positive, check_range
+from terrascape.errors import InvalidParameterError
+
+PITCH_LIMIT = 89.9
+
+
+def _vec3(value, name: str) -> np.ndarray:
+    v = np.asarray(value, dtype=np.float64).reshape(-1)
+    if v.shape != (3,):
+        raise InvalidParameterError(f"{name} must be 3 numbers (x, y, z), got {value!r}")
+    if not np.isfinite(v).all():
+        raise InvalidParameterError(f"{name} must be finite, got {value!r}")
+    return v
+
+
+def direction_from_angles(yaw_deg: float, pitch_deg: float) -> np.ndarray:
+    """Unit forward vector for a yaw (clockwise from north) and pitch (above horizon)."""
+    yaw, pitch = math.radians(yaw_deg), math.radians(pitch_deg)
+    return np.array(
+        [math.sin(yaw) * math.cos(pitch), math.sin(pitch), -math.cos(yaw) * math.cos(pitch)]
+    )
+
+
+def angles_from_direction(direction) -> tuple[float, float]:
+    """(yaw, pitch) in degrees of a non-zero direction vector; yaw is 0 for vertical vectors."""
+    d = _vec3(direction, "direction")
+    norm = np.linalg.norm(d)
+    if norm == 0:
+        raise InvalidParameterError("direction must be non-zero (camera position equals target)")
+    d = d / norm
+    horizontal = math.hypot(d[0], d[2])
+    yaw = math.degrees(math.atan2(d[0], -d[2])) if horizontal > 1e-12 else 0.0
+    pitch = math.degrees(math.atan2(d[1], horizontal))
+    return yaw, pitch
+
+
+@dataclass(frozen=True)
+class Camera:
+    """An immutable perspective camera; ``with_*`` / :func:`dataclasses.replace` make new ones."""
+
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    yaw: float = 0.0
+    pitch: float = 0.0
+    fov_y: float = 60.0
+    aspect: float = 16 / 9
+    near: float = 0.1
+    far: float = 10_000.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "position", tuple(_vec3(self.position, "camera position")))
+        object.__setattr__(self, "yaw", check_finite(self.yaw, "yaw") % 360.0)
+        pitch = check_finite(self.pitch, "pitch")
+        object.__setattr__(self, "pitch", max(-PITCH_LIMIT, min(PITCH_LIMIT, pitch)))
+        check_range(self.fov_y, "fov_y (degrees)", 1e-3, 179.0)
+        check_positive(self.aspect, "aspect")
+        near = check_positive(self.near, "near")
+        far = check_positive(self.far, "far")
+        if far <= near:
+            raise InvalidParameterError(f"far ({far}) must be greater than near ({near})")
+
+    # --- constructors ------------------------------------------------------------------
+    @classmethod
+    def look_at(cls, position, target, **kwargs) -> Camera:
+        """Camera at ``position`` looking at ``target``."""
+        p, t = _vec3(position, "camera position"), _vec3(target, "camera target")
+        yaw, pitch = angles_from_direction(t - p)
+        return cls(position=tuple(p), yaw=yaw, pitch=pitch, **kwargs)
+
+    @classmethod
+    def orbit(cls, target, azimuth: float, elevation: float, distance: float, **kwargs) -> Camera:
+        """Camera on a sphere around ``target``: seen from ``azimuth`` (clockwise from north)
+        and ``elevation`` (degrees above the horizon) at ``distance``, looking at ``target``."""
+        t = _vec3(target, "orbit target")
+        dist = check_positive(distance, "orbit distance")
+        check_range(elevation, "orbit elevation", -PITCH_LIMIT, PITCH_LIMIT)
+        offset = direction_from_angles(check_finite(azimuth, "orbit azimuth"), elevation) * dist
+        return cls.look_at(t + offset, t, **kwargs)
+
+    # --- frame ---------------------------------------------------------------------------
+    @property
+    def eye(self) -> np.ndarray:
+        return np.asarray(self.position, dtype=np.float64)
+
+    @property
+    def forward(self) -> np.ndarray:
+        return direction_from_angles(self.yaw, self.pitch)
+
+    @property
+    def right(self) -> np.ndarray:
+        yaw = math.radians(self.yaw)
+        return np.array([math.cos(yaw), 0.0, math.sin(yaw)])
+
+    @property
+    def up(self) -> np.ndarray:
+        return np.cross(self.right, self.forward)
+
+    def moved(self, offset) -> Camera:
+        """Camera translated by ``offset`` (world units)."""
+        return replace(self, position=tuple(self.eye + _vec3(offset, "offset")))
+
+    def turned(self, d_yaw: float, d_pitch: float) -> Camera:
+        """Camera rotated by yaw/pitch increments (degrees); pitch stays clamped."""
+        return replace(self, yaw=self.yaw + d_yaw, pitch=self.pitch + d_pitch)
+
+    # --- matrices ------------------------------------------------------------------------
+    def view_matrix(self) -> np.ndarray:
+        """World → eye (OpenGL: eye looks down -Z, Y up)."""
+        f, r, u = self.forward, self.right, self.up
+        m = np.eye(4)
+        m[0, :3], m[1, :3], m[2, :3] = r, u, -f
+        m[:3, 3] = -m[:3, :3] @ self.eye
+        return m
+
+    def projection_matrix(self) -> np.ndarray:
+        """Eye → clip, OpenGL perspective with depth in [-1, 1]."""
+        f = 1.0 / math.tan(math.radians(self.fov_y) / 2.0)
+        n, fa = self.near, self.far
+        m = np.zeros((4, 4))
+        m[0, 0] = f / self.aspect
+        m[1, 1] = f
+        m[2, 2] = (fa + n) / (n - fa)
+        m[2, 3] = 2.0 * fa * n / (n - fa)
+        m[3, 2] = -1.0
+        return m
+
+    def view_projection(self) -> np.ndarray:
+        return self.projection_matrix() @ self.view_matrix()
+
+    def frustum_planes(self) -> np.ndarray:
+        """Six planes ``(a, b, c, d)`` (left, right, bottom, top, near, far), unit normals
+        pointing inward: a point is inside when ``a·x + b·y + c·z + d >= 0`` for all six
+        (Gribb & Hartmann's extraction from the view-projection matrix)."""
+        m = self.view_projection()
+        planes = np.array(
+            [m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] + m[2], m[3] - m[2]]
+        )
+        planes /= np.linalg.norm(planes[:, :3], axis=1, keepdims=True)
+        return planes
+
+    def project(self, points, viewport: tuple[int, int]) -> np.ndarray:
+        """World points ``(N, 3)`` → ``(N, 3)``: pixel x, pixel y (row 0 at the top) and
+        eye-space distance along the view axis (negative = behind the camera)."""
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        h = np.c_[pts, np.ones(len(pts))]
+        clip = h @ self.view_projection().T
+        eye_depth = -(h @ self.view_matrix().T)[:, 2]
+        w = np.where(np.abs(clip[:, 3]) < 1e-12, 1e-12, clip[:, 3])
+        ndc = clip[:, :3] / w[:, None]
+        width, height = viewport
+        px = (ndc[:, 0] * 0.5 + 0.5) * width
+        py = (0.5 - ndc[:, 1] * 0.5) * height
+        return np.c_[px, py, eye_depth]
+
+    def pixels_per_radian(self, viewport_height: int) -> float:
+        """Screen pixels per radian at the view centre: ``v_res / (2·tan(fov/2))``."""
+        return viewport_height / (2.0 * math.tan(math.radians(self.fov_y) / 2.0))
+
+
+def frame_terrain(
+    extent: tuple[float, float],
+    height_range: tuple[float, float],
+    *,
+    azimuth: float = 210.0,
+    elevation: float = 35.0,
+    fov_y: float = 45.0,
+    aspect: float = 16 / 9,
+) -> Camera:
+    """A default camera that sees the whole terrain (any size, any spacing).
+
+    The terrain occupies ``x ∈ [0, extent[0]]``, ``z ∈ [0, extent[1]]``,
+    ``y ∈ height_range``; the camera orbits its centre at a distance at which the bounding
+    sphere fits the narrower field of view.
+    """
+    w, d = (check_positive(e, "terrain extent") for e in extent)
+    lo, hi = (check_finite(v, "height") for v in height_range)
+    centre = np.array([w / 2.0, (lo + hi) / 2.0, d / 2.0])
+    radius = 0.5 * math.sqrt(w * w + d * d + (hi - lo) ** 2)
+    half_fov = math.radians(fov_y) / 2.0
+    half_fov_x = math.atan(math.tan(half_fov) * aspect)
+    distance = radius / math.sin(min(half_fov, half_fov_x)) * 1.02
+    near = max(distance - radius * 1.5, distance * 1e-3)
+    far = distance + radius * 2.0
+    return Camera.orbit(
+        centre, azimuth, elevation, distance, fov_y=fov_y, aspect=aspect, near=near, far=far
+    )
