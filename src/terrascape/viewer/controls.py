@@ -1,0 +1,257 @@
+"""The viewer's state machine: keys → parameter changes → uniforms. No window, no GL.
+
+Key bindings follow seed 000 §2.6.4 (the parameter keys of the original program: parallax
+scale in ±0.001 steps from 0.01, linear search steps ±1 from 11), moved off W/A/S/D because
+those fly the camera here (seed 001 §5.2's free camera). Keys are plain names ("W", "TAB",
+"F1", "PAGE_UP", "EQUAL", …) so this module does not depend on the window library; the app
+translates its key codes to these names.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from enum import Enum
+
+import numpy as np
+
+from terrascape.camera import Camera
+
+TECHNIQUES: tuple[str, ...] = (
+    "plain",
+    "regions",
+    "texture3d",
+    "splat",
+    "bump",
+    "parallax",
+    "offset-limited",
+    "steep",
+    "pom",
+    "relief",
+    "interval",
+    "cone",
+    "by-distance",
+)
+LOD_MODES: tuple[str, ...] = ("none", "roam", "turner", "geomipmap")
+
+PARALLAX_SCALE_STEP = 0.001  # seed 000 §2.6.4.3: parametar ± 0.001
+SUN_AZIMUTH_STEP = 10.0
+SUN_ELEVATION_STEP = 5.0
+TRIANGLE_TARGET_FACTOR = 1.25
+TOLERANCE_FACTOR = 1.25
+
+
+class Action(Enum):
+    """Side effects a key asks of the window (the state machine itself has none)."""
+
+    NONE = "none"
+    QUIT = "quit"
+    RELEASE_MOUSE = "release_mouse"
+    SCREENSHOT = "screenshot"
+
+
+# (key, needs shift) → description, shown in the help panel in this order.
+HELP: tuple[tuple[str, str], ...] = (
+    ("W A S D / arrows", "fly (Shift: faster; scroll: change speed)"),
+    ("Q / E", "down / up"),
+    ("mouse (click to capture)", "look around; Esc releases, Esc again quits"),
+    ("Tab / Shift+Tab", "next / previous texturing technique"),
+    ("= / -", "parallax scale ± 0.001"),
+    ("] / [", "linear search steps ± 1"),
+    (". / ,", "binary search steps ± 1"),
+    ("X", "self-shadowing on/off"),
+    ("Z", "wireframe on/off"),
+    ("L", "LOD algorithm: none / roam / turner / geomipmap"),
+    ("PgUp / PgDn", "triangle target (ROAM) or pixel tolerance (geomipmap)"),
+    ("K", "lightmap with shadows on/off"),
+    ("O / P", "sun azimuth ∓ 10°"),
+    ("N / M", "sun elevation ∓ 5° (below 0: night)"),
+    ("F", "fog on/off"),
+    ("T", "terrain following on/off"),
+    ("F1 / H", "this help"),
+    ("F12", "screenshot to PNG"),
+)
+
+
+@dataclass
+class ViewerState:
+    """Everything the keys can change; :meth:`uniforms` is what the renderer receives."""
+
+    technique: str = "plain"
+    parallax_scale: float = 0.01
+    linear_steps: int = 11
+    binary_steps: int = 8
+    self_shadow: bool = False
+    wireframe: bool = False
+    lod: str = "none"
+    triangle_target: int = 80_000
+    tolerance_px: float = 2.0
+    lightmap: bool = True
+    sun_azimuth: float = 135.0
+    sun_elevation: float = 35.0
+    fog: bool = True
+    terrain_following: bool = False
+    show_help: bool = False
+    mouse_captured: bool = False
+    speed: float = 1.0  # world units per second; set from the terrain size at start
+    available: tuple[str, ...] = field(default=TECHNIQUES)
+
+    def __post_init__(self) -> None:
+        if self.technique not in self.available:
+            self.technique = self.available[0]
+
+    # --- keys ---------------------------------------------------------------------------
+    def handle_key(self, key: str, *, shift: bool = False) -> Action:
+        """Apply one key press; return what the window must do."""
+        key = key.upper()
+        if key == "ESCAPE":
+            if self.mouse_captured:
+                self.mouse_captured = False
+                return Action.RELEASE_MOUSE
+            return Action.QUIT
+        if key == "F12":
+            return Action.SCREENSHOT
+        if key in ("F1", "H"):
+            self.show_help = not self.show_help
+        elif key == "TAB":
+            self.cycle_technique(-1 if shift else 1)
+        elif key == "EQUAL":
+            self.parallax_scale = round(self.parallax_scale + PARALLAX_SCALE_STEP, 6)
+        elif key == "MINUS":
+            # seed: "if (parametar > 0) parametar -= 0.001" — never negative
+            self.parallax_scale = max(0.0, round(self.parallax_scale - PARALLAX_SCALE_STEP, 6))
+        elif key == "RIGHT_BRACKET":
+            self.linear_steps = min(256, self.linear_steps + 1)
+        elif key == "LEFT_BRACKET":
+            self.linear_steps = max(1, self.linear_steps - 1)
+        elif key == "PERIOD":
+            self.binary_steps = min(32, self.binary_steps + 1)
+        elif key == "COMMA":
+            self.binary_steps = max(0, self.binary_steps - 1)
+        elif key == "X":
+            self.self_shadow = not self.self_shadow
+        elif key == "Z":
+            self.wireframe = not self.wireframe
+        elif key == "L":
+            self.lod = LOD_MODES[(LOD_MODES.index(self.lod) + 1) % len(LOD_MODES)]
+        elif key in ("PAGE_UP", "PAGE_DOWN"):
+            self._change_detail(up=key == "PAGE_UP")
+        elif key == "K":
+            self.lightmap = not self.lightmap
+        elif key in ("O", "P"):
+            step = SUN_AZIMUTH_STEP if key == "P" else -SUN_AZIMUTH_STEP
+            self.sun_azimuth = (self.sun_azimuth + step) % 360.0
+        elif key in ("N", "M"):
+            step = SUN_ELEVATION_STEP if key == "M" else -SUN_ELEVATION_STEP
+            self.sun_elevation = max(-30.0, min(90.0, self.sun_elevation + step))
+        elif key == "F":
+            self.fog = not self.fog
+        elif key == "T":
+            self.terrain_following = not self.terrain_following
+        return Action.NONE
+
+    def cycle_technique(self, step: int) -> None:
+        i = self.available.index(self.technique)
+        self.technique = self.available[(i + step) % len(self.available)]
+
+    def _change_detail(self, *, up: bool) -> None:
+        if self.lod == "geomipmap":
+            f = 1 / TOLERANCE_FACTOR if up else TOLERANCE_FACTOR
+            self.tolerance_px = float(min(64.0, max(0.25, self.tolerance_px * f)))
+        else:
+            f = TRIANGLE_TARGET_FACTOR if up else 1 / TRIANGLE_TARGET_FACTOR
+            self.triangle_target = int(min(2_000_000, max(1_000, self.triangle_target * f)))
+
+    def scroll(self, amount: float) -> None:
+        """Mouse wheel: each notch changes the flying speed by 20 %."""
+        self.speed = float(min(1e6, max(1e-3, self.speed * 1.2**amount)))
+
+    # --- output -------------------------------------------------------------------------
+    @property
+    def daylight(self) -> float:
+        """0 at night (sun 6° or more below the horizon) … 1 in daylight (sun above 6°)."""
+        return float(np.clip((self.sun_elevation + 6.0) / 12.0, 0.0, 1.0))
+
+    def uniforms(self) -> dict[str, float | int | bool]:
+        """Renderer parameters (the seed's "shader constant callback" values)."""
+        return {
+            "parallax_scale": self.parallax_scale,
+            "linear_steps": self.linear_steps,
+            "binary_steps": self.binary_steps,
+            "self_shadow": self.self_shadow,
+            "fog": self.fog,
+            "daylight": self.daylight,
+        }
+
+    def status_lines(self) -> list[str]:
+        """Technique and its parameters, for the HUD."""
+        lines = [f"technique: {self.technique}"]
+        if self.technique not in ("plain", "regions", "texture3d", "splat", "bump"):
+            lines.append(
+                f"scale {self.parallax_scale:.3f}  linear {self.linear_steps}  "
+                f"binary {self.binary_steps}  self-shadow {'on' if self.self_shadow else 'off'}"
+            )
+        detail = (
+            f"tolerance {self.tolerance_px:.2f} px"
+            if self.lod == "geomipmap"
+            else f"target {self.triangle_target:,} tris"
+        )
+        lines.append(f"LOD: {self.lod}" + ("" if self.lod == "none" else f"  {detail}"))
+        lines.append(
+            f"sun az {self.sun_azimuth:.0f}° el {self.sun_elevation:.0f}°  "
+            f"lightmap {'on' if self.lightmap else 'off'}  fog {'on' if self.fog else 'off'}"
+        )
+        return lines
+
+
+# --- camera flight -----------------------------------------------------------------------
+MOVE_KEYS = {
+    "W": (0, 0, 1), "UP": (0, 0, 1),
+    "S": (0, 0, -1), "DOWN": (0, 0, -1),
+    "D": (1, 0, 0), "RIGHT": (1, 0, 0),
+    "A": (-1, 0, 0), "LEFT": (-1, 0, 0),
+    "E": (0, 1, 0), "Q": (0, -1, 0),
+}  # fmt: skip
+
+
+def fly(
+    camera: Camera,
+    keys_down: set[str],
+    dt: float,
+    speed: float,
+    *,
+    fast: bool = False,
+    ground=None,
+    clearance: float = 2.0,
+    follow: bool = False,
+) -> Camera:
+    """Move the camera for ``dt`` seconds with the held keys.
+
+    Forward/back follow the view direction (a free-flying camera), strafing stays horizontal,
+    Q/E move along world Y. ``ground(x, z) -> height`` keeps the eye ``clearance`` above the
+    terrain when ``follow`` (terrain following) is on, and otherwise only stops it from
+    sinking below that height.
+    """
+    move = np.zeros(3)
+    for key in keys_down:
+        if key.upper() in MOVE_KEYS:
+            move += MOVE_KEYS[key.upper()]
+    step = speed * dt * (4.0 if fast else 1.0)
+    offset = (
+        camera.right * move[0] + np.array([0.0, 1.0, 0.0]) * move[1] + camera.forward * move[2]
+    )
+    norm = np.linalg.norm(offset)
+    cam = camera.moved(offset / norm * step) if norm > 0 and step > 0 else camera
+    if ground is not None:
+        x, y, z = cam.eye
+        floor = float(ground(x, z)) + clearance
+        if y < floor or follow:
+            cam = replace(cam, position=(x, floor, z))
+    return cam
+
+
+def look(camera: Camera, dx: float, dy: float, sensitivity: float = 0.15) -> Camera:
+    """Mouse look: ``dx``/``dy`` pixels → yaw/pitch degrees (pitch stays within ±89.9°)."""
+    if not (math.isfinite(dx) and math.isfinite(dy)):
+        return camera
+    return camera.turned(dx * sensitivity, -dy * sensitivity)

@@ -1,0 +1,96 @@
+import numpy as np
+import pytest
+
+from terrascape.camera import Camera
+from terrascape.viewer.controls import TECHNIQUES, Action, ViewerState, fly, look
+
+
+def test_seed_defaults_and_parallax_steps():
+    s = ViewerState()
+    assert (s.parallax_scale, s.linear_steps) == (0.01, 11)
+    s.handle_key("EQUAL")
+    assert s.parallax_scale == pytest.approx(0.011)
+    for _ in range(20):
+        s.handle_key("MINUS")
+    assert s.parallax_scale == 0.0  # never negative, as in the seed
+    s.handle_key("RIGHT_BRACKET")
+    assert s.linear_steps == 12
+    for _ in range(50):
+        s.handle_key("LEFT_BRACKET")
+    assert s.linear_steps == 1
+    s.handle_key("PERIOD")
+    assert s.binary_steps == 9
+    assert s.uniforms()["linear_steps"] == 1
+    assert s.uniforms()["binary_steps"] == 9
+
+
+def test_technique_cycles_both_ways():
+    s = ViewerState()
+    seen = [s.technique]
+    for _ in range(len(TECHNIQUES)):
+        s.handle_key("TAB")
+        seen.append(s.technique)
+    assert seen[0] == seen[-1] and set(seen) == set(TECHNIQUES)
+    s.handle_key("TAB", shift=True)
+    assert s.technique == TECHNIQUES[-1]
+
+
+def test_only_available_techniques_are_cycled():
+    s = ViewerState(technique="relief", available=("plain", "bump"))
+    assert s.technique == "plain"
+    s.handle_key("TAB")
+    assert s.technique == "bump"
+
+
+def test_escape_releases_then_quits():
+    s = ViewerState(mouse_captured=True)
+    assert s.handle_key("ESCAPE") is Action.RELEASE_MOUSE
+    assert s.handle_key("ESCAPE") is Action.QUIT
+    assert s.handle_key("F12") is Action.SCREENSHOT
+
+
+def test_toggles_lod_and_detail():
+    s = ViewerState()
+    for key, attr in (("X", "self_shadow"), ("Z", "wireframe"), ("F", "fog"), ("K", "lightmap")):
+        before = getattr(s, attr)
+        s.handle_key(key)
+        assert getattr(s, attr) is (not before)
+    assert s.lod == "none"
+    s.handle_key("L")
+    assert s.lod == "roam"
+    s.handle_key("PAGE_UP")
+    assert s.triangle_target == 100_000
+    s.handle_key("L")
+    s.handle_key("L")
+    assert s.lod == "geomipmap"
+    s.handle_key("PAGE_DOWN")
+    assert s.tolerance_px == pytest.approx(2.5)
+    s.handle_key("h")
+    assert s.show_help
+
+
+def test_sun_keys_reach_night():
+    s = ViewerState(sun_elevation=10)
+    assert s.daylight == 1.0
+    for _ in range(4):
+        s.handle_key("N")
+    assert s.sun_elevation == -10
+    assert s.daylight == 0.0
+    s.handle_key("P")
+    assert s.sun_azimuth == 145
+
+
+def test_fly_moves_along_view_and_follows_ground():
+    cam = Camera.look_at((0, 10, 0), (0, 10, -1))  # looking north (-Z)
+    moved = fly(cam, {"W"}, dt=0.5, speed=4.0)
+    assert np.allclose(moved.eye, [0, 10, -2])
+    strafed = fly(cam, {"D"}, dt=1.0, speed=1.0, fast=True)
+    assert np.allclose(strafed.eye, [4, 10, 0])
+    sunk = fly(cam, {"Q"}, dt=1.0, speed=100.0, ground=lambda x, z: 5.0, clearance=1.0)
+    assert sunk.eye[1] == pytest.approx(6.0)
+
+
+def test_look_clamps_pitch():
+    cam = look(Camera(), 0, -10_000)
+    assert cam.pitch == pytest.approx(89.9)
+    assert look(cam, float("nan"), 0) is cam
