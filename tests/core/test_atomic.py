@@ -37,3 +37,15 @@ def test_missing_folder_and_empty_output(tmp_path):
     with pytest.raises(FileFormatError, match="no data"), atomic_output(tmp_path / "e.bin"):
         pass
     assert list(tmp_path.iterdir()) == []
+
+
+def test_output_gets_umask_permissions(tmp_path):
+    import os
+
+    mask = os.umask(0o022)
+    try:
+        with atomic_output(tmp_path / "p.txt") as tmp:
+            tmp.write_text("x")
+    finally:
+        os.umask(mask)
+    assert (tmp_path / "p.txt").stat().st_mode & 0o777 == 0o644

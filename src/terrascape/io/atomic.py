@@ -26,6 +26,12 @@ def check_output_path(path: str | os.PathLike, *, force: bool = False) -> Path:
     return p
 
 
+def _current_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path]:
     """Yield a temporary path next to ``path``; on success rename it over ``path``.
@@ -43,6 +49,8 @@ def atomic_output(path: str | os.PathLike, *, force: bool = False) -> Iterator[P
         yield tmp
         if not tmp.exists() or tmp.stat().st_size == 0:
             raise FileFormatError(f"writing {final} produced no data")
+        # mkstemp creates 0600 files; give the result the permissions a plain open() would.
+        os.chmod(tmp, 0o666 & ~_current_umask())
         os.replace(tmp, final)
     finally:
         with contextlib.suppress(FileNotFoundError):

@@ -1,0 +1,122 @@
+"""``terrascape info`` and ``terrascape convert`` — heightmap files (MISSION H2)."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import typer
+from rich.table import Table
+
+from terrascape.cli.app import app, console, out
+from terrascape.io.heightmap_file import formats_help
+
+_SIZE_HELP = (
+    "Grid size COLSxROWS in samples (or one number for a square), only for headerless "
+    "RAW files (.r16/.raw/.r32); default: from the .json sidecar or a square file length."
+)
+_SPACING_HELP = (
+    "Sample spacing in world units, DX or DX,DZ (overrides the file's own); "
+    "default: from the file, else 1."
+)
+_VSCALE_HELP = (
+    "Height of full white/65535 in world units for files without units (plain images, "
+    "RAW16 without sidecar); a multiplier for files with world units. Default: 1 / unchanged."
+)
+
+
+def _parse_spacing(text: str | None) -> tuple[float, float] | None:
+    from terrascape.cli.parsing import parse_floats
+
+    if text is None:
+        return None
+    parts = text.split(",")
+    values = parse_floats(text, len(parts) if len(parts) in (1, 2) else 2, name="--spacing")
+    return (values[0], values[0]) if len(values) == 1 else (values[0], values[1])
+
+
+def _parse_grid(text: str | None) -> tuple[int, int] | None:
+    from terrascape.cli.parsing import parse_size
+
+    if text is None:
+        return None
+    if text.strip().isdigit():
+        side = int(text)
+        return (side, side)
+    return parse_size(text, name="--size")
+
+
+def _read(path: Path, size: str | None, spacing: str | None, vertical_scale: float | None):
+    """Read with warnings shown as one yellow line each (not Python's two-line format)."""
+    from terrascape.io import read_heightmap
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hm = read_heightmap(
+            path,
+            size=_parse_grid(size),
+            spacing=_parse_spacing(spacing),
+            vertical_scale=vertical_scale,
+        )
+    for w in caught:
+        console.print(f"[yellow]warning:[/] {w.message}")
+    return hm
+
+
+@app.command(help=f"Describe a heightmap file. Reads: {formats_help()}.")
+def info(
+    file: Path = typer.Argument(..., help="Heightmap file to describe."),
+    size: str = typer.Option(None, "--size", help=_SIZE_HELP, show_default="from file"),
+    spacing: str = typer.Option(None, "--spacing", help=_SPACING_HELP, show_default="from file"),
+    vertical_scale: float = typer.Option(
+        None, "--vertical-scale", help=_VSCALE_HELP, show_default="1 / unchanged"
+    ),
+) -> None:
+    """Print size, value range, on-disk dtype, spacing, extent and NaN-filled count."""
+    hm = _read(file, size, spacing, vertical_scale)
+    md = hm.metadata
+    table = Table(title=str(file), show_header=False)
+    table.add_column("property")
+    table.add_column("value")
+    table.add_row("format", str(md.get("format")))
+    table.add_row("size", f"{hm.cols}×{hm.rows} (cols×rows)")
+    table.add_row("dtype on disk", str(md.get("dtype")))
+    table.add_row("height range", f"{hm.min:.6g} … {hm.max:.6g} (world units)")
+    step = float(md.get("step", 0.0))
+    table.add_row("quantisation step", f"{step:.6g}" if step else "exact (no quantisation)")
+    if "units_restored" in md:
+        table.add_row(
+            "world units",
+            "restored from metadata" if md["units_restored"] else "normalised × vertical scale",
+        )
+    table.add_row("spacing", f"dx={hm.spacing[0]:.6g}, dz={hm.spacing[1]:.6g}")
+    table.add_row("extent", f"{hm.extent[0]:.6g} × {hm.extent[1]:.6g} (x × z)")
+    table.add_row("NaN/nodata filled", str(md.get("filled", 0)))
+    if md.get("geographic"):
+        table.add_row("georeference", "geographic (degrees → metres at centre latitude)")
+    out.print(table)
+
+
+@app.command(
+    help=f"Convert a heightmap between formats by extension. Writes: {formats_help(write=True)}."
+)
+def convert(
+    source: Path = typer.Argument(..., help=f"Input heightmap ({formats_help()})."),
+    target: Path = typer.Argument(..., help=f"Output file ({formats_help(write=True)})."),
+    size: str = typer.Option(None, "--size", help=_SIZE_HELP, show_default="from file"),
+    spacing: str = typer.Option(None, "--spacing", help=_SPACING_HELP, show_default="from file"),
+    vertical_scale: float = typer.Option(
+        None, "--vertical-scale", help=_VSCALE_HELP, show_default="1 / unchanged"
+    ),
+    force: bool = typer.Option(False, "--force", help="Overwrite TARGET (and its sidecar)."),
+) -> None:
+    """Read SOURCE and write it as TARGET (format chosen by TARGET's extension)."""
+    from terrascape.io import check_output_path, write_heightmap
+
+    check_output_path(target, force=force)  # fail before reading a large input
+    hm = _read(source, size, spacing, vertical_scale)
+    written = write_heightmap(hm, target, force=force)
+    out.print(
+        f"{source} → {written}: {hm.cols}×{hm.rows}, heights {hm.min:.6g} … {hm.max:.6g}, "
+        f"spacing ({hm.spacing[0]:.6g}, {hm.spacing[1]:.6g})"
+    )

@@ -1,0 +1,54 @@
+"""Reading and writing heightmap files (MISSION H2; seed 001 §2.1, seed 000 §2.1).
+
+:func:`read_heightmap` / :func:`write_heightmap` dispatch by extension (:data:`FORMATS`);
+each format also has its own module (``image``, ``raw``, ``tiff``, ``npy``, ``terragen``),
+``fill`` fills nodata holes, and ``atomic`` makes every write all-or-nothing.
+"""
+
+from terrascape.io.atomic import atomic_output, check_output_path
+from terrascape.io.fill import fill_nodata
+from terrascape.io.heightmap_file import (
+    FORMATS,
+    READ_EXTENSIONS,
+    WRITE_EXTENSIONS,
+    WRITE_FORMAT_NAMES,
+    formats_help,
+    read_heightmap,
+    write_heightmap,
+)
+from terrascape.io.image import REC601_LUMA, luminance, read_image, write_png16, write_preview
+from terrascape.io.npy import read_npy, write_npy
+from terrascape.io.raw import read_raw16, read_raw32, sidecar_path, write_raw16, write_raw32
+from terrascape.io.terragen import read_terragen, terragen_encoding, write_terragen
+from terrascape.io.tiff import geographic_spacing, read_tiff, write_tiff
+
+__all__ = [
+    "FORMATS",
+    "READ_EXTENSIONS",
+    "REC601_LUMA",
+    "WRITE_EXTENSIONS",
+    "WRITE_FORMAT_NAMES",
+    "atomic_output",
+    "check_output_path",
+    "fill_nodata",
+    "formats_help",
+    "geographic_spacing",
+    "luminance",
+    "read_heightmap",
+    "read_image",
+    "read_npy",
+    "read_raw16",
+    "read_raw32",
+    "read_terragen",
+    "read_tiff",
+    "sidecar_path",
+    "terragen_encoding",
+    "write_heightmap",
+    "write_npy",
+    "write_png16",
+    "write_preview",
+    "write_raw16",
+    "write_raw32",
+    "write_terragen",
+    "write_tiff",
+]

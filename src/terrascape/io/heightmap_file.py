@@ -1,0 +1,163 @@
+"""Format dispatch: :func:`read_heightmap` / :func:`write_heightmap` by file extension (H2)."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+from terrascape.errors import FileFormatError, InvalidParameterError
+from terrascape.heightmap import Heightmap
+from terrascape.io._common import check_heightmap, check_input_path, normalise_size
+from terrascape.io.image import read_image, write_png16, write_preview
+from terrascape.io.npy import read_npy, write_npy
+from terrascape.io.raw import read_raw16, read_raw32, write_raw16, write_raw32
+from terrascape.io.terragen import read_terragen, write_terragen
+from terrascape.io.tiff import read_tiff, write_tiff
+
+#: Supported extensions → (reads, writes, description). Used for ``--help`` texts.
+FORMATS: dict[str, tuple[bool, bool, str]] = {
+    ".png": (True, True, "PNG: read 8/16-bit gray or RGB(A); write 16-bit gray + terrascape chunk"),
+    ".bmp": (True, True, "BMP: read 8-bit gray/RGB; write 8-bit normalised preview (lossy)"),
+    ".jpg": (True, False, "JPEG: read only (8-bit gray/RGB)"),
+    ".jpeg": (True, False, "JPEG: read only (8-bit gray/RGB)"),
+    ".r16": (True, True, "RAW uint16 little-endian (+ .json sidecar on write)"),
+    ".raw": (True, True, "RAW uint16 little-endian, same as .r16"),
+    ".r32": (True, True, "RAW float32 little-endian (+ .json sidecar on write)"),
+    ".tif": (True, True, "(Geo)TIFF any int/float type in (nodata filled); float32 out"),
+    ".tiff": (True, True, "same as .tif"),
+    ".npy": (True, True, "NumPy 2-D array; float32 out"),
+    ".ter": (True, True, "Terragen terrain (int16 + HeightScale/BaseHeight)"),
+}
+READ_EXTENSIONS: tuple[str, ...] = tuple(e for e, (r, _w, _d) in FORMATS.items() if r)
+WRITE_EXTENSIONS: tuple[str, ...] = tuple(e for e, (_r, w, _d) in FORMATS.items() if w)
+
+#: ``format=`` names accepted by :func:`write_heightmap` (extension names without the dot
+#: also work).
+WRITE_FORMAT_NAMES: dict[str, Callable[..., Path]] = {
+    "png": write_png16,
+    "png16": write_png16,
+    "png8": write_preview,
+    "bmp": write_preview,
+    "r16": write_raw16,
+    "raw": write_raw16,
+    "r32": write_raw32,
+    "tif": write_tiff,
+    "tiff": write_tiff,
+    "npy": write_npy,
+    "ter": write_terragen,
+}
+
+
+def formats_help(*, write: bool = False) -> str:
+    """One-line list of supported extensions, for CLI help texts."""
+    return ", ".join(WRITE_EXTENSIONS if write else READ_EXTENSIONS)
+
+
+def _extension(path: Path) -> str:
+    return path.suffix.lower()
+
+
+def read_heightmap(
+    path: str | os.PathLike,
+    *,
+    size: int | tuple[int, int] | None = None,
+    spacing: float | tuple[float, float] | None = None,
+    vertical_scale: float | None = None,
+) -> Heightmap:
+    """Read a heightmap file, choosing the reader by extension (seed 001 §2.1, MISSION H2).
+
+    Parameters
+    ----------
+    path
+        File with one of :data:`READ_EXTENSIONS`.
+    size
+        RAW only (``.r16``/``.raw``/``.r32``): square side or ``(cols, rows)``.
+    spacing
+        Override of the sample spacing ``(dx, dz)`` (or one number for both).
+    vertical_scale
+        Formats without height units (plain images, RAW16 without sidecar): world height of
+        the full-scale value (default 1.0). Formats with world units: a multiplier.
+
+    Returns
+    -------
+    Heightmap
+        ``metadata`` holds ``source``, ``format``, ``dtype`` (on disk), ``step``
+        (quantisation step in world units, 0 if exact) and ``filled`` (nodata samples filled).
+
+    Raises
+    ------
+    FileFormatError
+        Missing file, unknown extension, truncated/corrupt content.
+    InvalidParameterError
+        Bad arguments, ``size`` given for a non-RAW file, NaN in ``.npy``/``.r32``.
+    """
+    p = check_input_path(path)
+    ext = _extension(p)
+    if ext not in READ_EXTENSIONS:
+        raise FileFormatError(
+            f"unknown heightmap extension {ext or '(none)'!r} for {p.name}; "
+            f"expected one of {formats_help()}"
+        )
+    kwargs = {"spacing": spacing, "vertical_scale": vertical_scale}
+    if ext in (".r16", ".raw", ".r32"):
+        reader = read_raw32 if ext == ".r32" else read_raw16
+        return reader(p, size=size, **kwargs)
+    if size is not None:
+        normalise_size(size)  # still report a malformed size as such
+        raise InvalidParameterError(
+            f"size applies only to headerless RAW files (.r16/.raw/.r32), not {ext}; "
+            "the size is read from the file"
+        )
+    if ext in (".tif", ".tiff"):
+        return read_tiff(p, **kwargs)
+    if ext == ".npy":
+        return read_npy(p, **kwargs)
+    if ext == ".ter":
+        return read_terragen(p, **kwargs)
+    return read_image(p, **kwargs)
+
+
+def write_heightmap(
+    heightmap: Heightmap,
+    path: str | os.PathLike,
+    *,
+    force: bool = False,
+    format: str | None = None,
+) -> Path:
+    """Write ``heightmap`` atomically, choosing the writer by extension or ``format``.
+
+    ``.png`` → 16-bit PNG with a terrascape chunk (world units restored on read within half
+    a step); ``.bmp`` (or ``format="png8"``) → 8-bit normalised preview; ``.r16``/``.raw`` →
+    uint16 RAW + ``.json`` sidecar; ``.r32`` → float32 RAW + sidecar; ``.tif`` → float32
+    TIFF with ModelPixelScale; ``.npy`` → float32 array; ``.ter`` → Terragen.
+
+    Raises
+    ------
+    OutputExistsError
+        The path (or the RAW sidecar) exists and ``force`` is false.
+    FileFormatError
+        Unknown extension/format, missing output folder.
+    """
+    check_heightmap(heightmap)
+    p = Path(path)
+    if format is not None:
+        key = str(format).lower().lstrip(".")
+        if key not in WRITE_FORMAT_NAMES:
+            raise FileFormatError(
+                f"unknown output format {format!r}; expected one of {', '.join(WRITE_FORMAT_NAMES)}"
+            )
+        writer = WRITE_FORMAT_NAMES[key]
+        # Previews pick the image container from the suffix, so it must agree with format.
+        want = {"png8": ".png", "bmp": ".bmp"}.get(key)
+        if want is not None and _extension(p) != want:
+            raise FileFormatError(f"format {key!r} needs a {want} path, got {p.name!r}")
+    else:
+        ext = _extension(p)
+        if ext not in WRITE_EXTENSIONS:
+            raise FileFormatError(
+                f"cannot write heightmaps as {ext or '(no extension)'!r} ({p.name}); "
+                f"expected one of {formats_help(write=True)}"
+            )
+        writer = WRITE_FORMAT_NAMES[ext.lstrip(".")]
+    return writer(heightmap, p, force=force)

@@ -1,0 +1,74 @@
+"""NumPy ``.npy`` heightmaps: a 2-D numeric array of world heights (exact, float32 on write).
+
+``.npy`` has no room for the spacing, so reading gives ``(1, 1)`` unless ``spacing`` is
+passed. Pickled (object) arrays are refused: loading them could run arbitrary code.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from terrascape.errors import FileFormatError, InvalidParameterError
+from terrascape.heightmap import Heightmap
+from terrascape.io._common import (
+    check_heightmap,
+    check_input_path,
+    check_vertical_scale,
+    file_metadata,
+    normalise_spacing,
+)
+from terrascape.io.atomic import atomic_output
+
+
+def read_npy(
+    path: str | os.PathLike,
+    *,
+    spacing: float | tuple[float, float] | None = None,
+    vertical_scale: float | None = None,
+) -> Heightmap:
+    """Read a 2-D integer/float ``.npy`` array as world heights.
+
+    ``vertical_scale`` multiplies the heights.
+
+    Raises
+    ------
+    FileFormatError
+        Missing/truncated/corrupt file, pickled data, not 2-D, non-numeric dtype.
+    InvalidParameterError
+        NaN or infinite samples (``.npy`` has no nodata convention; fill them yourself).
+    """
+    p = check_input_path(path)
+    spacing_t = normalise_spacing(spacing)
+    vscale = check_vertical_scale(vertical_scale)
+    try:
+        array = np.load(p, allow_pickle=False)
+    except (ValueError, OSError, EOFError) as exc:
+        raise FileFormatError(f"cannot read .npy file {p}: {exc}") from None
+    if not isinstance(array, np.ndarray):  # an .npz archive saved as .npy
+        raise FileFormatError(f"expected a single array in {p}, got {type(array).__name__}")
+    if array.ndim != 2:
+        raise FileFormatError(f"expected a 2-D array in {p}, got shape {array.shape}")
+    if not (np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)):
+        raise FileFormatError(f"expected integer or float heights in {p}, got dtype {array.dtype}")
+    heights = array.astype(np.float64)
+    finite = np.isfinite(heights)
+    if not finite.all():
+        raise InvalidParameterError(
+            f"{p} contains {int(np.count_nonzero(~finite))} NaN/infinite sample(s); expected "
+            "finite heights (fill them, e.g. with terrascape.io.fill_nodata, and save again)"
+        )
+    if vscale is not None:
+        heights = heights * vscale
+    md = file_metadata(p, "npy", str(array.dtype), step=0.0)
+    return Heightmap(heights.astype(np.float32), spacing_t or (1.0, 1.0), md)
+
+
+def write_npy(heightmap: Heightmap, path: str | os.PathLike, *, force: bool = False) -> Path:
+    """Write the heights as a float32 ``.npy`` (exact; spacing is not stored)."""
+    check_heightmap(heightmap)
+    with atomic_output(path, force=force) as tmp, open(tmp, "wb") as fh:
+        np.save(fh, np.ascontiguousarray(heightmap.heights, dtype=np.float32))
+    return Path(path)
