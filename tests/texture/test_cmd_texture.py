@@ -1,0 +1,125 @@
+"""`terrascape texture …` commands, run in-process: outputs, exit codes, all-or-nothing."""
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from terrascape.cli.app import run_app
+from terrascape.heightmap import Heightmap
+from terrascape.texture import (
+    builtin_material,
+    default_regions,
+    material_ids_from_rules,
+    pack_splat_maps,
+    region_texture,
+    splat_weights,
+)
+
+
+@pytest.fixture
+def hm_file(tmp_path):
+    y, x = np.mgrid[0:33, 0:41] / 32.0
+    h = (np.sin(4 * x) * np.cos(3 * y) * 15 + 15 + 20 * x).astype(np.float32)
+    path = tmp_path / "hm.npy"
+    np.save(path, h)
+    return path, Heightmap(h)
+
+
+def _png(path):
+    with Image.open(path) as im:
+        return np.asarray(im)
+
+
+def test_regions_command_writes_the_library_result(tmp_path, hm_file):
+    path, hm = hm_file
+    out = tmp_path / "tex.png"
+    argv = ["texture", "regions", str(path), "-o", str(out), "--scale", "2", "--jitter", "0.2",
+            "--seed", "3", "--texture-size", "64", "-q"]
+    assert run_app(argv) == 0
+    img = _png(out)
+    assert img.shape == (66, 82, 3)
+    expected = region_texture(hm, scale=2, jitter=0.2, seed=3, texture_size=64)
+    np.testing.assert_array_equal(img, expected)
+    # exists, no --force -> exit 2, file untouched
+    before = out.read_bytes()
+    assert run_app([*argv[:-1], "--no-slope-rule", "-q"]) == 2
+    assert out.read_bytes() == before
+    assert run_app([*argv, "--no-slope-rule", "--force"]) == 0
+    np.testing.assert_array_equal(
+        _png(out), region_texture(hm, scale=2, jitter=0.2, seed=3, texture_size=64,
+                                  slope_rule=False))
+    assert not list(tmp_path.glob(".*part*"))
+
+
+def test_regions_command_lightmap(tmp_path, hm_file):
+    path, _ = hm_file
+    Image.fromarray(np.zeros((5, 5), np.uint8)).save(tmp_path / "dark.png")
+    out = tmp_path / "lit.png"
+    assert run_app(["texture", "regions", str(path), "-o", str(out), "--lightmap",
+                    str(tmp_path / "dark.png"), "-q"]) == 0
+    assert _png(out).max() == 0
+
+
+def test_regions_command_errors(tmp_path, hm_file):
+    path, _ = hm_file
+    out = tmp_path / "x.png"
+    assert run_app(["texture", "regions", str(tmp_path / "none.npy"), "-o", str(out)]) == 2
+    assert run_app(["texture", "regions", str(path), "-o", str(out), "--scale", "0"]) == 2
+    assert run_app(["texture", "regions", str(path), "-o", str(tmp_path / "x.xyz")]) == 2
+    (tmp_path / "bad.png").write_text("nope")
+    assert run_app(["texture", "regions", str(path), "-o", str(out), "--lightmap",
+                    str(tmp_path / "bad.png")]) == 2
+    nan = tmp_path / "nan.npy"
+    bad = np.ones((5, 5), np.float32)
+    bad[2, 2] = np.nan
+    np.save(nan, bad)
+    assert run_app(["texture", "regions", str(nan), "-o", str(out)]) == 2
+    assert not out.exists()
+    assert not list(tmp_path.glob(".*part*"))
+
+
+def test_splat_command_all_or_nothing(tmp_path, hm_file):
+    path, hm = hm_file
+    prefix = tmp_path / "splat"
+    (tmp_path / "splat_1.png").write_bytes(b"keep")
+    assert run_app(["texture", "splat", str(path), "-o", str(prefix), "-q"]) == 2
+    assert not (tmp_path / "splat_0.png").exists()  # nothing written
+    assert (tmp_path / "splat_1.png").read_bytes() == b"keep"
+    assert run_app(["texture", "splat", str(path), "-o", str(prefix), "--block", "8",
+                    "--force", "-q"]) == 0
+    regions = default_regions(hm)
+    expected = pack_splat_maps(splat_weights(material_ids_from_rules(hm, regions), 5))
+    for k in range(2):
+        img = _png(tmp_path / f"splat_{k}.png")
+        assert img.shape == (33, 41, 4)
+        np.testing.assert_array_equal(img, expected[k])
+    assert run_app(["texture", "splat", str(path), "-o", str(prefix), "--block", "0"]) == 2
+
+
+def test_material_command(tmp_path):
+    out = tmp_path / "rock.png"
+    assert run_app(["texture", "material", "rock", "-o", str(out), "--size", "32"]) == 0
+    np.testing.assert_array_equal(_png(out), builtin_material("rock", 32))
+    assert run_app(["texture", "material", "lava", "-o", str(tmp_path / "l.png")]) == 2
+
+
+def test_splat_command_with_material_map(tmp_path, hm_file):
+    path, _ = hm_file
+    ids = np.zeros((32, 40), np.uint8)
+    ids[:, 20:] = 2
+    Image.fromarray(ids).save(tmp_path / "ids.png")
+    prefix = tmp_path / "m"
+    assert run_app(["texture", "splat", str(path), "-o", str(prefix), "--materials",
+                    str(tmp_path / "ids.png"), "-q"]) == 0
+    img = _png(tmp_path / "m_0.png")
+    np.testing.assert_array_equal(img, pack_splat_maps(splat_weights(ids, 3))[0])
+    assert img[5, 0].tolist() == [255, 0, 0, 0] and img[5, 40].tolist() == [0, 0, 255, 0]
+    assert not (tmp_path / "m_1.png").exists()
+    # a material map of the vertex size (not the cell size) is a typed error -> exit 2
+    Image.fromarray(np.zeros((33, 41), np.uint8)).save(tmp_path / "wrong.png")
+    assert run_app(["texture", "splat", str(path), "-o", str(tmp_path / "w"), "--materials",
+                    str(tmp_path / "wrong.png")]) == 2
+    assert not (tmp_path / "w_0.png").exists()
+    Image.fromarray(np.zeros((32, 40, 3), np.uint8)).save(tmp_path / "rgb.png")
+    assert run_app(["texture", "splat", str(path), "-o", str(tmp_path / "w"), "--materials",
+                    str(tmp_path / "rgb.png")]) == 2
