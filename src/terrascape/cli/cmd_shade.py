@@ -1,0 +1,204 @@
+"""``terrascape normalmap | heightfromimage | shade`` (MISSION T4, T6).
+
+Thin layer over :mod:`terrascape.lighting`: read, compute, write a PNG atomically.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+import typer
+
+from terrascape.cli.app import app, out, timed
+from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
+from terrascape.io.atomic import atomic_output, check_output_path
+
+_FORCE = typer.Option(False, "--force", help="Overwrite the output file if it exists.")
+_QUIET = typer.Option(False, "--quiet", "-q", help="No timing lines.")
+
+
+# --- helpers -----------------------------------------------------------------------------------
+def _require_png(path: Path) -> None:
+    if path.suffix.lower() != ".png":
+        raise InvalidParameterError(
+            f"output must be a .png file, got {path.name!r} (suffix {path.suffix or 'none'})"
+        )
+
+
+def _read_heightmap(path: Path):
+    from terrascape.io import read_heightmap
+
+    try:
+        return read_heightmap(path)
+    except TerrascapeError:
+        raise
+    except (OSError, ValueError) as exc:  # a reader's own low-level error: still a bad file
+        raise FileFormatError(f"cannot read heightmap {path}: {exc}") from exc
+
+
+def _png_chunk(kind: bytes, data: bytes) -> bytes:
+    body = kind + data
+    return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body) & 0xFFFFFFFF)
+
+
+def encode_png_rgba16(rgba: np.ndarray) -> bytes:
+    """A 16-bit RGBA PNG (colour type 6, bit depth 16) — Pillow cannot write this mode.
+
+    Scanlines use filter type 0 (None); samples are big-endian as the PNG spec requires.
+    """
+    a = np.asarray(rgba)
+    if a.ndim != 3 or a.shape[2] != 4 or a.dtype != np.uint16:
+        raise InvalidParameterError(f"expected uint16 (rows, cols, 4), got {a.dtype} {a.shape}")
+    rows, cols = a.shape[:2]
+    lines = a.astype(">u2").reshape(rows, cols * 8 // 2).view(np.uint8).reshape(rows, cols * 8)
+    raw = np.concatenate([np.zeros((rows, 1), np.uint8), lines], axis=1).tobytes()
+    ihdr = struct.pack(">IIBBBBB", cols, rows, 16, 6, 0, 0, 0)
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + _png_chunk(b"IHDR", ihdr)
+        + _png_chunk(b"IDAT", zlib.compress(raw, 6))
+        + _png_chunk(b"IEND", b"")
+    )
+
+
+def _write_rgba(rgba: np.ndarray, path: Path, force: bool) -> None:
+    from PIL import Image
+
+    with atomic_output(path, force=force) as tmp:
+        if rgba.dtype == np.uint16:
+            tmp.write_bytes(encode_png_rgba16(rgba))
+        else:
+            Image.fromarray(rgba).save(tmp, format="PNG")
+
+
+def _read_photo(path: Path) -> np.ndarray:
+    from PIL import Image, UnidentifiedImageError
+
+    if not path.is_file():
+        raise FileFormatError(f"image not found: {path}")
+    try:
+        with Image.open(path) as im:
+            im.load()
+            if im.mode in ("I;16", "I;16B", "I;16L"):
+                return np.array(im, dtype=np.uint16)
+            if im.mode in ("I", "F"):
+                arr = np.array(im, dtype=np.float64)
+                lo, hi = float(arr.min()), float(arr.max())
+                return (arr - lo) / (hi - lo) if hi > lo else np.zeros_like(arr)
+            return np.array(im.convert("RGBA" if "A" in im.mode else "RGB"), dtype=np.uint8)
+    except UnidentifiedImageError as exc:
+        raise FileFormatError(f"{path} is not an image Pillow can read") from exc
+    except OSError as exc:
+        raise FileFormatError(f"cannot read image {path}: {exc}") from exc
+
+
+# --- commands ----------------------------------------------------------------------------------
+@app.command("normalmap")
+def normalmap_cmd(
+    heightmap: Path = typer.Argument(..., help="Input heightmap (any format terrascape reads)."),
+    output: Path = typer.Option(..., "--output", "-o", help="Output RGBA .png file."),
+    height_scale: float = typer.Option(
+        1.0, "--height-scale", help="Vertical exaggeration of the heights (unitless factor)."
+    ),
+    bits: int = typer.Option(8, "--bits", help="Bits per channel: 8 or 16."),
+    force: bool = _FORCE,
+    quiet: bool = _QUIET,
+) -> None:
+    """Write the packed normal + height texture: RGB = tangent-space normal, A = height."""
+    from terrascape.lighting import pack_normal_height
+
+    _require_png(output)
+    if bits not in (8, 16):
+        raise InvalidParameterError(f"--bits must be 8 or 16, got {bits}")
+    check_output_path(output, force=force)
+    with timed("read", quiet=quiet):
+        hm = _read_heightmap(heightmap)
+    with timed("normals", quiet=quiet):
+        packed = pack_normal_height(hm, height_scale=height_scale, bits=bits)
+    with timed("write", quiet=quiet):
+        _write_rgba(packed, output, force)
+    if not quiet:
+        out.print(f"{output}  {hm.cols}×{hm.rows} RGBA {bits}-bit (normal + height)")
+
+
+@app.command("heightfromimage")
+def heightfromimage_cmd(
+    image: Path = typer.Argument(..., help="Colour or grey photo (PNG, JPEG, BMP, ...)."),
+    output: Path = typer.Option(..., "--output", "-o", help="Output 16-bit grey heightmap .png."),
+    blur: float = typer.Option(0.0, "--blur", help="Gaussian blur sigma in pixels (0 = none)."),
+    highpass: float = typer.Option(
+        0.0, "--highpass",
+        help="High-pass sigma in pixels: removes shading gradients larger than this (0 = off).",
+    ),
+    contrast: float = typer.Option(
+        1.0, "--contrast", help="Specular exponent on the normalised height (>0; 1 = linear)."
+    ),
+    invert: bool = typer.Option(False, "--invert", help="Dark means high."),
+    force: bool = _FORCE,
+    quiet: bool = _QUIET,
+) -> None:
+    """Approximate a heightmap from a photo's brightness (seed 000 §2.7)."""
+    from terrascape.heightmap import Heightmap
+    from terrascape.io import write_png16
+    from terrascape.lighting import height_from_image
+
+    _require_png(output)
+    check_output_path(output, force=force)
+    if highpass < 0:
+        raise InvalidParameterError(f"--highpass must be >= 0 pixels, got {highpass}")
+    with timed("read", quiet=quiet):
+        rgb = _read_photo(image)
+    with timed("height", quiet=quiet):
+        h = height_from_image(
+            rgb, blur_sigma=blur, highpass_sigma=highpass or None, contrast=contrast,
+            invert=invert,
+        )
+    with timed("write", quiet=quiet):
+        write_png16(Heightmap(h), output, force=force)
+    if not quiet:
+        out.print(f"{output}  {h.shape[1]}×{h.shape[0]} 16-bit heights in [0, 1]")
+
+
+@app.command("shade")
+def shade_cmd(
+    heightmap: Path = typer.Argument(..., help="Input heightmap (any format terrascape reads)."),
+    output: Path = typer.Option(..., "--output", "-o", help="Output 8-bit grey lightmap .png."),
+    sun_azimuth: float = typer.Option(
+        ..., "--sun-azimuth", help="Degrees clockwise from north (90 = east)."
+    ),
+    sun_elevation: float = typer.Option(
+        ..., "--sun-elevation", help="Degrees above the horizon, in (0, 90]."
+    ),
+    ambient: float = typer.Option(0.2, "--ambient", help="Ambient light in [0, 1]."),
+    soft: bool = typer.Option(False, "--soft", help="Soft shadows from the sun's disc (0.27°)."),
+    no_shadows: bool = typer.Option(False, "--no-shadows", help="Slope shading only."),
+    method: str = typer.Option(
+        "fast", "--method", help="Shadow method: fast (O(n²) sweep) or reference (ray per sample)."
+    ),
+    force: bool = _FORCE,
+    quiet: bool = _QUIET,
+) -> None:
+    """Lightmap: ambient + 0.5·(1 + N·L) where lit, ambient in shadow (seed 001 §3.2.2)."""
+    from PIL import Image
+
+    from terrascape.lighting import lightmap
+
+    _require_png(output)
+    if method not in ("fast", "reference"):
+        raise InvalidParameterError(f"--method must be 'fast' or 'reference', got {method!r}")
+    check_output_path(output, force=force)
+    with timed("read", quiet=quiet):
+        hm = _read_heightmap(heightmap)
+    with timed("lightmap", quiet=quiet):
+        light = lightmap(
+            hm, sun_azimuth, sun_elevation, ambient=ambient, shadows=not no_shadows, soft=soft,
+            method=method,
+        )
+    codes = np.rint(light * 255.0).astype(np.uint8)
+    with timed("write", quiet=quiet), atomic_output(output, force=force) as tmp:
+        Image.fromarray(codes).save(tmp, format="PNG")
+    if not quiet:
+        out.print(f"{output}  {hm.cols}×{hm.rows} lightmap, mean {float(light.mean()):.3f}")

@@ -1,0 +1,211 @@
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from terrascape.errors import InvalidParameterError
+from terrascape.heightmap import Heightmap
+from terrascape.lighting import (
+    lightmap,
+    shadow_mask,
+    shadow_mask_reference,
+    soft_shadow,
+)
+
+METHODS = [shadow_mask, shadow_mask_reference]
+
+
+def _anti_sun(az_deg):
+    """Horizontal world direction (x, z) in which shadows fall (away from the sun)."""
+    a = math.radians(az_deg)
+    return np.array([-math.sin(a), math.cos(a)])
+
+
+def _offsets(mask, centre, spacing):
+    r, c = np.nonzero(mask)
+    return np.stack([(c - centre[1]) * spacing[0], (r - centre[0]) * spacing[1]], axis=1)
+
+
+# --- known geometry ----------------------------------------------------------------------------
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("az", [0, 45, 90, 135, 180, 225, 270, 315])
+@pytest.mark.parametrize("el", [20.0, 35.0])
+def test_single_column_shadow_length_and_direction(method, az, el):
+    n, height = 129, 20.0
+    h = np.zeros((n, n), np.float32)
+    h[64, 64] = height
+    mask = method(h, az, el)
+    assert not mask[64, 64]
+    length = height / math.tan(math.radians(el))
+    step = math.sqrt(2.0) if az % 90 else 1.0
+    off = _offsets(mask, (64, 64), (1.0, 1.0))
+    d = _anti_sun(az)
+    along = off @ d
+    across = off @ np.array([-d[1], d[0]])
+    assert len(off) > 0
+    np.testing.assert_allclose(across, 0.0, atol=1e-9)  # exactly on the line away from the sun
+    assert (along > 0).all()
+    assert length - step <= along.max() < length + 1e-9
+    # contiguous: every sample of the line up to the far end is shadowed
+    assert len(off) == round(along.max() / step)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_column_shadow_with_anisotropic_spacing(method):
+    dx, dz, height, el = 2.0, 0.5, 30.0, 25.0
+    h = np.zeros((257, 129), np.float32)
+    h[200, 100] = height
+    hm = Heightmap(h, spacing=(dx, dz))
+    length = height / math.tan(math.radians(el))
+    for az, step in [(90, dx), (180, dz)]:
+        off = _offsets(method(hm, az, el), (200, 100), (dx, dz))
+        along = off @ _anti_sun(az)
+        assert length - step <= along.max() < length + 1e-9
+        np.testing.assert_allclose(off @ _anti_sun(az + 90), 0.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("az", [30.0, 110.0, 200.0, 290.0, 333.0])
+def test_cylinder_shadow_in_any_direction(method, az):
+    n, radius, height, el = 161, 3.0, 25.0, 30.0
+    z, x = np.mgrid[0:n, 0:n]
+    inside = np.hypot(x - 80, z - 80) <= radius
+    h = np.where(inside, height, 0.0).astype(np.float32)
+    mask = method(h, az, el) & ~inside
+    off = _offsets(mask, (80, 80), (1.0, 1.0))
+    d = _anti_sun(az)
+    along = off @ d
+    length = height / math.tan(math.radians(el))
+    assert radius + length - 1.5 <= along.max() <= radius + length + 1.5
+    mean = off.mean(axis=0)
+    angle = math.degrees(math.atan2(mean[0] * d[1] - mean[1] * d[0], mean @ d))
+    assert abs(angle) < 2.0
+    # the shadow is about as wide as the column
+    across = off @ np.array([-d[1], d[0]])
+    assert 2 * radius - 1.5 <= across.max() - across.min() <= 2 * radius + 2.5
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_flat_plane_never_shadowed(method):
+    hm = Heightmap(np.full((40, 50), 7.0), spacing=(1.5, 0.5))
+    for az in (0.0, 17.0, 90.0, 201.5, 315.0):
+        for el in (0.5, 5.0, 45.0, 90.0):
+            assert not method(hm, az, el).any()
+
+
+@pytest.mark.parametrize("method", [*METHODS, soft_shadow, lightmap])
+def test_bad_light_and_heights_raise(method):
+    h = np.zeros((8, 8))
+    for el in (0.0, -10.0, 91.0, float("nan")):
+        with pytest.raises(InvalidParameterError, match="elevation"):
+            method(h, 45.0, el)
+    with pytest.raises(InvalidParameterError, match="azimuth"):
+        method(h, float("inf"), 30.0)
+    bad = h.copy()
+    bad[3, 3] = np.nan
+    with pytest.raises(InvalidParameterError, match="NaN"):
+        method(bad, 45.0, 30.0)
+
+
+def test_overhead_sun_casts_no_shadow(terrain):
+    h = terrain(33, 1)
+    assert not shadow_mask(h, 10.0, 90.0).any()
+    assert not shadow_mask_reference(h, 10.0, 90.0).any()
+
+
+# --- fast vs reference -------------------------------------------------------------------------
+def test_fast_equals_reference_on_axes_and_diagonals(terrain):
+    h = terrain(65, 3)
+    for az in range(0, 360, 45):
+        for el in (8.0, 30.0):
+            np.testing.assert_array_equal(
+                shadow_mask(h, az, el), shadow_mask_reference(h, az, el), err_msg=f"{az} {el}"
+            )
+
+
+def test_fast_matches_reference_on_random_terrains_and_lights(terrain):
+    """The fast sweep's decisions differ from the ray walk on a sub-sample band only."""
+    rng = np.random.default_rng(2024)
+    fractions, shadowed = [], []
+    for i in range(24):
+        rows = 97
+        cols = 97 if i % 3 else 130
+        spacing = (1.0, 1.0) if i % 4 else (1.5, 0.75)
+        hm = Heightmap(terrain(rows, 100 + i, cols=cols), spacing=spacing)
+        az = float(rng.uniform(0.0, 360.0))
+        el = float(rng.uniform(5.0, 60.0))
+        fast = shadow_mask(hm, az, el)
+        ref = shadow_mask_reference(hm, az, el)
+        fractions.append(float(np.mean(fast != ref)))
+        shadowed.append(float(ref.mean()))
+    print(
+        f"\nfast vs reference disagreement over {len(fractions)} cases: "
+        f"mean {np.mean(fractions):.4%}, max {np.max(fractions):.4%}"
+    )
+    assert max(fractions) <= 0.005, fractions
+    assert np.mean(shadowed) > 0.15  # the comparison is not on trivially lit terrain
+
+
+# --- soft shadows and lightmaps ----------------------------------------------------------------
+def test_soft_shadow_penumbra_matches_sun_disc_geometry():
+    """Behind a long wall the visible disc fraction follows the horizon angle atan(H/d)."""
+    n, wall, height = 40, 300, 50.0
+    h = np.zeros((n, 360), np.float32)
+    h[:, wall] = height
+    el, radius = 10.0, 2.0
+    vis = soft_shadow(h, 90.0, el, sun_radius_deg=radius, samples=64)
+    row = vis[n // 2]
+    assert row[wall:].min() == 1.0  # the sunny side of the wall
+    for c in range(wall - 400, wall):
+        if c < 0:
+            continue
+        phi = math.degrees(math.atan(height / (wall - c)))
+        u = min(1.0, max(-1.0, (phi - el) / radius))
+        below = 0.5 + (u * math.sqrt(1 - u * u) + math.asin(u)) / math.pi
+        assert abs(row[c] - (1.0 - below)) <= 1.0 / 64 + 1e-6, c
+    # the penumbra really is a gradient: some samples strictly between 0 and 1
+    assert ((row > 0.05) & (row < 0.95)).sum() >= 5
+    assert np.all(np.diff(row[:wall]) <= 1e-6)  # darker toward the wall
+
+
+def test_soft_shadow_zero_radius_is_hard_mask(terrain):
+    h = terrain(65, 7)
+    vis = soft_shadow(h, 123.0, 20.0, sun_radius_deg=0.0)
+    np.testing.assert_array_equal(vis, (~shadow_mask(h, 123.0, 20.0)).astype(np.float32))
+
+
+def test_lightmap_formula_flat_and_shadowed():
+    el = 30.0
+    flat = lightmap(np.zeros((10, 10)), 77.0, el, ambient=0.1)
+    expect = min(1.0, 0.1 + 0.5 * (1.0 + math.sin(math.radians(el))))
+    np.testing.assert_allclose(flat, expect, atol=1e-6)
+    assert flat.dtype == np.float32
+
+    h = np.zeros((64, 64), np.float32)
+    h[32, 40] = 20.0
+    mask = shadow_mask(h, 90.0, el)
+    lm = lightmap(h, 90.0, el, ambient=0.1)
+    np.testing.assert_allclose(lm[mask], 0.1)
+    lit = ~mask
+    lit[31:34, 39:42] = False  # the column's own slopes
+    np.testing.assert_allclose(lm[lit], expect, atol=1e-6)
+    no_shadow = lightmap(h, 90.0, el, ambient=0.1, shadows=False)
+    far = mask.copy()
+    far[31:34, 39:42] = False
+    np.testing.assert_allclose(no_shadow[far], expect, atol=1e-6)
+    ref = lightmap(h, 90.0, el, ambient=0.1, method="reference")
+    np.testing.assert_array_equal(ref, lm)
+    soft = lightmap(h, 90.0, el, ambient=0.1, soft=True)
+    assert soft.min() >= 0.1 - 1e-6 and soft.max() <= 1.0
+    assert (soft[mask] < expect).all()
+
+
+def test_lightmap_clamps_to_one_and_validates():
+    bright = lightmap(np.zeros((5, 5)), 0.0, 90.0, ambient=0.9)
+    np.testing.assert_allclose(bright, 1.0)
+    with pytest.raises(InvalidParameterError, match="ambient"):
+        lightmap(np.zeros((5, 5)), 0.0, 45.0, ambient=1.5)
+    with pytest.raises(InvalidParameterError, match="method"):
+        lightmap(np.zeros((5, 5)), 0.0, 45.0, method="magic")
