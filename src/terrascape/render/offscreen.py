@@ -1,0 +1,355 @@
+"""Off-screen rendering to numpy arrays, camera paths, and turntable PNG/MP4 output.
+
+Images are ``uint8 (height, width, 4)`` RGBA with row 0 at the top (GL reads bottom-up; the
+rows are flipped after ``fbo.read``). Framebuffers are single-sampled (``samples=0``) so the
+same inputs give the same bytes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import os
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from terrascape._validate import check_int, check_positive, check_range
+from terrascape.camera import Camera, frame_terrain
+from terrascape.errors import FileFormatError, InvalidParameterError
+from terrascape.heightmap import Heightmap
+from terrascape.io.atomic import atomic_output, check_output_path
+from terrascape.render.context import current
+
+
+def default_camera(
+    heightmap: Heightmap,
+    size: tuple[int, int],
+    *,
+    exaggeration: float = 1.0,
+    azimuth: float = 210.0,
+    elevation: float = 35.0,
+) -> Camera:
+    """The camera that frames the whole terrain (``frame_terrain``) for an output size."""
+    lo, hi = heightmap.min * exaggeration, heightmap.max * exaggeration
+    return frame_terrain(
+        heightmap.extent, (lo, hi), azimuth=azimuth, elevation=elevation, aspect=size[0] / size[1]
+    )
+
+
+def _check_camera(camera: Any) -> Camera:
+    if not isinstance(camera, Camera):
+        raise InvalidParameterError(f"camera must be a terrascape Camera, got {camera!r}")
+    # Camera validates itself on construction; re-check in case an instance was mutated.
+    if not (np.isfinite(camera.eye).all() and np.isfinite([camera.yaw, camera.pitch]).all()):
+        raise InvalidParameterError(f"camera must be finite, got {camera!r}")
+    return camera
+
+
+@contextlib.contextmanager
+def _context(ctx):
+    if ctx is not None:
+        yield ctx
+        return
+    from terrascape.render.context import headless_context
+
+    with headless_context() as own:
+        yield own
+
+
+def _current(method):
+    """Make the renderer's context current around a method (see ``terrain._current``)."""
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        # __init__ runs before self.ctx exists: the context is its first argument then.
+        with current(self.__dict__.get("ctx") or args[0]):
+            return method(self, *args, **kwargs)
+
+    return wrapper
+
+
+class OffscreenRenderer:
+    """A :class:`~terrascape.render.terrain.TerrainRenderer` plus a framebuffer of fixed size;
+    reuse it for many frames (camera paths, benchmarks)."""
+
+    @_current
+    def __init__(
+        self,
+        ctx,
+        heightmap: Heightmap,
+        *,
+        size=(1280, 720),
+        exaggeration=1.0,
+        chunk_size: int | None = None,
+    ) -> None:
+        from terrascape.render.terrain import TerrainRenderer, check_output_size
+
+        if not isinstance(heightmap, Heightmap):
+            raise InvalidParameterError(
+                f"expected a terrascape Heightmap, got {type(heightmap).__name__}"
+            )
+        self.ctx = ctx
+        self.size = check_output_size(ctx, size)
+        kwargs = {} if chunk_size is None else {"chunk_size": chunk_size}
+        self.terrain = TerrainRenderer(ctx, heightmap, exaggeration=exaggeration, **kwargs)
+        w, h = self.size
+        self._color = ctx.renderbuffer((w, h), 4, samples=0)
+        self._depth = ctx.depth_renderbuffer((w, h), samples=0)
+        self.fbo = ctx.framebuffer(color_attachments=[self._color], depth_attachment=self._depth)
+
+    def default_camera(self, **kwargs) -> Camera:
+        return default_camera(
+            self.terrain.heightmap, self.size, exaggeration=self.terrain.exaggeration, **kwargs
+        )
+
+    @_current
+    def render(
+        self,
+        camera: Camera | None = None,
+        technique: str = "plain",
+        params: Mapping[str, Any] | None = None,
+    ) -> np.ndarray:
+        """One frame as ``uint8 (h, w, 4)``, row 0 at the top."""
+        camera = self.default_camera() if camera is None else _check_camera(camera)
+        w, h = self.size
+        camera = replace(camera, aspect=w / h)
+        self.terrain.render(self.fbo, camera, technique, params)
+        raw = self.fbo.read(components=4, alignment=1)
+        return np.frombuffer(raw, dtype=np.uint8).reshape(h, w, 4)[::-1].copy()
+
+    @_current
+    def release(self) -> None:
+        self.terrain.release()
+        self.fbo.release()
+        self._color.release()
+        self._depth.release()
+
+
+def _sun_params(params: Mapping[str, Any] | None, sun) -> dict[str, Any]:
+    p = dict(params or {})
+    if sun is not None:
+        if len(tuple(sun)) != 2:
+            raise InvalidParameterError(f"sun must be (azimuth, elevation), got {sun!r}")
+        az, el = sun
+        check_range(el, "sun elevation", -90.0, 90.0)
+        p["sun"] = (float(az), float(el))
+    return p
+
+
+def render_to_array(
+    heightmap: Heightmap,
+    *,
+    technique: str = "plain",
+    camera: Camera | None = None,
+    size: tuple[int, int] = (1280, 720),
+    sun: tuple[float, float] | None = (135.0, 45.0),
+    exaggeration: float = 1.0,
+    ctx=None,
+    params: Mapping[str, Any] | None = None,
+) -> np.ndarray:
+    """Render one image of the terrain.
+
+    Parameters
+    ----------
+    heightmap
+        Terrain (any size and spacing).
+    technique
+        Registered technique (``plain``, ``regions``, ``texture3d``, ``splat``, ``bump``, …).
+    camera
+        Default: :func:`~terrascape.camera.frame_terrain` (sees the whole terrain). Its aspect
+        is replaced by ``width/height``.
+    size
+        ``(width, height)`` pixels.
+    sun
+        ``(azimuth°, elevation°)`` (overrides ``params["sun"]``).
+    exaggeration
+        Vertical scale.
+    ctx
+        moderngl context to reuse; by default a headless one is created and released.
+    params
+        Technique parameters.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``uint8 (height, width, 4)`` RGBA, row 0 = top.
+    """
+    p = _sun_params(params, sun)
+    with _context(ctx) as c:
+        r = OffscreenRenderer(c, heightmap, size=size, exaggeration=exaggeration)
+        try:
+            return r.render(camera, technique, p)
+        finally:
+            r.release()
+
+
+def render_frames(
+    heightmap: Heightmap,
+    cameras: Iterable[Camera],
+    *,
+    technique: str = "plain",
+    size: tuple[int, int] = (1280, 720),
+    sun: tuple[float, float] | None = (135.0, 45.0),
+    exaggeration: float = 1.0,
+    ctx=None,
+    params: Mapping[str, Any] | None = None,
+) -> Iterator[np.ndarray]:
+    """Yield one ``uint8 (h, w, 4)`` frame per camera of a path (one renderer for all)."""
+    p = _sun_params(params, sun)
+    cams = [_check_camera(c) for c in cameras]
+    with _context(ctx) as c:
+        r = OffscreenRenderer(c, heightmap, size=size, exaggeration=exaggeration)
+        try:
+            for cam in cams:
+                yield r.render(cam, technique, p)
+        finally:
+            r.release()
+
+
+def turntable_cameras(
+    heightmap: Heightmap,
+    n_frames: int,
+    *,
+    size=(1280, 720),
+    exaggeration: float = 1.0,
+    elevation: float = 35.0,
+    start_azimuth: float = 210.0,
+) -> list[Camera]:
+    """``n_frames`` cameras orbiting the terrain once (frame_terrain distance), evenly
+    spaced in azimuth, the last one step short of the first (seamless loop)."""
+    n = check_int(n_frames, "turntable frames", minimum=1, maximum=100_000)
+    return [
+        default_camera(
+            heightmap,
+            size,
+            exaggeration=exaggeration,
+            azimuth=start_azimuth + 360.0 * k / n,
+            elevation=elevation,
+        )
+        for k in range(n)
+    ]
+
+
+def _write_png(path: Path, image: np.ndarray) -> None:
+    from PIL import Image
+
+    Image.fromarray(image).save(path, format="PNG")
+
+
+def turntable(
+    heightmap: Heightmap,
+    n_frames: int,
+    output: str | os.PathLike,
+    *,
+    fmt: str = "png",
+    technique: str = "plain",
+    size=(1280, 720),
+    sun=(135.0, 45.0),
+    exaggeration=1.0,
+    elevation: float = 35.0,
+    fps: float = 30.0,
+    ctx=None,
+    params: Mapping[str, Any] | None = None,
+    force: bool = False,
+    progress=None,
+) -> list[Path]:
+    """Render an orbit around the terrain to a PNG sequence or an MP4.
+
+    Parameters
+    ----------
+    output
+        ``fmt="png"``: a path pattern; frames are written as ``<stem>_0000.png``… next to it
+        (a ``{i}``/``{i:04d}`` in the name is used as the frame-number field instead).
+        ``fmt="mp4"``: the video file (imageio + imageio-ffmpeg, H.264).
+    force
+        Overwrite existing files; otherwise any existing target aborts before rendering.
+    progress
+        Optional callable ``progress(done, total)``.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written. Each file is written atomically (no partial files).
+    """
+    if fmt not in ("png", "mp4"):
+        raise InvalidParameterError(f"format must be 'png' or 'mp4', got {fmt!r}")
+    fps = check_positive(fps, "fps")
+    cams = turntable_cameras(
+        heightmap, n_frames, size=size, exaggeration=exaggeration, elevation=elevation
+    )
+    out = Path(output)
+    if fmt == "png":
+        if "{i" in out.name:
+            targets = [out.with_name(out.name.format(i=k)) for k in range(len(cams))]
+        else:
+            targets = [out.with_name(f"{out.stem}_{k:04d}.png") for k in range(len(cams))]
+        if len(set(targets)) != len(targets):
+            raise InvalidParameterError(f"frame name pattern {out.name!r} repeats file names")
+        for t in targets:
+            check_output_path(t, force=force)
+        frames = render_frames(
+            heightmap,
+            cams,
+            technique=technique,
+            size=size,
+            sun=sun,
+            exaggeration=exaggeration,
+            ctx=ctx,
+            params=params,
+        )
+        for k, (t, img) in enumerate(zip(targets, frames, strict=True)):
+            with atomic_output(t, force=force) as tmp:
+                _write_png(tmp, img[..., :3])
+            if progress:
+                progress(k + 1, len(targets))
+        return targets
+    try:
+        import imageio.v2 as imageio
+    except ImportError as exc:  # pragma: no cover - install extra
+        raise FileFormatError(f"MP4 output needs imageio + imageio-ffmpeg: {exc}") from None
+    w, h = size
+    if w % 2 or h % 2:
+        raise InvalidParameterError(f"MP4 (H.264, yuv420p) needs an even size, got {w}×{h}")
+    with atomic_output(out, force=force) as tmp:
+        frames = render_frames(
+            heightmap,
+            cams,
+            technique=technique,
+            size=size,
+            sun=sun,
+            exaggeration=exaggeration,
+            ctx=ctx,
+            params=params,
+        )
+        writer = imageio.get_writer(
+            tmp,
+            format="FFMPEG",
+            mode="I",
+            fps=fps,
+            codec="libx264",
+            macro_block_size=1,
+            pixelformat="yuv420p",
+            output_params=["-loglevel", "error"],
+        )
+        try:
+            for k, img in enumerate(frames):
+                writer.append_data(img[..., :3])
+                if progress:
+                    progress(k + 1, len(cams))
+        finally:
+            writer.close()
+    return [out]
+
+
+__all__ = [
+    "OffscreenRenderer",
+    "default_camera",
+    "render_frames",
+    "render_to_array",
+    "turntable",
+    "turntable_cameras",
+]

@@ -1,0 +1,454 @@
+"""Registry of terrain shading techniques: name → program file, textures, default parameters.
+
+A :class:`Technique` says which ``.glsl`` program draws the terrain, which textures it samples
+(each a :class:`TextureSlot` whose builder makes the default texture from the heightmap) and
+which parameters it accepts with their defaults. :class:`~terrascape.render.terrain.
+TerrainRenderer` does the rest, so adding a technique (e.g. parallax/relief mapping in
+``render/shaders/relief/``) is one :func:`register_technique` call — in a module named
+``render/tech_<name>.py``, which :func:`get_technique` imports automatically.
+
+Shader interface every technique program can rely on (see ``shaders/common/``):
+
+* vertex stage: ``#include "common/terrain_vertex.glsl"`` — attributes ``in_position``,
+  ``in_normal``, ``in_tangent`` (xyz + handedness w, B = w·N×T); outputs ``v_world``,
+  ``v_normal``, ``v_tangent``, ``v_uv`` (planar mapping ``grid·u_uv_scale``) and ``v_grid``
+  (``x/extent_x, z/extent_z`` ∈ [0, 1]);
+* fragment stage: ``#include "common/terrain_fragment.glsl"`` — the inputs above,
+  ``out vec4 f_color``, ``grid_texcoord(sampler)`` (texel-centre lookup of textures aligned
+  with the vertices), ``shade(albedo, N)`` (the ``lighting`` parameter: none / Phong with the
+  given normal / × lightmap), ``phong(...)`` and ``finish(color)`` (fog, alpha 1);
+* uniforms set by the renderer every frame: ``u_view_proj``, ``u_camera_pos``, ``u_extent``,
+  ``u_spacing``, ``u_grid_size``, ``u_exaggeration``, ``u_height_range`` (world, exaggerated),
+  ``u_sun_dir`` and every parameter ``name`` as ``u_name`` (skipped if the program lacks it).
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from terrascape.errors import InvalidParameterError
+from terrascape.heightmap import Heightmap
+
+LIGHTING_MODES = {"none": 0, "vertex": 1, "lightmap": 2}
+
+
+@dataclass(frozen=True)
+class TextureData:
+    """CPU-side texture: ``data`` plus how to sample it.
+
+    Parameters
+    ----------
+    data
+        ``uint8``/``uint16``/``float32``; ``(H, W)`` or ``(H, W, C)`` for ``kind="2d"``,
+        ``(L, H, W)`` or ``(L, H, W, C)`` for ``"3d"`` and ``"array"``; ``C`` in 1..4.
+    kind
+        ``"2d"``, ``"3d"`` (``sampler3D``) or ``"array"`` (``sampler2DArray``).
+    repeat
+        Wrap (tiled material textures) or clamp to edge (maps aligned with the grid). A 3D
+        texture always clamps along depth, so the top layer never blends into the bottom one.
+    mipmaps
+        Build mipmaps and sample trilinearly (off for 3D textures: their mip levels would
+        average the layers together).
+    """
+
+    data: np.ndarray
+    kind: str = "2d"
+    repeat: bool = True
+    mipmaps: bool = True
+
+
+TextureBuilder = Callable[[Heightmap, Mapping[str, Any]], TextureData]
+
+
+@dataclass(frozen=True)
+class TextureSlot:
+    """A sampler uniform of a technique and how to build its default texture.
+
+    ``depends`` names parameters whose change rebuilds the texture (e.g. the lightmap depends
+    on ``sun``); ``when`` makes the slot conditional on the parameters.
+    """
+
+    uniform: str
+    builder: TextureBuilder
+    depends: tuple[str, ...] = ()
+    when: Callable[[Mapping[str, Any]], bool] | None = None
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class Technique:
+    """A shading technique: ``program`` under ``render/shaders`` plus textures and params."""
+
+    name: str
+    program: str
+    textures: tuple[TextureSlot, ...] = ()
+    defaults: Mapping[str, Any] = field(default_factory=dict)
+    defines: Mapping[str, Any] = field(default_factory=dict)
+    description: str = ""
+
+    def parameters(self) -> dict[str, Any]:
+        """All accepted parameters with defaults (common ones, then the technique's)."""
+        return {**COMMON_PARAMS, **self.defaults}
+
+    def resolve(self, params: Mapping[str, Any] | None) -> dict[str, Any]:
+        """Defaults overlaid with ``params``; unknown names raise with the valid list."""
+        merged = self.parameters()
+        for key, value in (params or {}).items():
+            if key not in merged and key != "textures":
+                raise InvalidParameterError(
+                    f"unknown parameter {key!r} for technique {self.name!r}; valid: "
+                    + ", ".join(sorted(merged))
+                )
+            merged[key] = value
+        lighting = merged["lighting"]
+        if lighting not in LIGHTING_MODES:
+            raise InvalidParameterError(
+                f"lighting must be one of {', '.join(LIGHTING_MODES)}, got {lighting!r}"
+            )
+        return merged
+
+    def active_slots(self, params: Mapping[str, Any]) -> list[TextureSlot]:
+        return [s for s in self.textures if s.when is None or s.when(params)]
+
+
+# ----------------------------------------------------------------------------------------
+# Default texture builders (CPU algorithms from terrascape.texture / terrascape.lighting)
+# ----------------------------------------------------------------------------------------
+def _regions(hm: Heightmap, params: Mapping[str, Any]):
+    from terrascape.texture import default_regions
+
+    regions = params.get("regions")
+    return default_regions(hm) if regions is None else list(regions)
+
+
+def _material(name: str, params: Mapping[str, Any]) -> np.ndarray:
+    from terrascape.texture import BUILTIN_MATERIALS, builtin_material
+
+    key = name.lower() if name.lower() in BUILTIN_MATERIALS else "rock"
+    return builtin_material(key, int(params["material_size"]), seed=int(params["seed"]))
+
+
+def _region_materials(hm: Heightmap, params: Mapping[str, Any]) -> np.ndarray:
+    """``(L, S, S, 3)`` material textures, one per region (user textures when given)."""
+    from terrascape.texture.materials import load_texture
+
+    size = int(params["material_size"])
+    layers = [
+        load_texture(
+            r.texture, default_name=_builtin_name(r.name), size=size, seed=int(params["seed"])
+        )
+        for r in _regions(hm, params)
+    ]
+    return np.stack(layers)
+
+
+def _builtin_name(name: str) -> str:
+    from terrascape.texture import BUILTIN_MATERIALS
+
+    return name.lower() if name.lower() in BUILTIN_MATERIALS else "rock"
+
+
+def build_region_texture(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Seed 001 §3.1.1 procedural colour texture, one texel per vertex (clamped)."""
+    from terrascape.texture import region_texture
+
+    tex = region_texture(hm, params.get("regions"), seed=int(params["seed"]))
+    return TextureData(tex, repeat=False)
+
+
+def build_lightmap(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Seed 001 §3.2.2 lightmap (slope shading × cast shadows) for the current sun."""
+    from terrascape.lighting.shadows import lightmap
+
+    az, el = params["sun"]
+    lm = lightmap(
+        hm, az, el, ambient=float(params["lightmap_ambient"]), shadows=bool(params["shadows"])
+    )
+    return TextureData(np.ascontiguousarray(lm, dtype=np.float32), repeat=False)
+
+
+def build_detail(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Grey detail texture (seed 001 §3.1.1: a second texture unit with tiled noise), centred
+    on 0.5 so that ``2·detail`` modulates the colour around 1."""
+    rgb = _material("sand", params).astype(np.float32)
+    lum = rgb @ np.array([0.299, 0.587, 0.114], dtype=np.float32)
+    lum = 0.5 + (lum - lum.mean()) / max(float(lum.std()), 1e-6) * 0.12
+    return TextureData(np.clip(lum, 0.0, 1.0).astype(np.float32), repeat=True)
+
+
+def build_material_array(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    return TextureData(_region_materials(hm, params), kind="array", repeat=True)
+
+
+def build_layer_volume(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Seed 001 §3.1.2: layer textures stacked along r (``layer_stack``) as a 3D texture."""
+    from terrascape.texture import layer_stack
+
+    stack = layer_stack(list(_region_materials(hm, params)))
+    return TextureData(stack, kind="3d", repeat=True, mipmaps=False)
+
+
+def build_layer_coordinate(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Per-vertex 3D-texture depth coordinate r (``layer_coordinate``), float, clamped."""
+    from terrascape.texture import layer_coordinate
+
+    r = layer_coordinate(hm, params.get("regions"))
+    return TextureData(np.ascontiguousarray(r, dtype=np.float32), repeat=False, mipmaps=False)
+
+
+def _splat_maps(hm: Heightmap, params: Mapping[str, Any]) -> list[np.ndarray]:
+    from terrascape.texture import material_ids_from_rules, pack_splat_maps, splat_weights
+
+    regions = _regions(hm, params)
+    if len(regions) > 8:
+        raise InvalidParameterError(f"splat supports at most 8 layers, got {len(regions)}")
+    ids = material_ids_from_rules(hm, regions)
+    return pack_splat_maps(splat_weights(ids, n_materials=len(regions)))
+
+
+def build_splat0(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Seed 001 §3.1.3: RGBA alpha map of layers 0–3 (vertex resolution)."""
+    return TextureData(_splat_maps(hm, params)[0], repeat=False)
+
+
+def build_splat1(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Alpha map of layers 4–7 (zeros when there are at most four layers)."""
+    maps = _splat_maps(hm, params)
+    data = maps[1] if len(maps) > 1 else np.zeros_like(maps[0])
+    return TextureData(data, repeat=False)
+
+
+def build_normal_height(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Tiled RGBA normal+height texture (seed 000 §2.3.1) of a rock material's relief.
+
+    The detail height is the rock texture's luminance (``height_from_image`` idea of seed
+    000: bright = high); ``pack_normal_height`` turns it into tangent-space normals (RGB) and
+    height (A). ``bump_height`` scales the relief (texels are one unit apart).
+    """
+    from terrascape.lighting.normals import pack_normal_height
+
+    rgb = _material("rock", params).astype(np.float32) / 255.0
+    lum = rgb @ np.array([0.299, 0.587, 0.114], dtype=np.float32)
+    # Texel spacing 1 → normal slope = bump_height × luminance gradient per texel.
+    detail = Heightmap(lum * np.float32(params["bump_height"] * lum.shape[0] / 16.0))
+    return TextureData(pack_normal_height(detail), repeat=True)
+
+
+# ----------------------------------------------------------------------------------------
+# Parameters shared by every technique
+# ----------------------------------------------------------------------------------------
+COMMON_PARAMS: dict[str, Any] = {
+    "sun": (135.0, 45.0),  # (azimuth°, elevation°); terrascape.lighting.sun convention
+    "lighting": "vertex",  # none | vertex (Phong with the vertex normal) | lightmap
+    "ka": 0.35,
+    "kd": 0.75,
+    "ks": 0.0,
+    "shininess": 32.0,
+    "ambient_color": (1.0, 1.0, 1.0),
+    "diffuse_color": (1.0, 1.0, 1.0),
+    "specular_color": (1.0, 1.0, 1.0),
+    "sky": True,
+    "horizon_color": (0.74, 0.82, 0.92),
+    "zenith_color": (0.26, 0.46, 0.80),
+    "sun_color": (1.0, 0.95, 0.85),
+    "fog_density": None,  # per world unit; None = automatic from the terrain size, 0 = off
+    "fog_color": None,  # None = horizon colour
+    "wireframe": False,
+    "wireframe_color": (0.05, 0.05, 0.05, 1.0),
+    "uv_scale": 16.0,  # planar mapping repeats over the terrain (v_uv)
+    "tile_size": None,  # world units per material repeat; None = 32 × max spacing
+    "seed": 0,  # seeds the built-in materials
+    "regions": None,  # list[terrascape.texture.Region]; None = default_regions(heightmap)
+    "material_size": 256,
+    "lightmap_ambient": 0.2,
+    "shadows": True,
+}
+
+_REGISTRY: dict[str, Technique] = {}
+_DISCOVERED = False
+
+
+def register_technique(technique: Technique, *, replace: bool = False) -> Technique:
+    """Add a technique; a second one with the same name needs ``replace=True``."""
+    if not isinstance(technique, Technique):
+        raise InvalidParameterError(f"expected a Technique, got {type(technique).__name__}")
+    if technique.name in _REGISTRY and not replace:
+        raise InvalidParameterError(
+            f"technique {technique.name!r} is already registered (pass replace=True)"
+        )
+    _REGISTRY[technique.name] = technique
+    return technique
+
+
+def _discover() -> None:
+    """Import ``terrascape.render.tech_*`` modules once (they register their techniques)."""
+    global _DISCOVERED
+    if _DISCOVERED:
+        return
+    _DISCOVERED = True
+    import terrascape.render as pkg
+
+    for mod in pkgutil.iter_modules(pkg.__path__):
+        if mod.name.startswith("tech_"):
+            importlib.import_module(f"terrascape.render.{mod.name}")
+
+
+def technique_names() -> list[str]:
+    _discover()
+    return sorted(_REGISTRY)
+
+
+def get_technique(name: str) -> Technique:
+    """The technique called ``name``; unknown names raise listing the available ones."""
+    _discover()
+    if isinstance(name, Technique):
+        return name
+    try:
+        return _REGISTRY[name]
+    except (KeyError, TypeError):
+        raise InvalidParameterError(
+            f"unknown technique {name!r}; available: {', '.join(sorted(_REGISTRY))}"
+        ) from None
+
+
+def _wants_lightmap(params: Mapping[str, Any]) -> bool:
+    return params["lighting"] == "lightmap"
+
+
+LIGHTMAP_SLOT = TextureSlot(
+    "u_lightmap",
+    build_lightmap,
+    depends=("sun", "lightmap_ambient", "shadows"),
+    when=_wants_lightmap,
+    description="lightmap (terrascape.lighting.lightmap)",
+)
+_REGION_DEPS = ("seed", "regions", "material_size")
+
+register_technique(
+    Technique(
+        "plain",
+        "terrain/plain",
+        textures=(
+            TextureSlot(
+                "u_color_tex",
+                build_region_texture,
+                depends=("seed", "regions"),
+                description="colour texture, one texel per vertex (region_texture)",
+            ),
+            LIGHTMAP_SLOT,
+        ),
+        description="one colour texture (default: procedural region texture), optional lightmap",
+    )
+)
+register_technique(
+    Technique(
+        "regions",
+        "terrain/regions",
+        textures=(
+            TextureSlot(
+                "u_materials",
+                build_material_array,
+                depends=_REGION_DEPS,
+                description="one tiled material per region (2D texture array)",
+            ),
+            TextureSlot(
+                "u_detail",
+                build_detail,
+                depends=("seed", "material_size"),
+                description="tiled grey detail texture (second texture unit)",
+            ),
+            LIGHTMAP_SLOT,
+        ),
+        defaults={"detail_size": None, "detail_strength": 0.6, "slope_rule": True},
+        description="seed 001 T1 region blending on the GPU: (range − |h − max|)/range",
+    )
+)
+register_technique(
+    Technique(
+        "texture3d",
+        "terrain/texture3d",
+        textures=(
+            TextureSlot(
+                "u_layers",
+                build_layer_volume,
+                depends=_REGION_DEPS,
+                description="layer stack as a 3D texture (layer_stack)",
+            ),
+            TextureSlot(
+                "u_layer_coord",
+                build_layer_coordinate,
+                depends=("regions",),
+                description="per-vertex depth coordinate r (layer_coordinate)",
+            ),
+            LIGHTMAP_SLOT,
+        ),
+        description="seed 001 T2: 3D texture addressed by height",
+    )
+)
+register_technique(
+    Technique(
+        "splat",
+        "terrain/splat",
+        textures=(
+            TextureSlot(
+                "u_splat0",
+                build_splat0,
+                depends=("regions",),
+                description="RGBA alpha map, layers 0-3 (pack_splat_maps)",
+            ),
+            TextureSlot(
+                "u_splat1",
+                build_splat1,
+                depends=("regions",),
+                description="RGBA alpha map, layers 4-7",
+            ),
+            TextureSlot(
+                "u_materials",
+                build_material_array,
+                depends=_REGION_DEPS,
+                description="tiled layer textures (2D texture array)",
+            ),
+            LIGHTMAP_SLOT,
+        ),
+        description="seed 001 T3: texture splatting, all layers in one pass",
+    )
+)
+register_technique(
+    Technique(
+        "bump",
+        "terrain/bump",
+        textures=(
+            TextureSlot(
+                "u_color_tex",
+                build_region_texture,
+                depends=("seed", "regions"),
+                description="colour texture, one texel per vertex (region_texture)",
+            ),
+            TextureSlot(
+                "u_normal_height",
+                build_normal_height,
+                depends=("seed", "material_size", "bump_height"),
+                description="tiled RGBA normal + height (pack_normal_height)",
+            ),
+        ),
+        defaults={"ks": 0.2, "bump_height": 1.0, "bump_strength": 1.0},
+        description="seed 000 R2: normal mapping in tangent space with Phong lighting",
+    )
+)
+
+__all__ = [
+    "COMMON_PARAMS",
+    "LIGHTING_MODES",
+    "Technique",
+    "TextureData",
+    "TextureSlot",
+    "get_technique",
+    "register_technique",
+    "technique_names",
+]
