@@ -1,0 +1,59 @@
+"""Min/max mip pyramid of a bilinear height field ("maximum mipmaps", Tevs, Ihrke & Seidel
+2008; quadtree displacement mapping, Drobot 2009) for an exact hierarchical relief tracer.
+
+Level 0 has one node per *bilinear cell*: cell ``(i, j)`` spans the square between texel
+centres ``(i, j)`` and ``(i + 1, j + 1)`` (wrapping), and a bilinear patch never leaves the
+range of its four corner texels, so ``min``/``max`` of those corners bound the surface in
+the cell exactly. Level ``k`` nodes cover ``2^k × 2^k`` cells: ``min``/``max`` of their four
+children. A ray whose depth stays above a node's minimum depth across the node cannot hit
+anything in it, so the tracer skips the whole node (the GLSL side is
+``relief/common/heightfield.glsl``'s ``trace_minmax``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from terrascape.errors import HeightmapSizeError
+from terrascape.relief.reference import heights_to_depth
+
+
+def minmax_mip(heights) -> list[np.ndarray]:
+    """Min/max depth pyramid of a square power-of-two height texture.
+
+    Parameters
+    ----------
+    heights
+        ``(n, n)`` heights in [0, 1], ``n`` a power of two (the texture tiles).
+
+    Returns
+    -------
+    list of numpy.ndarray
+        ``levels[k]`` is float32 ``(n >> k, n >> k, 2)``: channel 0 = minimum depth (the
+        highest point), channel 1 = maximum depth; ``levels[-1]`` is ``(1, 1, 2)``.
+    """
+    depth = heights_to_depth(heights)
+    n = depth.shape[0]
+    if depth.shape[0] != depth.shape[1] or n & (n - 1):
+        raise HeightmapSizeError(
+            f"the min/max mip tracer needs a square power-of-two texture (e.g. 256×256), "
+            f"got {depth.shape[1]}×{depth.shape[0]}"
+        )
+    # Corners of cell (i, j): texels (i, j), (i, j+1), (i+1, j), (i+1, j+1), wrapping.
+    right = np.roll(depth, -1, axis=1)
+    down = np.roll(depth, -1, axis=0)
+    diag = np.roll(right, -1, axis=0)
+    stack = np.stack([depth, right, down, diag])
+    level = np.stack([stack.min(axis=0), stack.max(axis=0)], axis=-1)
+    levels = [level.astype(np.float32)]
+    while level.shape[0] > 1:
+        m = level.shape[0] // 2
+        blocks = level.reshape(m, 2, m, 2, 2)
+        level = np.stack(
+            [blocks[..., 0].min(axis=(1, 3)), blocks[..., 1].max(axis=(1, 3))], axis=-1
+        )
+        levels.append(level.astype(np.float32))
+    return levels
+
+
+__all__ = ["minmax_mip"]

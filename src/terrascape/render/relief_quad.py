@@ -1,0 +1,373 @@
+"""Render one relief-textured quad with any relief technique — the measurement renderer.
+
+Every technique of seed 000 (§2.3–2.4: parallax, offset limiting, steep parallax, parallax
+occlusion, relief, interval) and the two beyond it (cone step mapping, the exact min/max-mip
+tracer) is the same program ``relief/quad.glsl`` compiled with ``#define TECHNIQUE n``. The
+quad and the camera use the geometry of :mod:`terrascape.relief.reference`, so the hit
+coordinates the shader writes (``output="hit"``: RGBA32F = hit u, hit v, hit depth,
+texture fetches) compare pixel by pixel with the exact CPU reference.
+
+If a technique's program fails to compile (or the GL lacks what it needs), the renderer warns
+once (``warnings.warn``) and renders plain texturing instead (seed 000 §2.6.4.3, MISSION R11).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from terrascape._validate import check_int, check_positive
+from terrascape.errors import GLUnavailableError, InvalidParameterError
+from terrascape.relief.reference import ReliefQuad, heights_to_depth
+
+TECHNIQUES: dict[str, int] = {
+    "plain": 0,
+    "parallax": 1,
+    "offset_limiting": 2,
+    "steep": 3,
+    "pom": 4,
+    "relief": 5,
+    "interval": 6,
+    "cone": 7,
+    "minmax": 8,
+    "by_distance": 10,
+}
+OUTPUTS = {"colour": 0, "hit": 1, "shadow": 2}
+PROGRAM = "relief/quad"
+
+
+class ReliefFallbackWarning(UserWarning):
+    """A relief technique could not be used; plain texturing is rendered instead."""
+
+
+@dataclass(frozen=True)
+class ReliefSettings:
+    """Run-time parameters (uniforms) of the relief techniques.
+
+    ``parallax_scale``/``parallax_bias`` default to ``depth``/``-depth``: the polygon is the
+    top of the relief, as for the ray-marched techniques (so all are comparable).
+    """
+
+    linear_steps: int = 16
+    binary_steps: int = 8
+    adaptive: bool = False
+    step_texels: float = 2.0
+    max_steps: int = 128
+    cone_steps: int = 32
+    shadow_steps: int = 16
+    shadows: bool = False
+    parallax_scale: float | None = None
+    parallax_bias: float | None = None
+    max_iterations: int = 1024
+    dist_relief: float = 5.0
+    dist_parallax: float = 20.0
+    dist_band: float = 2.0
+
+    def __post_init__(self) -> None:
+        for name in ("linear_steps", "max_steps", "cone_steps", "shadow_steps"):
+            check_int(getattr(self, name), name, minimum=1, maximum=4096)
+        check_int(self.binary_steps, "binary_steps", minimum=0, maximum=64)
+        check_int(self.max_iterations, "max_iterations", minimum=1, maximum=1 << 20)
+        check_positive(self.step_texels, "step_texels")
+        check_positive(self.dist_band, "dist_band")
+
+    def uniforms(self, depth: float) -> dict:
+        scale = depth if self.parallax_scale is None else self.parallax_scale
+        bias = -scale if self.parallax_bias is None else self.parallax_bias
+        return {
+            "u_depth": depth,
+            "u_parallax_scale": scale,
+            "u_parallax_bias": bias,
+            "u_linear_steps": self.linear_steps,
+            "u_binary_steps": self.binary_steps,
+            "u_adaptive": int(self.adaptive),
+            "u_step_texels": self.step_texels,
+            "u_max_steps": self.max_steps,
+            "u_cone_steps": self.cone_steps,
+            "u_shadow_steps": self.shadow_steps,
+            "u_shadows": int(self.shadows),
+            "u_max_iterations": self.max_iterations,
+            "u_dist_relief": self.dist_relief,
+            "u_dist_parallax": self.dist_parallax,
+            "u_dist_band": self.dist_band,
+        }
+
+    def with_(self, **changes) -> ReliefSettings:
+        return replace(self, **changes)
+
+
+_WARNED: set = set()
+
+
+def technique_id(technique: str) -> int:
+    if technique not in TECHNIQUES:
+        raise InvalidParameterError(
+            f"unknown relief technique {technique!r}; expected one of {', '.join(TECHNIQUES)}"
+        )
+    return TECHNIQUES[technique]
+
+
+def load_relief_program(ctx, technique: str, *, program: str = PROGRAM, defines=None):
+    """Compile ``program`` for ``technique``; on failure warn once and fall back to plain.
+
+    Returns
+    -------
+    (moderngl.Program, str)
+        The program and the technique actually used (``"plain"`` after a fallback).
+
+    Raises
+    ------
+    GLUnavailableError
+        Only if even the plain program cannot be compiled.
+    """
+    from terrascape.render.shaders import load_program
+
+    tid = technique_id(technique)
+    extra = dict(defines or {})
+    try:
+        return load_program(ctx, program, {"TECHNIQUE": tid, **extra}), technique
+    except GLUnavailableError as exc:
+        if technique == "plain":
+            raise
+        key = (id(ctx), program, technique, tuple(sorted(extra)))
+        if key not in _WARNED:
+            _WARNED.add(key)
+            first = str(exc).splitlines()[0]
+            warnings.warn(
+                f"relief technique {technique!r} is unavailable on this GL ({first}); "
+                "rendering plain texturing instead",
+                ReliefFallbackWarning,
+                stacklevel=2,
+            )
+        base = {k: v for k, v in extra.items() if k != "RELIEF_FORCE_COMPILE_ERROR"}
+        return load_program(ctx, program, {"TECHNIQUE": 0, **base}), "plain"
+
+
+def relief_texture_data(heights, *, depth: float, bits: int = 32) -> np.ndarray:
+    """RGBA ``(rows, cols, 4)`` data of the relief texture: tangent-space normal + height.
+
+    ``bits`` 8 or 16 use :func:`terrascape.lighting.normals.pack_normal_height` (uint8 /
+    uint16); 32 keeps float32 (exact heights, used by the quality benchmark).
+    """
+    from terrascape.lighting.normals import pack_normal_height, tangent_space_normals
+
+    h = 1.0 - heights_to_depth(heights)  # validates [0, 1]
+    rows, cols = h.shape
+    # Heights span depth·(UV unit) over one texel of 1/cols UV: slope scale depth·cols.
+    scale = float(depth) * cols
+    if bits in (8, 16):
+        return pack_normal_height(h.astype(np.float32), height_scale=scale, bits=bits)
+    if bits != 32:
+        raise InvalidParameterError(f"bits must be 8, 16 or 32, got {bits!r}")
+    n = tangent_space_normals(h.astype(np.float32), height_scale=scale)
+    out = np.empty((rows, cols, 4), dtype=np.float32)
+    out[..., :3] = n * 0.5 + 0.5
+    out[..., 3] = h
+    return out
+
+
+class ReliefQuadRenderer:
+    """Off-screen renderer of one :class:`~terrascape.relief.reference.ReliefQuad`.
+
+    Parameters
+    ----------
+    ctx
+        A moderngl context (:func:`terrascape.render.context.create_headless_context`).
+    heights
+        ``(rows, cols)`` relief heights in [0, 1] (tileable).
+    size
+        Framebuffer ``(width, height)`` in pixels.
+    bits
+        Precision of the relief texture: 8, 16 (packed like ``pack_normal_height``) or 32.
+    colour
+        Optional ``(rows, cols, 3)`` float colour texture in [0, 1].
+    """
+
+    def __init__(self, ctx, heights, *, size=(256, 256), bits: int = 32, colour=None,
+                 depth_hint: float = 0.1):
+        import moderngl
+
+        self.ctx = ctx
+        self.heights = 1.0 - heights_to_depth(heights)
+        w = check_int(size[0], "framebuffer width", minimum=1, maximum=16384)
+        h = check_int(size[1], "framebuffer height", minimum=1, maximum=16384)
+        self.size = (w, h)
+        self.bits = bits
+        self._depth_for_normals = float(depth_hint)
+        self._relief_tex = self._make_relief_texture(depth_hint)
+        self._colour_tex = None
+        if colour is not None:
+            c = np.ascontiguousarray(np.asarray(colour, dtype=np.float32)[..., :3])
+            if c.shape[:2] != self.heights.shape:
+                raise InvalidParameterError(
+                    f"colour must be {self.heights.shape} × 3, got {np.shape(colour)}"
+                )
+            self._colour_tex = ctx.texture(c.shape[1::-1], 3, c.tobytes(), dtype="f4")
+            self._colour_tex.repeat_x = self._colour_tex.repeat_y = True
+        self._cone_tex = None
+        self._minmax_tex = None
+        self._cells_tex = None
+        self._minmax_levels = 0
+        self._colour_target = ctx.texture(self.size, 4, dtype="f4")
+        self._depth_rb = ctx.depth_renderbuffer(self.size)
+        self.fbo = ctx.framebuffer([self._colour_target], self._depth_rb)
+        self._vbo = ctx.buffer(reserve=4 * 5 * 4)
+        self._vaos: dict = {}
+        self._moderngl = moderngl
+        self.last_technique: str | None = None
+
+    # --- textures -------------------------------------------------------------------------
+    def _make_relief_texture(self, depth):
+        data = relief_texture_data(self.heights, depth=depth, bits=self.bits)
+        dtype = {8: "f1", 16: "nu2", 32: "f4"}[self.bits]
+        rows, cols = self.heights.shape
+        tex = self.ctx.texture((cols, rows), 4, np.ascontiguousarray(data).tobytes(),
+                               dtype=dtype)
+        tex.repeat_x = tex.repeat_y = True
+        tex.filter = (self._mgl().LINEAR, self._mgl().LINEAR)
+        return tex
+
+    @staticmethod
+    def _mgl():
+        import moderngl
+
+        return moderngl
+
+    def _ensure_cone(self):
+        if self._cone_tex is None:
+            from terrascape.relief.cone_map import footprint_cone_map
+
+            data = np.ascontiguousarray(footprint_cone_map(self.heights))
+            rows, cols = self.heights.shape
+            self._cone_tex = self.ctx.texture((cols, rows), 2, data.tobytes(), dtype="f4")
+            self._cone_tex.repeat_x = self._cone_tex.repeat_y = True
+            mgl = self._mgl()
+            self._cone_tex.filter = (mgl.NEAREST, mgl.NEAREST)
+        return self._cone_tex
+
+    def _ensure_minmax(self):
+        if self._minmax_tex is None:
+            from terrascape.relief.minmax_mip import minmax_mip
+
+            levels = minmax_mip(self.heights)
+            n = levels[0].shape[0]
+            tex = self.ctx.texture((n, n), 2, levels[0].tobytes(), dtype="f4")
+            tex.build_mipmaps(0, len(levels) - 1)  # allocates the chain; overwritten below
+            for k, lv in enumerate(levels[1:], start=1):
+                tex.write(np.ascontiguousarray(lv).tobytes(), level=k)
+            mgl = self._mgl()
+            tex.filter = (mgl.NEAREST_MIPMAP_NEAREST, mgl.NEAREST)
+            self._minmax_tex = tex
+            self._minmax_levels = len(levels)
+            d = 1.0 - self.heights
+            right = np.roll(d, -1, axis=1)
+            corners = np.stack([d, right, np.roll(d, -1, axis=0), np.roll(right, -1, axis=0)],
+                               axis=-1).astype(np.float32)
+            self._cells_tex = self.ctx.texture((n, n), 4, corners.tobytes(), dtype="f4")
+            self._cells_tex.filter = (mgl.NEAREST, mgl.NEAREST)
+        return self._minmax_tex
+
+    # --- rendering ------------------------------------------------------------------------
+    def _vao(self, program):
+        key = id(program)
+        if key not in self._vaos:
+            self._vaos[key] = self.ctx.vertex_array(
+                program, [(self._vbo, "3f 2f", "in_position", "in_uv")]
+            )
+        return self._vaos[key]
+
+    def render(self, quad: ReliefQuad, camera, technique: str = "relief", *,
+               settings: ReliefSettings | None = None, output: str = "hit",
+               light_dir=(0.3, 0.8, 0.2), defines=None) -> np.ndarray:
+        """Draw the quad; return the framebuffer as float32 ``(H, W, 4)`` (row 0 = bottom).
+
+        ``output="hit"``: (u, v, depth, fetches); ``"shadow"``: (shadow, depth, fetches, 1);
+        ``"colour"``: shaded RGBA. Pixels off the quad are 0 with alpha 0 — use
+        :func:`terrascape.relief.reference.quad_entry`'s mask, or alpha for ``"colour"``.
+        """
+        if output not in OUTPUTS:
+            raise InvalidParameterError(f"output must be one of {list(OUTPUTS)}, got {output!r}")
+        settings = settings or ReliefSettings()
+        self.draw(quad, camera, technique, settings=settings, output=output,
+                  light_dir=light_dir, defines=defines)
+        raw = self.fbo.read(components=4, dtype="f4")
+        return np.frombuffer(raw, dtype=np.float32).reshape(self.size[1], self.size[0], 4)
+
+    def draw(self, quad, camera, technique="relief", *, settings=None, output="colour",
+             light_dir=(0.3, 0.8, 0.2), defines=None):
+        """Draw without reading back (for timing); call ``ctx.finish()`` to wait."""
+        from terrascape.render.shaders import set_uniforms
+
+        settings = settings or ReliefSettings()
+        program, used = load_relief_program(self.ctx, technique, defines=defines)
+        self.last_technique = used
+        if abs(quad.depth - self._depth_for_normals) > 1e-12:
+            self._relief_tex.release()
+            self._depth_for_normals = quad.depth
+            self._relief_tex = self._make_relief_texture(quad.depth)
+        eye = camera.eye
+        corners = quad.corners()
+        su, sv = quad.uv_scale
+        uvs = np.array([[0, 0], [su, 0], [su, sv], [0, sv]], dtype=np.float64)
+        verts = np.concatenate([corners, uvs], axis=1)[[0, 1, 3, 2]].astype(np.float32)
+        self._vbo.write(verts.tobytes())
+        a = np.asarray(quad.u_axis)
+        b = np.asarray(quad.v_axis)
+        n = quad.front_normal(eye)
+        to_ts = np.array([a / np.linalg.norm(a), b / np.linalg.norm(b), n])
+        set_uniforms(
+            program,
+            u_mvp=camera.view_projection(),
+            u_eye=eye,
+            u_world_to_uvd=quad.world_to_uvd(eye),
+            u_world_to_ts=to_ts,
+            u_light_dir=np.asarray(light_dir, dtype=np.float64),
+            u_output=OUTPUTS[output],
+            u_has_colour=int(self._colour_tex is not None),
+            u_ambient=(0.25, 0.25, 0.25),
+            u_diffuse=(0.75, 0.75, 0.75),
+            u_specular=(0.15, 0.15, 0.15),
+            u_shininess=24.0,
+            u_minmax_levels=self._minmax_levels or 1,
+            **settings.uniforms(quad.depth),
+        )
+        units = {"u_relief": self._relief_tex}
+        if used == "cone":
+            units["u_cone"] = self._ensure_cone()
+        if used == "minmax":
+            units["u_minmax"] = self._ensure_minmax()
+            units["u_cells"] = self._cells_tex
+            set_uniforms(program, u_minmax_levels=self._minmax_levels)
+        if self._colour_tex is not None:
+            units["u_colour"] = self._colour_tex
+        for unit, (name, tex) in enumerate(units.items()):
+            tex.use(unit)
+            if name in program:
+                program[name].value = unit
+        self.fbo.use()
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0)
+        self.ctx.disable(self._mgl().CULL_FACE)
+        self._vao(program).render(self._mgl().TRIANGLE_STRIP)
+
+    def release(self) -> None:
+        for obj in (self._relief_tex, self._colour_tex, self._cone_tex, self._minmax_tex,
+                    self._cells_tex,
+                    self._colour_target, self._depth_rb, self.fbo, self._vbo,
+                    *self._vaos.values()):
+            if obj is not None:
+                obj.release()
+        self._vaos.clear()
+
+
+__all__ = [
+    "OUTPUTS",
+    "TECHNIQUES",
+    "ReliefFallbackWarning",
+    "ReliefQuadRenderer",
+    "ReliefSettings",
+    "load_relief_program",
+    "relief_texture_data",
+    "technique_id",
+]

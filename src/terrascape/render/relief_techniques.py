@@ -1,0 +1,116 @@
+"""Relief techniques registered into the terrain renderer's technique registry.
+
+Each is the program ``relief/terrain.glsl`` compiled with its ``TECHNIQUE`` define, sampling
+a tiled RGBA normal+height texture (``u_relief``; seed 000 §2.3.1) planar-mapped over the
+terrain (``uv_scale`` repeats: tiled; ``uv_scale = 1``: stretched) and the terrain's colour
+texture. Parameters (uniforms ``u_<name>``) can change every frame: ``depth`` (UV units),
+``linear_steps``, ``binary_steps``, ``adaptive``/``step_texels``/``max_steps``,
+``shadow_steps``, ``self_shadow``, ``parallax_scale``/``parallax_bias`` and the distance
+bands of ``relief_by_distance`` (R10).
+
+Registered: ``parallax`` (R3), ``parallax_limited`` (R4), ``steep_parallax`` and ``pom``
+(R5), ``relief`` (R6, with R7 self-shadowing), ``interval`` (R8), ``relief_by_distance``
+(R10). Cone stepping and the exact min/max tracer need textures with custom filtering and
+mip chains, so they are available on :class:`~terrascape.render.relief_quad.
+ReliefQuadRenderer` only.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from terrascape.heightmap import Heightmap
+from terrascape.render.relief_quad import TECHNIQUES, relief_texture_data
+from terrascape.render.techniques import (
+    Technique,
+    TextureData,
+    TextureSlot,
+    build_region_texture,
+    register_technique,
+)
+
+FIELDS = ("city", "natural")
+
+
+def build_relief_texture(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Tiled RGBA (normal, height) texture of the ``relief_field`` test field (16-bit)."""
+    from terrascape.errors import InvalidParameterError
+    from terrascape.relief.fields import city_field, natural_field
+
+    name = params["relief_field"]
+    if isinstance(name, np.ndarray):
+        heights = name
+    elif name in FIELDS:
+        maker = city_field if name == "city" else natural_field
+        heights = maker(int(params["relief_size"]), seed=int(params["seed"]))
+    else:
+        raise InvalidParameterError(
+            f"relief_field must be one of {FIELDS} or a (rows, cols) array of heights in "
+            f"[0, 1], got {name!r}"
+        )
+    data = relief_texture_data(heights, depth=float(params["depth"]), bits=16)
+    return TextureData(data, repeat=True, mipmaps=True)
+
+
+RELIEF_DEFAULTS: dict[str, Any] = {
+    "depth": 0.05,
+    "linear_steps": 16,
+    "binary_steps": 8,
+    "adaptive": False,
+    "step_texels": 2.0,
+    "max_steps": 96,
+    "shadow_steps": 16,
+    "self_shadow": True,
+    "parallax_scale": 0.05,
+    "parallax_bias": -0.05,
+    "dist_relief": 200.0,
+    "dist_parallax": 600.0,
+    "dist_band": 100.0,
+    "relief_field": "city",
+    "relief_size": 256,
+    "relief_tint": 0.5,
+    "ks": 0.15,
+}
+
+_SLOTS = (
+    TextureSlot("u_color_tex", build_region_texture, depends=("seed", "regions"),
+                description="colour texture, one texel per vertex (region_texture)"),
+    TextureSlot("u_relief", build_relief_texture,
+                depends=("relief_field", "relief_size", "seed", "depth"),
+                description="tiled RGBA normal + height (16-bit) of the relief field"),
+)
+
+_TERRAIN_NAMES = {
+    "parallax": ("parallax", "seed 000 R3: Tn = Tv + h'·V.xy/V.z"),
+    "parallax_limited": ("offset_limiting", "seed 000 R4: offset limiting Tn = Tv + h'·V.xy"),
+    "steep_parallax": ("steep", "R5: steep parallax (linear search)"),
+    "pom": ("pom", "R5: parallax occlusion mapping"),
+    "relief": ("relief", "R6/R7: relief mapping, linear + binary search, self-shadowing"),
+    "interval": ("interval", "R8: interval mapping, linear + secant search"),
+    "relief_by_distance": ("by_distance", "R10: relief near, parallax farther, plain far"),
+}
+
+
+def register_relief_techniques(*, replace: bool = True) -> list[str]:
+    """Register the terrain relief techniques (idempotent); returns their names."""
+    for name, (tech, text) in _TERRAIN_NAMES.items():
+        register_technique(
+            Technique(
+                name,
+                "relief/terrain",
+                textures=_SLOTS,
+                defaults=RELIEF_DEFAULTS,
+                defines={"TECHNIQUE": TECHNIQUES[tech]},
+                description=text,
+            ),
+            replace=replace,
+        )
+    return list(_TERRAIN_NAMES)
+
+
+register_relief_techniques()
+
+__all__ = ["RELIEF_DEFAULTS", "build_relief_texture", "register_relief_techniques"]

@@ -1,0 +1,417 @@
+// Height-field tracing shared by every relief technique (seed 000 §2.3–2.4, MISSION R3–R8,
+// R10). Include from a fragment shader; select the tracer with `#define TECHNIQUE n`.
+//
+// Geometry (the same as terrascape.relief.reference, so GPU and CPU agree pixel by pixel):
+//   the relief hangs below the polygon; a point is (uv, s) with s = normalised depth in [0, 1]
+//   (s = 1 - height, height in the A channel of u_relief). A view ray entering the polygon at
+//   uv0 is uv0 + s * ds; ds = UV offset per unit depth (from the uvd-space view direction).
+//   V = normalize(vec3(-ds, u_depth)) is the classic unit tangent-space vector toward the eye.
+//
+// Every tracer returns vec3(hit uv, hit depth s). g_fetches counts texture fetches so the
+// quality benchmark can report fetches per pixel without a GPU profiler.
+
+#define TECH_PLAIN 0
+#define TECH_PARALLAX 1
+#define TECH_OFFSET_LIMITING 2
+#define TECH_STEEP 3
+#define TECH_POM 4
+#define TECH_RELIEF 5
+#define TECH_INTERVAL 6
+#define TECH_CONE 7
+#define TECH_MINMAX 8
+#define TECH_BY_DISTANCE 10
+
+uniform sampler2D u_relief;        // RGB tangent-space normal (n*0.5+0.5), A height in [0, 1]
+uniform float u_depth;             // relief depth in UV units (seed: the parallax "scale")
+uniform float u_parallax_scale;    // h' = scale * h + bias (R3, R4)
+uniform float u_parallax_bias;
+uniform int u_linear_steps;        // relief / interval / steep / POM linear search (R6)
+uniform int u_binary_steps;        // relief binary steps (~8, §2.4.7) / interval secant steps
+uniform int u_adaptive;            // 1: linear step count follows the ray's texel length (R5)
+uniform float u_step_texels;       // adaptive: target linear step length in texels
+uniform int u_max_steps;           // adaptive: upper bound of the linear step count
+uniform int u_cone_steps;          // cone step mapping iterations
+uniform int u_shadow_steps;        // self-shadowing linear steps toward the light (R7)
+
+#if TECHNIQUE == TECH_CONE
+uniform sampler2D u_cone;          // NEAREST: R = apex depth, G = cone ratio (UV / depth)
+#endif
+#if TECHNIQUE == TECH_MINMAX
+uniform sampler2D u_minmax;        // level k: R = min depth, G = max depth of 2^k cells
+uniform sampler2D u_cells;         // cell (i, j): depths of texels (i,j), (i+1,j), (i,j+1), (i+1,j+1)
+uniform int u_minmax_levels;
+uniform int u_max_iterations;
+#endif
+
+int g_fetches = 0;
+vec2 g_uv_dx = vec2(0.0);
+vec2 g_uv_dy = vec2(0.0);
+
+// Gradients of the *base* texture coordinate, taken in uniform control flow so the
+// sampling inside loops keeps correct mip selection (textureGrad).
+void relief_begin(vec2 uv0) {
+    g_fetches = 0;
+    g_uv_dx = dFdx(uv0);
+    g_uv_dy = dFdy(uv0);
+}
+
+vec4 relief_texel(vec2 uv) {
+    g_fetches += 1;
+    return textureGrad(u_relief, uv, g_uv_dx, g_uv_dy);
+}
+
+float relief_depth(vec2 uv) {
+    return 1.0 - relief_texel(uv).a;
+}
+
+// --- parallax (R3, R4) -------------------------------------------------------------------
+
+// Tn = Tv + h' * V.xy / V.z  (seed 000 §2.3, Kaneko et al. 2001)
+vec3 trace_parallax(vec2 uv0, vec3 V) {
+    float h = relief_texel(uv0).a;
+    float hs = h * u_parallax_scale + u_parallax_bias;
+    vec2 uv = uv0 + hs * V.xy / V.z;
+    return vec3(uv, -hs / max(u_depth, 1e-6));
+}
+
+// Tn = Tv + h' * V.xy  (offset limiting, Welsh 2004, seed 000 §2.3.2)
+vec3 trace_offset_limiting(vec2 uv0, vec3 V) {
+    float h = relief_texel(uv0).a;
+    float hs = h * u_parallax_scale + u_parallax_bias;
+    vec2 uv = uv0 + hs * V.xy;
+    return vec3(uv, -hs / max(u_depth, 1e-6));
+}
+
+// --- ray-marched family (R5, R6, R8) -------------------------------------------------------
+
+int relief_linear_count(vec2 ds) {
+    if (u_adaptive == 0) {
+        return max(u_linear_steps, 1);
+    }
+    // Angle-adaptive: as many steps as the ray's horizontal length in texels / step length,
+    // never fewer than the fixed count (steep views need few, grazing views many).
+    float texels = length(ds * vec2(textureSize(u_relief, 0)));
+    int n = int(ceil(texels / max(u_step_texels, 0.05)));
+    return clamp(n, max(u_linear_steps, 1), max(u_max_steps, 1));
+}
+
+// Linear search from depth 0 to 1 (§2.4.7): returns (last outside s, first inside s,
+// f at those two points) with f = s - depth(s) (< 0 outside, >= 0 inside).
+vec4 linear_bracket(vec2 uv0, vec2 ds, int n) {
+    float step_s = 1.0 / float(n);
+    float s_out = 0.0;
+    float f_out = -relief_depth(uv0);
+    if (f_out >= 0.0) {
+        return vec4(0.0, 0.0, f_out, f_out);
+    }
+    float s_in = 1.0;
+    float f_in = 0.0;
+    for (int i = 1; i <= n; ++i) {
+        float s = float(i) * step_s;
+        float f = s - relief_depth(uv0 + s * ds);
+        if (f >= 0.0) {
+            s_in = s;
+            f_in = f;
+            break;
+        }
+        s_out = s;
+        f_out = f;
+    }
+    return vec4(s_out, s_in, f_out, f_in);
+}
+
+vec3 trace_steep(vec2 uv0, vec2 ds) {
+    vec4 b = linear_bracket(uv0, ds, relief_linear_count(ds));
+    return vec3(uv0 + b.y * ds, b.y);
+}
+
+// Parallax occlusion mapping: the bracket's two samples joined by a line (Tatarchuk 2006).
+vec3 trace_pom(vec2 uv0, vec2 ds) {
+    vec4 b = linear_bracket(uv0, ds, relief_linear_count(ds));
+    float denom = b.w - b.z;
+    float s = denom > 1e-9 ? b.x + (b.y - b.x) * (-b.z / denom) : b.y;
+    return vec3(uv0 + s * ds, s);
+}
+
+// Relief mapping: linear search then binary search (Policarpo et al. 2005, §2.4.6–2.4.7).
+vec3 trace_relief(vec2 uv0, vec2 ds) {
+    vec4 b = linear_bracket(uv0, ds, relief_linear_count(ds));
+    float lo = b.x;
+    float hi = b.y;
+    if (hi > lo) {
+        for (int i = 0; i < u_binary_steps; ++i) {
+            float mid = 0.5 * (lo + hi);
+            if (mid >= relief_depth(uv0 + mid * ds)) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+    }
+    float s = 0.5 * (lo + hi);
+    return vec3(uv0 + s * ds, s);
+}
+
+// Interval mapping: the same bracket refined by secant (regula falsi) steps (Risser 2006,
+// §2.4.9): the next point is where the line between the inside and outside samples crosses.
+vec3 trace_interval(vec2 uv0, vec2 ds) {
+    vec4 b = linear_bracket(uv0, ds, relief_linear_count(ds));
+    float lo = b.x, hi = b.y, f_lo = b.z, f_hi = b.w;
+    float s = hi;
+    if (hi > lo) {
+        for (int i = 0; i < u_binary_steps; ++i) {
+            float denom = f_hi - f_lo;
+            s = denom > 1e-9 ? lo + (hi - lo) * (-f_lo / denom) : 0.5 * (lo + hi);
+            float f = s - relief_depth(uv0 + s * ds);
+            if (f >= 0.0) {
+                hi = s;
+                f_hi = f;
+            } else {
+                lo = s;
+                f_lo = f;
+            }
+        }
+        float denom = f_hi - f_lo;
+        s = denom > 1e-9 ? lo + (hi - lo) * (-f_lo / denom) : 0.5 * (lo + hi);
+    }
+    return vec3(uv0 + s * ds, s);
+}
+
+#if TECHNIQUE == TECH_CONE
+// Cone step mapping (Dummer 2006) with a cone map that is conservative for the bilinear
+// surface (terrascape.relief.cone_map.footprint_cone_map): u_cone is sampled NEAREST and
+// holds (apex depth = shallowest surface over the texel footprint, cone ratio). Above the
+// apex the ray jumps to the cone border; below it the bilinear surface is tested and the ray
+// creeps half a texel. The first inside sample is refined by binary steps.
+vec3 trace_cone(vec2 uv0, vec2 ds) {
+    float s = 0.0;
+    float s_prev = 0.0;
+    float lds = length(ds);
+    float creep = 0.5 / (max(lds, 1e-6) * float(textureSize(u_relief, 0).x));
+    bool inside = false;
+    for (int i = 0; i < u_cone_steps; ++i) {
+        vec2 uv = uv0 + s * ds;
+        g_fetches += 1;
+        vec2 ac = texture(u_cone, uv).rg;
+        if (s < ac.r) {
+            s_prev = s;
+            // A floor of 1e-4 texel-equivalents keeps the asymptotic approach moving.
+            s = min(s + max(ac.g * (ac.r - s) / (lds + ac.g), 1e-4 * creep), 1.0);
+            continue;
+        }
+        if (s >= relief_depth(uv)) {
+            inside = true;
+            break;
+        }
+        s_prev = s;
+        s = min(s + creep, 1.0);
+    }
+    if (!inside) {
+        return vec3(uv0 + s * ds, s);
+    }
+    float lo = s_prev, hi = s;
+    for (int i = 0; i < u_binary_steps; ++i) {
+        float mid = 0.5 * (lo + hi);
+        if (mid >= relief_depth(uv0 + mid * ds)) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    s = 0.5 * (lo + hi);
+    return vec3(uv0 + s * ds, s);
+}
+#endif
+
+#if TECHNIQUE == TECH_MINMAX
+// Smallest root t in [0, t_max] of q.x t^2 + q.y t + q.z = 0 where the function crosses from
+// negative to non-negative; -1 if none.
+float first_root(vec3 q, float t_max) {
+    if (q.z >= 0.0) {
+        return 0.0;
+    }
+    float best = -1.0;
+    if (abs(q.x) < 1e-12) {
+        if (q.y > 0.0) {
+            best = -q.z / q.y;
+        }
+    } else {
+        float disc = q.y * q.y - 4.0 * q.x * q.z;
+        if (disc >= 0.0) {
+            float sq = sqrt(disc);
+            float qq = -0.5 * (q.y + (q.y >= 0.0 ? sq : -sq));
+            float r1 = qq / q.x;
+            float r2 = abs(qq) > 1e-30 ? q.z / qq : r1;
+            float lo_r = min(r1, r2);
+            float hi_r = max(r1, r2);
+            best = lo_r >= 0.0 ? lo_r : hi_r;
+        }
+    }
+    return (best >= 0.0 && best <= t_max) ? best : -1.0;
+}
+
+// Exact hierarchical tracer over the min/max mip (Tevs et al. 2008): skip every node whose
+// shallowest point the ray does not reach; in a bilinear cell solve the quadratic exactly.
+// Ray: p(t) = p0 + t * d (texel-centre units), depth s(t) = s0 + sgn * t, t in [0, t_end].
+// Returns the first t where s(t) >= surface depth, or -1.
+float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end) {
+    ivec2 size = textureSize(u_relief, 0);
+    // Start no higher than the level whose nodes cover the whole ray: fewer descents.
+    float span = length(d) * t_end + 2.0;
+    int top = min(u_minmax_levels - 1, int(ceil(log2(span))));
+    int level = top;
+    vec2 dir = vec2(d.x >= 0.0 ? 1.0 : -1.0, d.y >= 0.0 ? 1.0 : -1.0);
+    vec2 dd = dir * max(abs(d), vec2(1e-7));
+    float t = 0.0;
+    for (int it = 0; it < u_max_iterations; ++it) {
+        if (t >= t_end) {
+            return -1.0;
+        }
+        vec2 p = p0 + t * d;
+        float cells = float(1 << level);
+        // Nudge along the ray so a point on a node border belongs to the node ahead.
+        vec2 node = floor((p + dir * 1e-3) / cells);
+        ivec2 nsize = max(size >> level, ivec2(1));
+        ivec2 inode = ivec2(node);
+        g_fetches += 1;
+        // Power-of-two sizes: & wraps negative indices too (two's complement). A level-0
+        // node is one bilinear cell: its four corner depths give the bound directly.
+        vec4 c4 = vec4(0.0);
+        float node_min;
+        if (level == 0) {
+            c4 = texelFetch(u_cells, inode & (size - 1), 0);
+            node_min = min(min(c4.r, c4.g), min(c4.b, c4.a));
+        } else {
+            node_min = texelFetch(u_minmax, inode & (nsize - 1), level).r;
+        }
+        vec2 bound = (node + step(0.0, dir)) * cells;
+        vec2 tb = (bound - p0) / dd;
+        float t_exit = min(min(tb.x, tb.y), t_end);
+        float s_now = s0 + sgn * t;
+        float s_deepest = sgn > 0.0 ? s0 + sgn * t_exit : s_now;
+        bool skip = s_deepest < node_min;
+        if (!skip) {
+            if (sgn > 0.0 && s_now < node_min) {
+                t = (node_min - s0) / sgn;  // free fall to the node's highest point
+            }
+            if (level > 0) {
+                level -= 1;
+                continue;
+            }
+            // Level 0: the bilinear cell with corners at texel centres node, node + 1.
+            float d00 = c4.r, d10 = c4.g, d01 = c4.b, d11 = c4.a;
+            vec2 f = p0 + t * d - node;           // local coordinates at the segment start
+            float a1 = d10 - d00, a2 = d01 - d00, a3 = d00 - d10 - d01 + d11;
+            // g(u) = s(t + u) - B(f + u d) as a quadratic in u.
+            vec3 q = vec3(
+                -a3 * d.x * d.y,
+                sgn - (a1 * d.x + a2 * d.y + a3 * (f.x * d.y + f.y * d.x)),
+                (s0 + sgn * t) - (d00 + a1 * f.x + a2 * f.y + a3 * f.x * f.y));
+            float u = first_root(q, t_exit - t);
+            if (u >= 0.0) {
+                return t + u;
+            }
+        }
+        // Leave the node; climb only when the ray also leaves the parent node.
+        t = t_exit;
+        vec2 next = floor((p0 + t * d + dir * 1e-3) / cells);
+        if (level < top && any(notEqual(ivec2(next) >> 1, inode >> 1))) {
+            level += 1;
+        }
+    }
+    return t;  // iteration budget exhausted: best estimate so far
+}
+
+vec3 trace_minmax(vec2 uv0, vec2 ds) {
+    vec2 size = vec2(textureSize(u_relief, 0));
+    float t = minmax_march(uv0 * size - 0.5, ds * size, 0.0, 1.0, 1.0);
+    float s = t < 0.0 ? 1.0 : t;
+    return vec3(uv0 + s * ds, s);
+}
+#endif
+
+// --- self-shadowing toward the light (R7, §2.4.8) ------------------------------------------
+
+// lds = UV offset per unit of depth *decrease* toward the light. Returns 1 in shadow.
+float relief_shadow(vec3 hit, vec2 lds) {
+    if (hit.z <= 1e-4) {
+        return 0.0;
+    }
+#if TECHNIQUE == TECH_MINMAX
+    // Exact: any point of the light ray (going up) under the surface?
+    vec2 size = vec2(textureSize(u_relief, 0));
+    float eps = 2e-3;
+    vec2 p0 = (hit.xy + eps * lds) * size - 0.5;
+    float t = minmax_march(p0, lds * size, hit.z - eps, -1.0, hit.z - eps);
+    return t >= 0.0 ? 1.0 : 0.0;
+#else
+    // March from the hit toward the light (Policarpo 2005 traces the same segment from the
+    // light's entry point); in shadow if a sample lies under the surface.
+    int n = max(u_shadow_steps, 1);
+    float step_s = hit.z / float(n);
+    for (int i = 1; i <= n; ++i) {
+        float t = float(i) * step_s - 0.5 * step_s;
+        float s = hit.z - t;
+        if (s > relief_depth(hit.xy + t * lds) + 1e-3) {
+            return 1.0;
+        }
+    }
+    return 0.0;
+#endif
+}
+
+// --- dispatch ---------------------------------------------------------------------------
+
+vec3 relief_trace(vec2 uv0, vec2 ds) {
+    vec3 V = normalize(vec3(-ds, u_depth));
+#if TECHNIQUE == TECH_PLAIN
+    return vec3(uv0, 0.0);
+#elif TECHNIQUE == TECH_PARALLAX
+    return trace_parallax(uv0, V);
+#elif TECHNIQUE == TECH_OFFSET_LIMITING
+    return trace_offset_limiting(uv0, V);
+#elif TECHNIQUE == TECH_STEEP
+    return trace_steep(uv0, ds);
+#elif TECHNIQUE == TECH_POM
+    return trace_pom(uv0, ds);
+#elif TECHNIQUE == TECH_RELIEF
+    return trace_relief(uv0, ds);
+#elif TECHNIQUE == TECH_INTERVAL
+    return trace_interval(uv0, ds);
+#elif TECHNIQUE == TECH_CONE
+    return trace_cone(uv0, ds);
+#elif TECHNIQUE == TECH_MINMAX
+    return trace_minmax(uv0, ds);
+#else
+    return vec3(uv0, 0.0);
+#endif
+}
+
+// Technique by distance (R10, the seed's conclusion): relief near, parallax farther, plain
+// far, each transition blended over u_dist_band world units.
+uniform float u_dist_relief;     // relief up to this distance
+uniform float u_dist_parallax;   // parallax up to this distance, plain beyond
+uniform float u_dist_band;       // blend band width
+
+vec3 relief_trace_by_distance(vec2 uv0, vec2 ds, float dist) {
+    vec3 V = normalize(vec3(-ds, u_depth));
+    float band = max(u_dist_band, 1e-6);
+    float w_relief = 1.0 - smoothstep(u_dist_relief, u_dist_relief + band, dist);
+    float w_plain = smoothstep(u_dist_parallax, u_dist_parallax + band, dist);
+    vec3 r = vec3(uv0, 0.0);
+    if (w_plain < 1.0) {
+        vec3 p = trace_parallax(uv0, V);
+        vec3 near_hit = p;
+        if (w_relief > 0.0) {
+            vec3 rel = trace_relief(uv0, ds);
+            near_hit = mix(p, rel, w_relief);
+        }
+        r = mix(near_hit, vec3(uv0, 0.0), w_plain);
+    }
+    return r;
+}
+
+#ifdef RELIEF_FORCE_COMPILE_ERROR
+// Lets tests exercise the fallback path (MISSION R11): this line is not GLSL.
+this_is_a_forced_compile_error
+#endif

@@ -1,0 +1,45 @@
+import numpy as np
+import pytest
+
+from terrascape.errors import HeightmapSizeError, InvalidParameterError
+from terrascape.relief.fields import city_field, natural_field
+
+
+def test_city_field_has_streets_roofs_and_thin_walls():
+    h = city_field(128, seed=3)
+    assert h.dtype == np.float32 and h.shape == (128, 128)
+    assert h.min() == 0.0 and h.max() == 1.0
+    # Streets: every block pitch (32) ends with 4 rows/cols of height 0.
+    assert np.all(h[28:32, :] == 0.0) and np.all(h[:, 60:64] == 0.0)
+    # Thin walls: some row has a run of exactly 1 or 2 equal texels above lower neighbours.
+    thin = 0
+    for row in h:
+        d = np.diff(row)
+        ups = np.nonzero(d > 0.05)[0]
+        downs = np.nonzero(d < -0.05)[0]
+        for u in ups:
+            nxt = downs[downs > u]
+            if nxt.size and nxt[0] - u <= 2:
+                thin += 1
+    assert thin > 20
+
+
+def test_fields_are_deterministic_and_seeded():
+    assert np.array_equal(city_field(64, seed=1, block=16), city_field(64, seed=1, block=16))
+    assert not np.array_equal(natural_field(64, seed=1), natural_field(64, seed=2))
+
+
+def test_natural_field_is_smooth_and_tileable():
+    h = natural_field(128, seed=5)
+    assert h.min() == 0.0 and h.max() == pytest.approx(1.0)
+    # Tileable: the wrap-around step is no larger than steps inside the field.
+    inner = np.abs(np.diff(h, axis=1)).max()
+    assert np.abs(h[:, 0] - h[:, -1]).max() <= inner * 1.01
+    assert inner < 0.1  # smooth at texel scale
+
+
+def test_field_sizes_are_validated():
+    with pytest.raises(HeightmapSizeError, match="power-of-two"):
+        city_field(100)
+    with pytest.raises(InvalidParameterError):
+        natural_field(64, beta=0.5)
