@@ -1,0 +1,94 @@
+"""``terrascape mesh`` CLI: modes, printed measured error, exit codes."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from terrascape.cli.app import run_app
+
+
+@pytest.fixture(scope="module")
+def hm_path(tmp_path_factory):
+    rng = np.random.default_rng(4)
+    h = (ndimage.gaussian_filter(rng.standard_normal((65, 65)), 3) * 400).astype(np.float32)
+    path = tmp_path_factory.mktemp("mesh") / "hm.npy"
+    np.save(path, h)
+    return path
+
+
+def _faces_in_obj(path):
+    return sum(1 for line in open(path) if line.startswith("f "))
+
+
+def test_static_max_error(hm_path, tmp_path, capsys):
+    out = tmp_path / "m.obj"
+    assert run_app(["mesh", str(hm_path), "-o", str(out), "--max-error", "3", "-q"]) == 0
+    text = capsys.readouterr().out
+    n, err = re.search(r"(\d+) triangles.*max vertical error ([\d.e+-]+)", text, re.S).groups()
+    assert int(n) == _faces_in_obj(out)
+    assert 0 < float(err) <= 3.0
+
+
+def test_static_budget_glb(hm_path, tmp_path, capsys):
+    out = tmp_path / "m.glb"
+    assert run_app(["mesh", str(hm_path), "-o", str(out), "--triangles", "500", "-q"]) == 0
+    n = int(re.search(r"(\d+) triangles", capsys.readouterr().out).group(1))
+    assert 498 <= n <= 500
+    assert out.read_bytes()[:4] == b"glTF"
+
+
+def test_view_dependent_geomipmap(hm_path, tmp_path, capsys):
+    out = tmp_path / "v.ply"
+    code = run_app(["mesh", str(hm_path), "-o", str(out), "--camera", "-50,600,-50",
+                    "--target", "32,0,32", "--tolerance", "4", "--size", "640x480",
+                    "--patch-size", "9", "-q"])
+    assert code == 0
+    err = float(re.search(r"max screen error ([\d.e+-]+) px", capsys.readouterr().out).group(1))
+    assert err <= 4.0
+    assert out.read_bytes().startswith(b"ply\n")
+
+
+def test_exit_codes(hm_path, tmp_path):
+    out = str(tmp_path / "x.obj")
+    base = ["mesh", str(hm_path), "-o", out]
+    assert run_app(base) == 2  # no mode
+    assert run_app([*base, "--max-error", "1", "--camera", "0,1,0", "--target", "1,0,1"]) == 2
+    assert run_app([*base, "--camera", "0,1,0"]) == 2  # no target
+    assert run_app([*base, "--max-error", "-1"]) == 2
+    assert run_app([*base, "--triangles", "0"]) == 2
+    assert run_app([*base, "--camera", "nan,1,0", "--target", "1,0,1"]) == 2
+    assert run_app([*base, "--camera", "0,1,0", "--target", "1,0,1", "--tolerance", "0"]) == 2
+    assert run_app([*base, "--camera", "0,1,0", "--target", "1,0,1", "--patch-size", "12"]) == 2
+    assert run_app(["mesh", str(hm_path), "-o", str(tmp_path / "x.stl"), "--max-error", "1"]) == 2
+    assert run_app(["mesh", str(tmp_path / "missing.npy"), "-o", out, "--max-error", "1"]) == 2
+    assert run_app([*base, "--lod", "bogus", "--camera", "0,1,0", "--target", "1,0,1"]) == 2
+    assert not (tmp_path / "x.obj").exists()
+    assert run_app([*base, "--max-error", "5", "-q"]) == 0
+    assert run_app([*base, "--max-error", "5", "-q"]) == 2  # exists, no --force
+    assert run_app([*base, "--max-error", "5", "-q", "--force"]) == 0
+
+
+def test_non_pow2_map_needs_fit(tmp_path):
+    src = tmp_path / "odd.npy"
+    np.save(src, np.random.default_rng(0).random((40, 50)).astype(np.float32))
+    out = str(tmp_path / "o.obj")
+    assert run_app(["mesh", str(src), "-o", out, "--max-error", "0.1", "-q"]) == 2
+    assert run_app(["mesh", str(src), "-o", out, "--max-error", "0.1", "--fit", "pad",
+                    "-q"]) == 0
+
+
+def test_view_dependent_roam(hm_path, tmp_path, capsys):
+    pytest.importorskip("terrascape.lod.roam")
+    out = tmp_path / "r.obj"
+    code = run_app(["mesh", str(hm_path), "-o", str(out), "--camera", "-50,600,-50",
+                    "--target", "32,0,32", "--tolerance", "3", "--size", "640x480",
+                    "--lod", "roam", "-q"])
+    assert code == 0
+    text = capsys.readouterr().out
+    n = int(re.search(r"(\d+) triangles", text).group(1))
+    err = float(re.search(r"max screen error ([\d.e+-]+) px", text).group(1))
+    assert err <= 3.0 and n == _faces_in_obj(out)
