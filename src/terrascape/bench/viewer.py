@@ -1,0 +1,234 @@
+"""Viewer frame rates per technique (seed 000 §2.7 FPS table; seed 001 §5.3 with ROAM).
+
+Every frame is what ``terrascape view`` does per frame — LOD update, sky + terrain, HUD text,
+buffer swap — on a seeded camera flight at 1280×720: once with the full-resolution mesh
+(frustum-culled chunks) and once with ROAM holding 80,000 triangles (seed 001 §5.2's
+figure). With a display (``DISPLAY`` set, e.g. under Xvfb) the frames go to a real
+moderngl-window/pyglet window; without one, to an off-screen framebuffer of a headless EGL
+context (noted under the table).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import statistics
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from terrascape.bench import BenchTable
+
+SIZE = (1280, 720)
+ROAM_TRIANGLES = 80_000
+QUICK_TECHNIQUES = ("plain", "regions", "bump", "relief")
+WARMUP = 3
+PROBE_SIZE = (128, 72)
+PROBE_LIMIT_S = 0.5  # a probe frame slower than this would take minutes at 1280×720
+PROBE_TIMEOUT_S = 12.0
+
+
+def flight(hm, frames: int, size=SIZE, *, seed: int = 5) -> list:
+    """Seeded camera flight: a circle at 0.3 of the terrain's width around its centre, high
+    above the peaks, looking along the path and 20° down (the whole relief passes by).
+
+    Integration point: when ``terrascape.bench.render`` provides ``camera_flight(hm, frames,
+    size)`` (the render benchmark's flight), that one is used instead so both tables share
+    their cameras.
+    """
+    try:  # pragma: no cover - depends on the render benchmark being present
+        from terrascape.bench.render import camera_flight
+
+        return list(camera_flight(hm, frames, size))
+    except (ImportError, AttributeError, TypeError):
+        pass
+    from terrascape.viewer.session import start_camera
+
+    base = start_camera(hm, size)
+    rng = np.random.default_rng(seed)
+    w, d = hm.extent
+    radius = 0.3 * min(w, d)
+    phase = rng.uniform(0.0, 2.0 * math.pi)
+    height = hm.max + 0.08 * max(w, d)
+    cams = []
+    for k in range(frames):
+        a = phase + 2.0 * math.pi * k / max(frames, 1) * 0.25  # a quarter circle
+        x, z = w / 2 + radius * math.cos(a), d / 2 + radius * math.sin(a)
+        yaw = math.degrees(math.atan2(-math.sin(a), -math.cos(a)))  # along the tangent
+        cams.append(replace(base, position=(x, height, z), yaw=yaw, pitch=-20.0,
+                            aspect=size[0] / size[1]))
+    return cams
+
+
+class _Surface:
+    """Where frames go: a real window (``present`` swaps buffers) or an off-screen FBO."""
+
+    def __init__(self, size) -> None:
+        self.window = None
+        self.note = ""
+        if os.environ.get("DISPLAY") or not sys.platform.startswith("linux"):
+            try:
+                from terrascape.viewer.app import open_window
+
+                self.window = open_window(size, title="terrascape bench viewer")
+            except Exception as exc:  # no usable display: measure headless instead
+                self.note = f"window failed ({str(exc).splitlines()[0]}); "
+        if self.window is not None:
+            self.ctx = self.window.ctx
+            self.fbo = self.window.fbo
+            self.note += (f"real window (moderngl-window/pyglet) on DISPLAY="
+                          f"{os.environ.get('DISPLAY', '?')}, framebuffer "
+                          f"{self.fbo.size[0]}×{self.fbo.size[1]}")
+        else:
+            from terrascape.render.context import create_headless_context
+
+            self.ctx = create_headless_context()
+            self.fbo = self.ctx.simple_framebuffer(size)
+            self.note += "no display: headless EGL context, off-screen framebuffer"
+        self.renderer = self.ctx.info.get("GL_RENDERER", "?")
+
+    def present(self) -> None:
+        if self.window is not None:
+            self.window.swap_buffers()
+        else:
+            self.ctx.finish()
+
+    def release(self) -> None:
+        if self.window is not None:
+            self.window.close()
+            self.window.destroy()
+        else:
+            self.fbo.release()
+            self.ctx.release()
+
+
+_PROBE_CODE = """
+import sys, time
+from terrascape.bench.viewer import PROBE_SIZE, SIZE, flight
+from terrascape.cli.cmd_view import generate_terrain
+from terrascape.render.context import create_headless_context
+from terrascape.viewer.session import ViewerSession
+n, frames, tech = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+hm = generate_terrain("diamond-square", n, seed=1)
+ctx = create_headless_context()
+s = ViewerSession(ctx, hm, size=SIZE, hud=False, warn=lambda m: None)
+s.camera = flight(hm, frames)[0]
+s.state.technique = tech
+fbo = ctx.simple_framebuffer(PROBE_SIZE)
+s.render(fbo, 0.0)
+ctx.finish()
+t0 = time.perf_counter()
+s.render(fbo, 0.0)
+ctx.finish()
+print(s.state.technique, time.perf_counter() - t0)
+"""
+
+
+def _probe(n: int, frames: int, tech: str, timeout: float) -> tuple[str, float]:
+    """Render one small frame of ``tech`` from the flight's first camera in a child process.
+
+    A GL draw cannot be interrupted, and some shaders take minutes per frame on software GL
+    at grazing view angles; the child is killed after ``timeout`` seconds. Returns
+    ``("ok", seconds)``, ``("fallback", 0)`` (the technique failed and plain was used) or
+    ``("timeout", timeout)``.
+    """
+    import subprocess
+
+    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+    try:
+        proc = subprocess.run([sys.executable, "-c", _PROBE_CODE, str(n), str(frames), tech],
+                              capture_output=True, text=True, timeout=timeout, env=env)
+    except subprocess.TimeoutExpired:
+        return "timeout", timeout
+    if proc.returncode != 0:
+        return "error: " + (proc.stderr.strip().splitlines() or ["?"])[-1], 0.0
+    used, seconds = proc.stdout.split()[-2:]
+    return ("ok" if used == tech else "fallback"), float(seconds)
+
+
+def _measure(session, surface, cams) -> dict:
+    times, tris, lod_ms = [], [], []
+    last = time.perf_counter()
+    for k, cam in enumerate([*cams[:WARMUP], *cams]):
+        session.camera = cam
+        t0 = time.perf_counter()
+        session.render(surface.fbo, t0 - last)
+        surface.present()
+        last = time.perf_counter()
+        if k >= WARMUP:
+            times.append(last - t0)
+            tris.append(session.stats.get("triangles", 0))
+            lod_ms.append(session.lod.last_ms if session.state.lod != "none" else 0.0)
+    return {
+        "fps": len(times) / sum(times),
+        "median_ms": statistics.median(times) * 1000.0,
+        "p95_ms": float(np.percentile(times, 95)) * 1000.0,
+        "triangles": int(np.mean(tris)),
+        "lod_ms": float(np.mean(lod_ms)),
+    }
+
+
+def run(quick: bool = False) -> list[BenchTable]:
+    from terrascape.cli.cmd_view import generate_terrain
+    from terrascape.render.techniques import technique_names
+    from terrascape.viewer.session import ViewerSession, ordered_techniques
+
+    n = 257 if quick else 513
+    frames = 10 if quick else 24
+    hm = generate_terrain("diamond-square", n, seed=1)
+    techniques = QUICK_TECHNIQUES if quick else ordered_techniques(technique_names())
+    cams = flight(hm, frames)
+    surface = _Surface(SIZE)
+    notes: list[str] = []
+    session = ViewerSession(surface.ctx, hm, size=SIZE, hud=True, lod_time_budget_ms=None,
+                            warn=notes.append)
+    session.state.triangle_target = ROAM_TRIANGLES
+    table = BenchTable(
+        f"Viewer frame rate per technique, {SIZE[0]}×{SIZE[1]}, diamond-square {n}×{n} "
+        f"({frames}-frame flight after {WARMUP} warm-up frames)",
+        ["technique", "mesh", "frames/s", "median ms", "p95 ms", "triangles", "LOD ms"],
+    )
+    try:
+        for tech in techniques:
+            if tech not in session.state.available:
+                continue
+            status, probe = ("ok", 0.0) if tech == "plain" else _probe(
+                n, frames, tech, PROBE_TIMEOUT_S)
+            if status != "ok" or probe > PROBE_LIMIT_S:
+                why = (f"probe frame {probe:.2f} s" if status == "ok" else
+                       f"probe {status}" + (f" after {probe:.0f} s" if status == "timeout"
+                                            else ""))
+                table.rows.append([tech, "-", "skipped", "-", "-", "-", "-"])
+                notes.append(f"{tech}: skipped — {why} at {PROBE_SIZE[0]}×{PROBE_SIZE[1]} "
+                             "from the flight's first camera (software GL would take minutes "
+                             "per 1280×720 frame)")
+                continue
+            modes = (("none", "full"), ("roam", f"ROAM {ROAM_TRIANGLES // 1000}k"))
+            if tech != "plain":  # the full mesh is the plain-texturing reference only
+                modes = modes[1:]
+            for lod, label in modes:
+                session.state.technique, session.state.lod = tech, lod
+                t0 = time.perf_counter()
+                r = _measure(session, surface, cams)
+                print(f"bench viewer: {tech} {label}: {r['fps']:.1f} frames/s "
+                      f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
+                table.rows.append([tech, label, round(r["fps"], 1), round(r["median_ms"], 1),
+                                   round(r["p95_ms"], 1), f"{r['triangles']:,}",
+                                   round(r["lod_ms"], 1)])
+    finally:
+        session.release()
+        surface.release()
+    table.notes += [
+        surface.note + f"; GL_RENDERER {surface.renderer}",
+        "per frame: LOD update (ROAM converges to the triangle budget every frame, no time "
+        "budget) + sky + terrain + HUD text + swap/finish; full = every chunk that passes "
+        "frustum culling at full resolution",
+        "target: >= 15 frames/s with ROAM 80k + plain on llvmpipe",
+        *notes,
+    ]
+    return [table]
+
+
+__all__ = ["flight", "run"]

@@ -1,0 +1,133 @@
+"""``terrascape view``: the interactive viewer window (MISSION P1, P2)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import typer
+
+from terrascape.cli.app import app, console, timed
+from terrascape.errors import InvalidParameterError
+
+GENERATORS = ("diamond-square", "fault", "hills")
+
+
+def generate_terrain(kind: str, size: int, seed: int, *, spacing: float = 2.0):
+    """A terrain from one of the seed 001 generators, scaled to look like landscape.
+
+    Heights span ``[0, 0.2 · extent]`` (a 257-sample map on a 2 m grid: 512 m across, up to
+    ~100 m high), so every size looks alike from the start camera.
+    """
+    from terrascape._validate import check_int
+    from terrascape.generate import diamond_square, fault_formation, hills
+
+    size = check_int(size, "--gen-size", minimum=3, maximum=8193)
+    top = 0.2 * (size - 1) * spacing
+    if kind == "diamond-square":
+        hm = diamond_square(size, roughness=0.55, seed=seed, spacing=spacing)
+    elif kind == "fault":
+        hm = fault_formation(size, iterations=400, falloff="cosine",
+                             width=max(2.0, 24.0 * size / 513), seed=seed, spacing=spacing)
+    elif kind == "hills":
+        hm = hills(size, count=max(20, int(300 * (size / 257) ** 2)), seed=seed, spacing=spacing)
+    else:
+        raise InvalidParameterError(
+            f"--generate must be one of {', '.join(GENERATORS)}, got {kind!r}")
+    return hm.normalised(0.0, top)
+
+
+@app.command("view")
+def view_cmd(
+    heightmap: Path = typer.Argument(
+        None, help="Heightmap file (.png/.bmp/.jpg, .r16/.raw/.r32, .tif, .npy, .ter).",
+        show_default="none: use --generate"),
+    generate: str = typer.Option(
+        None, "--generate", help="Generate the terrain instead: diamond-square, fault or hills.",
+        show_default="none"),
+    gen_size: int = typer.Option(
+        257, "--gen-size", help="Samples per side of a generated terrain (2^n+1 for "
+        "diamond-square)."),
+    seed: int = typer.Option(0, "--seed", help="Random seed of the generator."),
+    spacing: float = typer.Option(
+        None, "--spacing", help="Sample spacing in world units (metres); default: the file's, "
+        "2 m for generated terrains.", show_default="file / 2"),
+    vertical_scale: float = typer.Option(
+        None, "--vertical-scale", help="World height of the full-scale value for formats "
+        "without height units (plain images), in metres.", show_default="reader default"),
+    texture: Path = typer.Option(
+        None, "--texture", help="Colour image stretched over the whole terrain.",
+        show_default="procedural region texture"),
+    technique: str = typer.Option(
+        "plain", "--technique", help="Start technique (Tab switches at run time): plain, "
+        "regions, texture3d, splat, bump, parallax, parallax_limited, steep_parallax, pom, "
+        "relief, interval, relief_by_distance."),
+    lod: str = typer.Option(
+        "none", "--lod", help="Level of detail: none, roam, turner, geomipmap (L switches)."),
+    size: str = typer.Option("1280x720", "--size", help="Window size WIDTHxHEIGHT in pixels."),
+    fullscreen: bool = typer.Option(False, "--fullscreen", help="Open full screen."),
+    exaggeration: float = typer.Option(1.0, "--exaggeration", help="Vertical scale factor."),
+    pad: bool = typer.Option(
+        False, "--pad", help="Pad the heightmap to a square 2^n+1 grid (needed by the LOD "
+        "algorithms) by repeating edge samples."),
+    screenshot_dir: Path = typer.Option(
+        Path("."), "--screenshot-dir", help="Folder for F12 screenshots (PNG)."),
+    frames: int = typer.Option(
+        0, "--frames", help="Quit after this many frames (0: run until Esc).", min=0),
+    no_hud: bool = typer.Option(False, "--no-hud", help="Hide the on-screen text."),
+) -> None:
+    """Fly over a terrain in a window: mouse look (click; Esc releases, Esc again quits),
+    W A S D / arrows, Q/E down/up, Shift faster, scroll for speed; F1 or H lists every key.
+
+    Needs a display; for headless use render images with `terrascape render`.
+    """
+    from terrascape._validate import check_positive
+    from terrascape.cli.parsing import parse_size
+    from terrascape.render.techniques import technique_names
+    from terrascape.viewer.app import check_display, run_viewer
+    from terrascape.viewer.controls import LOD_MODES
+
+    # Cheap checks first, so a wrong option never waits for a terrain to be generated.
+    if (heightmap is None) == (generate is None):
+        raise InvalidParameterError(
+            "give either a HEIGHTMAP file or --generate diamond-square|fault|hills (not both)")
+    if generate is not None and generate not in GENERATORS:
+        raise InvalidParameterError(
+            f"--generate must be one of {', '.join(GENERATORS)}, got {generate!r}")
+    names = technique_names()
+    if technique not in names:
+        raise InvalidParameterError(
+            f"--technique must be one of {', '.join(names)}, got {technique!r}")
+    if lod not in LOD_MODES:
+        raise InvalidParameterError(f"--lod must be one of {', '.join(LOD_MODES)}, got {lod!r}")
+    width, height = parse_size(size, name="--size")
+    check_positive(exaggeration, "--exaggeration")
+    if not math.isfinite(exaggeration):
+        raise InvalidParameterError(f"--exaggeration must be finite, got {exaggeration}")
+    if not screenshot_dir.is_dir():
+        raise InvalidParameterError(f"--screenshot-dir {screenshot_dir} is not a folder")
+    check_display()
+
+    if generate is not None:
+        with timed(f"generate {generate} {gen_size}×{gen_size}"):
+            hm = generate_terrain(generate, gen_size, seed,
+                                  spacing=2.0 if spacing is None else check_positive(
+                                      spacing, "--spacing"))
+    else:
+        from terrascape.io import read_heightmap
+
+        with timed(f"read {heightmap.name}"):
+            hm = read_heightmap(heightmap, spacing=spacing, vertical_scale=vertical_scale)
+    if pad and not hm.is_pow2_plus1:
+        hm = hm.to_pow2_plus1("pad")
+        console.print(f"[dim]padded to {hm.cols}×{hm.rows} for LOD[/]")
+    tex = None
+    if texture is not None:
+        from terrascape.texture.materials import read_image_rgb
+
+        tex = read_image_rgb(texture)
+    frames_drawn = run_viewer(hm, size=(width, height), fullscreen=fullscreen,
+                              technique=technique, lod=lod, texture=tex,
+                              exaggeration=exaggeration, screenshot_dir=screenshot_dir,
+                              max_frames=frames, hud=not no_hud)
+    console.print(f"[dim]viewer closed after {frames_drawn} frames[/]")

@@ -1,0 +1,157 @@
+"""On-screen text for the viewer: panels of lines drawn as textured quads over the scene.
+
+The glyph atlas comes from :func:`terrascape.viewer.font.build_font` (generated at start);
+``viewer/shaders/hud.glsl`` draws glyphs and panel backgrounds in window pixels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from terrascape.errors import GLUnavailableError
+from terrascape.viewer.font import BitmapFont, build_font, layout_text, text_block_size
+
+SHADER = Path(__file__).resolve().parent / "shaders" / "hud.glsl"
+PADDING = 6.0
+
+
+@dataclass
+class Panel:
+    """Lines of text at a corner of the window.
+
+    ``anchor`` is ``"top-left"``, ``"top-right"``, ``"bottom-left"``, ``"bottom-right"`` or
+    ``"center"``; ``background`` is the RGBA of the panel behind the text (alpha 0: none).
+    """
+
+    lines: list[str]
+    anchor: str = "top-left"
+    color: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)
+    background: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.45)
+
+
+def column_tab(font: BitmapFont, lines) -> float | None:
+    """Tab stop aligning the text after ``"\\t"`` in every line: the widest first column plus
+    two spaces; ``None`` when no line has a tab."""
+    firsts = [line.split("\t", 1)[0] for line in lines if "\t" in line]
+    if not firsts:
+        return None
+    return max(font.text_width(f) for f in firsts) + 2 * font.advances[" "]
+
+
+def panel_origin(size: tuple[float, float], viewport: tuple[int, int], anchor: str,
+                 margin: float = 8.0) -> tuple[float, float]:
+    """Top-left pixel of a ``size`` block placed at ``anchor`` of the viewport."""
+    w, h = size
+    vw, vh = viewport
+    x = {"left": margin, "right": vw - w - margin}
+    y = {"top": margin, "bottom": vh - h - margin}
+    if anchor == "center":
+        return ((vw - w) / 2.0, (vh - h) / 2.0)
+    try:
+        vert, horiz = anchor.split("-")
+        return (x[horiz], y[vert])
+    except (ValueError, KeyError):
+        from terrascape.errors import InvalidParameterError
+
+        raise InvalidParameterError(
+            f"anchor must be top-left, top-right, bottom-left, bottom-right or center, "
+            f"got {anchor!r}"
+        ) from None
+
+
+def _compile(ctx, path: Path):
+    """Compile a one-file program with the renderer's ``#if defined VERTEX_SHADER`` layout."""
+    text = path.read_text(encoding="utf-8")
+    stages = {}
+    for stage, macro in (("vertex_shader", "VERTEX_SHADER"),
+                         ("fragment_shader", "FRAGMENT_SHADER")):
+        stages[stage] = f"#version 330 core\n#define {macro}\n#line 1 0\n{text}"
+    try:
+        return ctx.program(**stages)
+    except Exception as exc:  # moderngl.Error carries the driver log
+        raise GLUnavailableError(f"HUD shader {path.name} failed to compile:\n{exc}") from None
+
+
+class HudRenderer:
+    """Draws :class:`Panel` lists with one font atlas texture and one dynamic vertex buffer."""
+
+    def __init__(self, ctx, font: BitmapFont | None = None, *, font_size: int = 14) -> None:
+        import moderngl
+
+        self.ctx = ctx
+        self.font = font or build_font(font_size)
+        h, w = self.font.atlas.shape
+        self._tex = ctx.texture((w, h), 1, self.font.atlas.tobytes())
+        self._tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # crisp 1:1 glyph pixels
+        self._prog = _compile(ctx, SHADER)
+        self._capacity = 6 * 4 * 4 * 2048
+        self._vbo = ctx.buffer(reserve=self._capacity, dynamic=True)
+        self._vao = ctx.vertex_array(self._prog, [(self._vbo, "2f 2f", "in_pos", "in_uv")])
+
+    def _upload(self, verts: np.ndarray) -> None:
+        data = np.ascontiguousarray(verts, dtype=np.float32).tobytes()
+        if len(data) > self._capacity:
+            self._capacity = 2 * len(data)
+            self._vao.release()
+            self._vbo.release()
+            self._vbo = self.ctx.buffer(reserve=self._capacity, dynamic=True)
+            self._vao = self.ctx.vertex_array(
+                self._prog, [(self._vbo, "2f 2f", "in_pos", "in_uv")]
+            )
+        self._vbo.write(data)
+
+    def draw(self, fbo, panels: list[Panel], *, scale: float = 1.0) -> int:
+        """Draw ``panels`` over whatever ``fbo`` holds; returns the glyph quads drawn."""
+        import moderngl
+
+        ctx = self.ctx
+        fbo.use()
+        vw, vh = fbo.size
+        ctx.viewport = (0, 0, vw, vh)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self._prog["u_viewport"].value = (float(vw), float(vh))
+        self._prog["u_atlas"].value = 0
+        self._tex.use(location=0)
+        glyphs = 0
+        try:
+            for panel in panels:
+                if not panel.lines:
+                    continue
+                tab = column_tab(self.font, panel.lines)
+                bw, bh = text_block_size(self.font, panel.lines, scale=scale, tab=tab)
+                ox, oy = panel_origin((bw + 2 * PADDING, bh + 2 * PADDING), (vw, vh),
+                                      panel.anchor)
+                if panel.background[3] > 0:
+                    x0, y0, x1, y1 = ox, oy, ox + bw + 2 * PADDING, oy + bh + 2 * PADDING
+                    rect = np.array([(x0, y0, 0, 0), (x1, y0, 0, 0), (x1, y1, 0, 0),
+                                     (x0, y0, 0, 0), (x1, y1, 0, 0), (x0, y1, 0, 0)],
+                                    np.float32)
+                    self._upload(rect)
+                    self._prog["u_solid"].value = 1
+                    self._prog["u_color"].value = tuple(panel.background)
+                    self._vao.render(moderngl.TRIANGLES, vertices=6)
+                verts = layout_text(self.font, panel.lines, ox + PADDING, oy + PADDING,
+                                    scale=scale, tab=tab)
+                if len(verts):
+                    self._upload(verts)
+                    self._prog["u_solid"].value = 0
+                    self._prog["u_color"].value = tuple(panel.color)
+                    self._vao.render(moderngl.TRIANGLES, vertices=len(verts))
+                    glyphs += len(verts) // 6
+        finally:
+            ctx.disable(moderngl.BLEND)
+        return glyphs
+
+    def release(self) -> None:
+        self._vao.release()
+        self._vbo.release()
+        self._tex.release()
+        self._prog.release()
+
+
+__all__ = ["HudRenderer", "Panel", "column_tab", "panel_origin"]

@@ -1,0 +1,533 @@
+"""The viewer minus the window: camera flight, LOD, technique parameters, fallback, HUD.
+
+:class:`ViewerSession` owns a :class:`~terrascape.render.terrain.TerrainRenderer`, a
+:class:`~terrascape.viewer.controls.ViewerState` and the camera, and draws one frame into
+any moderngl framebuffer — the window's (``terrascape view``), or an off-screen one (tests,
+benchmarks without a display). It is the seed's main loop body (seed 000 §2.6.4.3: read the
+held keys, update the parameters the shader constant callback sends, draw the scene, draw the
+GUI text) with the free camera of seed 001 §5.2 and the LOD algorithms of seed 001 §4–5.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from terrascape._validate import check_positive
+from terrascape.camera import Camera
+from terrascape.errors import InvalidParameterError, TerrascapeError
+from terrascape.heightmap import Heightmap
+from terrascape.viewer.controls import HELP, LOD_MODES, ViewerState, fly, look
+
+# Technique cycling order (Tab): the seed 001 texturing methods, then seed 000's relief
+# family from cheapest to most expensive; techniques registered later are appended sorted.
+PREFERRED_ORDER: tuple[str, ...] = (
+    "plain", "regions", "texture3d", "splat", "bump", "parallax", "parallax_limited",
+    "steep_parallax", "pom", "relief", "interval", "relief_by_distance",
+)  # fmt: skip
+
+DAY_HORIZON = (0.74, 0.82, 0.92)
+DAY_ZENITH = (0.26, 0.46, 0.80)
+DAY_SUN = (1.0, 0.95, 0.85)
+NIGHT_HORIZON = (0.05, 0.06, 0.11)
+NIGHT_ZENITH = (0.01, 0.015, 0.04)
+NIGHT_AMBIENT = (0.22, 0.26, 0.42)  # moonlight: bluish, dim
+DUSK_TINT = (0.40, 0.12, -0.10)  # added to the horizon around sunset / sunrise
+
+# Keys whose effect repeats while held (the seed polls IsKeyDown every frame for them).
+REPEAT_KEYS = frozenset({
+    "EQUAL", "MINUS", "RIGHT_BRACKET", "LEFT_BRACKET", "PERIOD", "COMMA",
+    "O", "P", "N", "M", "PAGE_UP", "PAGE_DOWN",
+})  # fmt: skip
+
+
+def ordered_techniques(names: Iterable[str]) -> tuple[str, ...]:
+    """Registered technique names in Tab order (:data:`PREFERRED_ORDER` first)."""
+    names = list(dict.fromkeys(names))
+    first = [n for n in PREFERRED_ORDER if n in names]
+    return tuple(first + sorted(n for n in names if n not in first))
+
+
+def _lerp(a, b, t: float) -> tuple[float, ...]:
+    return tuple(float(x + (y - x) * t) for x, y in zip(a, b, strict=True))
+
+
+def sky_colors(daylight: float) -> dict[str, tuple[float, float, float]]:
+    """Sky and light colours for a daylight factor (0 night … 1 day; ``ViewerState.daylight``).
+
+    Day colours are the renderer's defaults; the horizon warms around sunset (the dusk tint
+    peaks at ``daylight = 0.5``, i.e. the sun on the horizon) and everything fades to a dim
+    blue moonlight at night.
+    """
+    d = float(np.clip(daylight, 0.0, 1.0))
+    dusk = 4.0 * d * (1.0 - d)
+    horizon = np.clip(np.add(_lerp(NIGHT_HORIZON, DAY_HORIZON, d), np.multiply(DUSK_TINT, dusk)),
+                      0.0, 1.0)
+    return {
+        "horizon_color": tuple(float(v) for v in horizon),
+        "zenith_color": _lerp(NIGHT_ZENITH, DAY_ZENITH, d),
+        "sun_color": _lerp((0.0, 0.0, 0.0), _lerp(DAY_SUN, (1.0, 0.55, 0.25), dusk), d),
+        "ambient_color": _lerp(NIGHT_AMBIENT, (1.0, 1.0, 1.0), d),
+        "diffuse_color": _lerp((0.0, 0.0, 0.0), _lerp((1.0, 1.0, 1.0), (1.0, 0.7, 0.45), dusk),
+                               d),
+        "specular_color": _lerp((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), d),
+    }
+
+
+def technique_params(state: ViewerState, accepted: Mapping[str, Any], *,
+                     has_lightmap: bool, fog_density: float | None = None) -> dict[str, Any]:
+    """Renderer parameters of one frame from the viewer state (the seed's constant callback).
+
+    Parameters
+    ----------
+    state
+        Keys → values (:class:`~terrascape.viewer.controls.ViewerState`).
+    accepted
+        The technique's parameters (``Technique.parameters()``); names it lacks are left out.
+    has_lightmap
+        Whether the technique samples ``u_lightmap`` (``lighting="lightmap"`` is only
+        offered to those).
+    fog_density
+        Fog density per world unit when fog is on (``None``: the renderer's automatic one).
+
+    Notes
+    -----
+    The viewer's "parallax scale" (seed 000 §2.6.4: ``parametar``) is the relief depth
+    ``depth`` of every relief technique, and ``parallax_scale`` with the bias ``-scale`` of
+    the parallax ones (``h' = scale·h + bias``), so one key changes every technique alike.
+    A sun at or below the horizon has no lightmap (cast shadows would cover everything);
+    vertex lighting with the dimmed night colours is used instead.
+    """
+    u = state.uniforms()
+    p: dict[str, Any] = {}
+    if "depth" in accepted:
+        s = float(u["parallax_scale"])
+        p["depth"] = max(s, 1e-3)  # a zero-depth relief texture has no normals to bake
+        if "parallax_scale" in accepted:
+            p["parallax_scale"] = s
+            p["parallax_bias"] = -s
+    for key in ("linear_steps", "binary_steps", "self_shadow"):
+        if key in accepted:
+            p[key] = u[key]
+    p["wireframe"] = bool(state.wireframe)
+    p["fog_density"] = fog_density if state.fog else 0.0
+    el = float(state.sun_elevation)
+    p["sun"] = (float(state.sun_azimuth), el)
+    if has_lightmap and state.lightmap and el > 0.0:
+        p["lighting"] = "lightmap"
+        p["shadows"] = True
+    else:
+        p["lighting"] = "vertex"
+    p.update(sky_colors(float(u["daylight"])))
+    return {k: v for k, v in p.items() if k in accepted}
+
+
+def ground_height(heights: np.ndarray, spacing: tuple[float, float], x: float, z: float) -> float:
+    """Bilinear terrain height at world ``(x, z)``, clamped to the map's edges."""
+    rows, cols = heights.shape
+    fx = min(max(x / spacing[0], 0.0), cols - 1.0)
+    fz = min(max(z / spacing[1], 0.0), rows - 1.0)
+    c0, r0 = min(int(fx), cols - 2) if cols > 1 else 0, min(int(fz), rows - 2) if rows > 1 else 0
+    c1, r1 = min(c0 + 1, cols - 1), min(r0 + 1, rows - 1)
+    tx, tz = fx - c0, fz - r0
+    h = heights
+    top = h[r0, c0] * (1 - tx) + h[r0, c1] * tx
+    bottom = h[r1, c0] * (1 - tx) + h[r1, c1] * tx
+    return float(top * (1 - tz) + bottom * tz)
+
+
+def terrain_diagonal(hm: Heightmap) -> float:
+    """Length of the terrain's bounding-box diagonal (world units)."""
+    ex, ez = hm.extent
+    return float(math.sqrt(ex * ex + ez * ez + (hm.max - hm.min) ** 2))
+
+
+def start_camera(hm: Heightmap, size: tuple[int, int], *, exaggeration: float = 1.0) -> Camera:
+    """Overlooking the whole terrain (``frame_terrain``), with near/far planes that also suit
+    flying down to the ground and away from it."""
+    from terrascape.camera import frame_terrain
+
+    scaled = hm if exaggeration == 1.0 else hm.scaled(exaggeration)
+    cam = frame_terrain(scaled.extent, (scaled.min, scaled.max), azimuth=210.0,
+                        elevation=35.0, fov_y=60.0, aspect=size[0] / size[1])
+    diag = terrain_diagonal(scaled)
+    # near/far ratio 2.5e4 keeps 24-bit depth precise to ~0.1 % of the view distance.
+    return replace(cam, near=diag * 2e-4, far=diag * 5.0)
+
+
+class Smoothed:
+    """Exponential moving average over time (time constant ``tau`` seconds)."""
+
+    def __init__(self, tau: float = 0.5) -> None:
+        self.tau = check_positive(tau, "tau (seconds)")
+        self.value: float | None = None
+
+    def add(self, sample: float, dt: float) -> float:
+        if not math.isfinite(sample):
+            return self.value if self.value is not None else float("nan")
+        if self.value is None:
+            self.value = float(sample)
+        else:
+            alpha = 1.0 - math.exp(-max(dt, 0.0) / self.tau)
+            self.value += alpha * (float(sample) - self.value)
+        return self.value
+
+
+class KeyRepeat:
+    """Auto-repeat for parameter keys held down: first repeat after ``delay`` s, then every
+    ``interval`` s (seed 000 changes its parameters every frame while the key is down)."""
+
+    def __init__(self, delay: float = 0.35, interval: float = 1 / 15,
+                 keys: frozenset[str] = REPEAT_KEYS) -> None:
+        self.delay, self.interval, self.keys = delay, interval, keys
+        self._held: dict[str, float] = {}
+
+    def press(self, key: str, now: float) -> None:
+        if key in self.keys:
+            self._held[key] = now + self.delay
+
+    def release(self, key: str) -> None:
+        self._held.pop(key, None)
+
+    def due(self, now: float) -> list[str]:
+        """Keys whose next repeat is due (each at most once per call)."""
+        out = []
+        for key, when in self._held.items():
+            if now >= when:
+                out.append(key)
+                self._held[key] = max(when + self.interval, now - self.interval)
+        return out
+
+
+class LodManager:
+    """The viewer's LOD modes over one heightmap: ROAM (frame-coherent split/merge), Turner's
+    ROAM (triangle target by feedback), geomipmapping (pixel tolerance); built lazily.
+
+    ``update`` returns the triangles to draw (``None`` = full mesh) and whether they changed
+    since the last call — the mesh is recomputed only when the view or the settings change
+    (or ROAM stopped on its time budget and has more work to do).
+    """
+
+    def __init__(self, heightmap: Heightmap, *, time_budget_ms: float | None = 12.0) -> None:
+        self.heightmap = heightmap
+        self.available = heightmap.is_pow2_plus1
+        self.time_budget_ms = time_budget_ms
+        self._roam = None
+        self._turner = None
+        self._geo = None
+        self._key: tuple | None = None
+        self._mode = "none"
+        self._pending = False
+        self.last_ms = 0.0
+        self.last_triangles = 0
+        self.last_detail = ""
+
+    def why_unavailable(self) -> str:
+        hm = self.heightmap
+        return (f"LOD needs a square 2^n+1 heightmap, this one is {hm.cols}×{hm.rows} "
+                "(restart with --pad)")
+
+    def update(self, mode: str, camera: Camera, viewport: tuple[int, int], *,
+               triangle_target: int, tolerance_px: float) -> tuple[np.ndarray | None, bool]:
+        if mode not in LOD_MODES:
+            raise InvalidParameterError(f"LOD mode must be one of {LOD_MODES}, got {mode!r}")
+        if mode == "none":
+            changed = self._mode != "none"
+            self._mode, self._key = "none", None
+            self.last_ms = 0.0
+            return None, changed
+        if not self.available:
+            raise InvalidParameterError(self.why_unavailable())
+        key = (mode, camera.position, camera.yaw, camera.pitch, camera.fov_y, camera.aspect,
+               tuple(viewport), int(triangle_target), float(tolerance_px))
+        if key == self._key and not self._pending:
+            return None, False
+        t0 = time.perf_counter()
+        n = self.heightmap.rows
+        if mode == "roam":
+            from terrascape.lod import Roam
+
+            if self._roam is None:
+                self._roam = Roam(self.heightmap)
+            st = self._roam.update(camera, viewport, max_triangles=int(triangle_target),
+                                   time_budget_ms=self.time_budget_ms)
+            self._pending = st.stopped_by == "time"
+            tris = self._roam.triangles()
+            self.last_detail = f"max error {st.max_screen_error:.2f} px ({st.stopped_by})"
+        elif mode == "turner":
+            from terrascape.lod import TurnerRoam
+
+            if self._turner is None or self._turner.target_triangles != int(triangle_target):
+                self._turner = TurnerRoam(self.heightmap, patch_size=min(65, n),
+                                          target_triangles=int(triangle_target))
+            st = self._turner.update(camera, viewport)
+            # Turner's feedback converges over frames: keep updating while off target.
+            self._pending = abs(st.triangles / int(triangle_target) - 1.0) > 0.05 and (
+                st.triangles < 2 * (n - 1) ** 2)
+            tris = self._turner.triangles(visible_only=True)
+            self.last_detail = f"threshold {st.threshold_px:.3g} px"
+        else:
+            from terrascape.lod import Geomipmap
+
+            if self._geo is None:
+                self._geo = Geomipmap(self.heightmap, patch_size=min(17, n))
+            self._geo.update(camera, viewport, float(tolerance_px), cull=True)
+            self._pending = False
+            tris = self._geo.triangles()
+            self.last_detail = f"levels {int(self._geo.levels.min())}–{int(self._geo.levels.max())}"
+        self._key, self._mode = key, mode
+        self.last_ms = (time.perf_counter() - t0) * 1000.0
+        self.last_triangles = len(tris)
+        return tris, True
+
+
+def _stderr_warning(message: str) -> None:
+    print(f"warning: {message}", file=sys.stderr, flush=True)
+
+
+class ViewerSession:
+    """One terrain in the viewer: renderer + state + camera + LOD + HUD.
+
+    Parameters
+    ----------
+    ctx
+        moderngl context (a window's, or a standalone one).
+    heightmap
+        The terrain.
+    size
+        Initial viewport ``(width, height)`` (sets the camera's aspect; each frame uses the
+        framebuffer's size).
+    technique, lod
+        Start technique (registered name) and LOD mode (``none``, ``roam``, ``turner``,
+        ``geomipmap``).
+    texture
+        Optional ``uint8 (H, W, 3)`` colour texture stretched over the terrain (replaces the
+        procedural region texture of every technique that samples ``u_color_tex``).
+    exaggeration
+        Vertical scale.
+    hud
+        Draw the HUD text (frame rate, triangles, technique, camera).
+    lod_time_budget_ms
+        ROAM's per-frame split/merge time budget (``None``: converge every frame).
+    warn
+        Called once per warning (technique fallback, unavailable LOD); default: stderr.
+    """
+
+    def __init__(self, ctx, heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
+                 technique: str = "plain", lod: str = "none", texture: np.ndarray | None = None,
+                 exaggeration: float = 1.0, hud: bool = True, font_size: int | None = None,
+                 lod_time_budget_ms: float | None = 12.0,
+                 warn: Callable[[str], None] | None = None) -> None:
+        from terrascape.render.techniques import TextureData, technique_names
+        from terrascape.render.terrain import TerrainRenderer
+
+        if not isinstance(heightmap, Heightmap):
+            raise InvalidParameterError(
+                f"expected a terrascape Heightmap, got {type(heightmap).__name__}")
+        names = ordered_techniques(technique_names())
+        if technique not in names:
+            raise InvalidParameterError(
+                f"unknown technique {technique!r}; available: {', '.join(names)}")
+        if lod not in LOD_MODES:
+            raise InvalidParameterError(f"--lod must be one of {', '.join(LOD_MODES)}, got {lod!r}")
+        self.ctx = ctx
+        self.heightmap = heightmap
+        self.exaggeration = check_positive(exaggeration, "exaggeration")
+        self.world = heightmap if self.exaggeration == 1.0 else heightmap.scaled(self.exaggeration)
+        self.renderer = TerrainRenderer(ctx, heightmap, exaggeration=self.exaggeration)
+        self.state = ViewerState(technique=technique, lod=lod, available=names,
+                                 parallax_scale=0.05)
+        diag = terrain_diagonal(self.world)
+        self.state.speed = diag / 8.0  # cross the terrain in ~8 s
+        self.clearance = 3.0 * max(heightmap.spacing)
+        # Lighter than the renderer's automatic fog: seen from the start camera (about 1.3
+        # diagonals away) the terrain keeps ~80 % of its colour, exp(-(0.35·1.3)²).
+        self.fog_density = 0.35 / diag
+        self.camera = start_camera(heightmap, size, exaggeration=self.exaggeration)
+        self.lod = LodManager(self.world, time_budget_ms=lod_time_budget_ms)
+        self.frame_ms = Smoothed(0.5)
+        self.lod_ms = Smoothed(0.5)
+        self.warn = warn or _stderr_warning
+        self._warned: set[str] = set()
+        self._messages: list[tuple[str, float]] = []
+        self.stats: dict[str, int] = {}
+        self.frames = 0
+        self._lod_drawn = False
+        if texture is not None:
+            self.renderer.set_texture("u_color_tex", TextureData(np.asarray(texture),
+                                                                repeat=False))
+        self.hud = None
+        if hud:
+            from terrascape.viewer.hud import HudRenderer
+
+            if font_size is None:  # small windows get a smaller font
+                font_size = 14 if size[1] >= 600 else (12 if size[1] >= 400 else 10)
+            self.hud = HudRenderer(ctx, font_size=font_size)
+        if lod != "none" and not self.lod.available:
+            self._note(self.lod.why_unavailable())
+            self.state.lod = "none"
+
+    # --- messages ------------------------------------------------------------------------
+    def _note(self, message: str, seconds: float = 5.0, *, warn: bool = True) -> None:
+        """Warn once on stderr and show the message on the HUD for a few seconds."""
+        if warn and message not in self._warned:
+            self._warned.add(message)
+            self.warn(message)
+        self._messages.append((message, time.monotonic() + seconds))
+
+    # --- input ---------------------------------------------------------------------------
+    def ground(self, x: float, z: float) -> float:
+        return ground_height(self.world.heights, self.world.spacing, x, z)
+
+    def advance(self, dt: float, keys_down: set[str], *, fast: bool = False) -> None:
+        """Fly the camera for ``dt`` seconds with the held keys (seed 001 §5.2 free camera)."""
+        dt = float(min(max(dt, 0.0), 0.25))  # a stalled frame must not teleport the camera
+        self.camera = fly(self.camera, keys_down, dt, self.state.speed, fast=fast,
+                          ground=self.ground, clearance=self.clearance,
+                          follow=self.state.terrain_following)
+
+    def look(self, dx: float, dy: float) -> None:
+        """Mouse look by ``dx``, ``dy`` pixels (only while the mouse is captured)."""
+        if self.state.mouse_captured:
+            self.camera = look(self.camera, dx, dy)
+
+    # --- frame ---------------------------------------------------------------------------
+    def frame_params(self, technique: str | None = None) -> dict[str, Any]:
+        from terrascape.render.techniques import get_technique
+
+        tech = get_technique(technique or self.state.technique)
+        has_lm = any(s.uniform == "u_lightmap" for s in tech.textures)
+        return technique_params(self.state, tech.parameters(), has_lightmap=has_lm,
+                                fog_density=self.fog_density)
+
+    def _update_lod(self, camera: Camera, viewport: tuple[int, int]) -> None:
+        st = self.state
+        try:
+            tris, changed = self.lod.update(st.lod, camera, viewport,
+                                            triangle_target=st.triangle_target,
+                                            tolerance_px=st.tolerance_px)
+        except InvalidParameterError as exc:
+            self._note(str(exc))
+            st.lod = "none"
+            tris, changed = self.lod.update("none", camera, viewport, triangle_target=1,
+                                            tolerance_px=1.0)
+        if changed:
+            self.renderer.set_indices(tris)
+
+    def render(self, fbo, dt: float = 0.0) -> dict[str, int]:
+        """Draw one frame (LOD update, sky + terrain, HUD) into ``fbo``.
+
+        ``dt`` is the time since the previous frame (seconds), for the smoothed frame rate.
+        A technique whose program or textures fail is reported once and replaced by
+        ``plain`` (MISSION R11, seed 000 §2.6.4.3's "shaders disabled" fallback).
+        """
+        w, h = fbo.size
+        camera = replace(self.camera, aspect=w / h)
+        self._update_lod(camera, (w, h))
+        if self.state.lod != "none":
+            self.lod_ms.add(self.lod.last_ms, dt)
+        while True:
+            tech = self.state.technique
+            try:
+                self.stats = self.renderer.render(fbo, camera, tech, self.frame_params(tech))
+                break
+            except TerrascapeError as exc:
+                if tech == "plain":
+                    raise
+                self._fall_back(tech, exc)
+        if dt > 0:
+            self.frame_ms.add(dt * 1000.0, dt)
+        if self.hud is not None:
+            self.hud.draw(fbo, self.hud_panels((w, h)))
+        self.frames += 1
+        return self.stats
+
+    def _fall_back(self, tech: str, exc: Exception) -> None:
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        self._note(f"technique {tech!r} is unavailable on this GL ({first}); using plain")
+        self.state.available = tuple(t for t in self.state.available if t != tech)
+        self.state.technique = "plain"
+
+    # --- HUD -----------------------------------------------------------------------------
+    def status_lines(self) -> list[str]:
+        """Frame rate, triangles, LOD time, technique and parameters, camera position."""
+        fm = self.frame_ms.value
+        fps = f"{1000.0 / fm:6.1f} fps  {fm:6.2f} ms/frame" if fm else "  -- fps"
+        tris = self.stats.get("triangles", 0)
+        lines = [fps, f"triangles {tris:,}"]
+        if self.state.lod != "none":
+            lm = self.lod_ms.value or 0.0
+            lines[-1] += f"  LOD update {lm:.2f} ms  {self.lod.last_detail}"
+        lines += self.state.status_lines()
+        x, y, z = self.camera.eye
+        lines.append(
+            f"camera {x:.1f}, {y:.1f}, {z:.1f}  yaw {self.camera.yaw:.0f}° "
+            f"pitch {self.camera.pitch:.0f}°  speed {self.state.speed:.3g}/s"
+            + ("  [following]" if self.state.terrain_following else "")
+        )
+        lines.append("F1/H: help" + ("" if self.state.mouse_captured else
+                                     "   click: mouse look   Esc: quit"))
+        return lines
+
+    def hud_panels(self, viewport: tuple[int, int]):
+        from terrascape.viewer.hud import Panel
+
+        panels = [Panel(self.status_lines(), "top-left")]
+        if self.state.show_help:
+            panels.append(Panel([f"{k}\t{d}" for k, d in HELP], "top-right",
+                                background=(0.0, 0.0, 0.0, 0.65)))
+        now = time.monotonic()
+        self._messages = [(m, t) for m, t in self._messages if t > now]
+        if self._messages:
+            panels.append(Panel([m for m, _ in self._messages], "bottom-left",
+                                color=(1.0, 0.85, 0.3, 1.0)))
+        return panels
+
+    # --- screenshot ----------------------------------------------------------------------
+    def screenshot(self, fbo, directory: str | Path = ".") -> Path:
+        """Write the framebuffer's colour to a new PNG in ``directory`` (never overwrites)."""
+        from PIL import Image
+
+        from terrascape.io.atomic import atomic_output
+
+        directory = Path(directory)
+        if not directory.is_dir():
+            raise InvalidParameterError(f"screenshot directory {directory} does not exist")
+        w, h = fbo.size
+        raw = fbo.read(components=3, alignment=1)
+        image = np.frombuffer(raw, np.uint8).reshape(h, w, 3)[::-1]
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        k = 0
+        while (path := directory / f"terrascape-{stamp}-{k:03d}.png").exists():
+            k += 1
+        with atomic_output(path) as tmp:
+            Image.fromarray(np.ascontiguousarray(image)).save(tmp, format="PNG")
+        self._note(f"screenshot {path}", seconds=3.0, warn=False)
+        return path
+
+    def release(self) -> None:
+        if self.hud is not None:
+            self.hud.release()
+        self.renderer.release()
+
+
+__all__ = [
+    "PREFERRED_ORDER",
+    "KeyRepeat",
+    "LodManager",
+    "Smoothed",
+    "ViewerSession",
+    "ground_height",
+    "ordered_techniques",
+    "sky_colors",
+    "start_camera",
+    "technique_params",
+    "terrain_diagonal",
+]

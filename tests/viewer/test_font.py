@@ -1,0 +1,99 @@
+"""The HUD's bitmap font: atlas generation (Pillow default font) and text layout."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrascape.errors import InvalidParameterError
+from terrascape.viewer.font import FALLBACK, build_font, layout_text, text_block_size
+from terrascape.viewer.hud import panel_origin
+
+
+@pytest.fixture(scope="module")
+def font():
+    return build_font(12)
+
+
+def _cell(font, ch):
+    k = font.index[ch]
+    cw, chh = font.cell
+    col, row = k % font.columns, k // font.columns
+    return font.atlas[row * chh : (row + 1) * chh, col * cw : (col + 1) * cw]
+
+
+def test_atlas_has_ink_for_glyphs_and_none_for_space(font):
+    assert font.atlas.dtype == np.uint8
+    for ch in "AZaz09°±":
+        assert (_cell(font, ch) > 128).sum() >= 3, ch
+    assert _cell(font, " ").max() == 0
+    # different letters are different bitmaps
+    assert not np.array_equal(_cell(font, "O"), _cell(font, "I"))
+    # the one-pixel margin keeps neighbouring cells apart
+    assert (font.atlas.reshape(-1, font.cell[1], font.atlas.shape[1])[:, 0, :] == 0).all()
+
+
+def test_layout_quads_count_positions_and_uv(font):
+    verts = layout_text(font, ["AB C", "x"], 10, 20)
+    assert verts.shape == (4 * 6, 4)  # spaces emit no quad
+    quads = verts.reshape(-1, 6, 4)
+    lefts = quads[:, 0, 0]
+    assert lefts[0] == 10 and lefts[1] == pytest.approx(10 + font.advances["A"])
+    assert lefts[2] == pytest.approx(10 + font.advances["A"] + font.advances["B"]
+                                     + font.advances[" "])
+    # second line starts again at x and one line lower
+    assert lefts[3] == 10
+    assert quads[3, 0, 1] == pytest.approx(20 + font.line_height)
+    # texture rectangle of "A" is its atlas cell
+    u0, v0, u1, v1 = font.cell_uv("A")
+    assert quads[0, 0, 2:].tolist() == pytest.approx([u0, v0])
+    assert quads[0, 2, 2:].tolist() == pytest.approx([u1, v1])
+    assert verts[:, 2].min() >= 0 and verts[:, 2].max() <= 1
+
+
+def test_unknown_characters_use_the_fallback(font):
+    assert font.glyph("\u4e2d") == FALLBACK
+    a = layout_text(font, ["\u4e2d"], 0, 0)
+    b = layout_text(font, [FALLBACK], 0, 0)
+    np.testing.assert_array_equal(a, b)
+
+
+def test_block_size_and_scale(font):
+    w, h = text_block_size(font, ["abc", "a"])
+    assert w == pytest.approx(font.text_width("abc"))
+    assert h == 2 * font.line_height
+    w2, h2 = text_block_size(font, ["abc", "a"], scale=2.0)
+    assert (w2, h2) == pytest.approx((2 * w, 2 * h))
+    assert text_block_size(font, []) == (0.0, 0.0)
+
+
+def test_font_size_changes_metrics_and_is_validated():
+    assert build_font(20).line_height > build_font(10).line_height
+    with pytest.raises(InvalidParameterError, match="font size"):
+        build_font(2)
+
+
+def test_panel_origin_anchors():
+    assert panel_origin((100, 50), (640, 480), "top-left") == (8.0, 8.0)
+    assert panel_origin((100, 50), (640, 480), "bottom-right") == (532.0, 422.0)
+    assert panel_origin((100, 50), (640, 480), "center") == (270.0, 215.0)
+    with pytest.raises(InvalidParameterError, match="anchor"):
+        panel_origin((1, 1), (10, 10), "middle")
+
+
+def test_tabs_align_columns_and_missing_symbols_are_substituted(font):
+    from terrascape.viewer.hud import column_tab
+
+    lines = ["A\tx", "WWWW\ty"]
+    tab = column_tab(font, lines)
+    assert tab == pytest.approx(font.text_width("WWWW") + 2 * font.advances[" "])
+    quads = layout_text(font, lines, 0, 0, tab=tab).reshape(-1, 6, 4)
+    # the glyph after the tab starts at the same x on both lines
+    x_after = [quads[1, 0, 0], quads[6, 0, 0]]
+    assert x_after[0] == pytest.approx(tab) and x_after[1] == pytest.approx(tab)
+    assert column_tab(font, ["no tab"]) is None
+    # a symbol the font draws as an empty box is replaced by its ASCII stand-in
+    assert "\ue000" not in font.index
+    if "∓" not in font.index:
+        assert font.expand("∓") == "-/+"
+    assert font.expand("\ue001") == FALLBACK

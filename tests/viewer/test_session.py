@@ -1,0 +1,290 @@
+"""The viewer without a window: parameters, camera flight, LOD, fallback, HUD, screenshots."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from terrascape.camera import Camera
+from terrascape.errors import InvalidParameterError
+from terrascape.heightmap import Heightmap
+from terrascape.render.techniques import COMMON_PARAMS, get_technique
+from terrascape.viewer.controls import ViewerState
+from terrascape.viewer.session import (
+    KeyRepeat,
+    LodManager,
+    Smoothed,
+    ground_height,
+    ordered_techniques,
+    sky_colors,
+    start_camera,
+    technique_params,
+)
+
+SIZE = (96, 64)
+
+
+def _terrain(n: int = 33) -> Heightmap:
+    from terrascape.generate import diamond_square
+
+    return diamond_square(n, roughness=0.55, seed=3, spacing=2.0).normalised(0.0, 12.0)
+
+
+# --- pure helpers ------------------------------------------------------------------------
+def test_ordered_techniques_puts_known_first_and_appends_others():
+    got = ordered_techniques(["relief", "zeta", "plain", "alpha", "bump", "plain"])
+    assert got == ("plain", "bump", "relief", "alpha", "zeta")
+
+
+def test_technique_params_maps_state_to_each_technique():
+    st = ViewerState(parallax_scale=0.03, linear_steps=20, binary_steps=5, self_shadow=True)
+    relief = get_technique("relief")
+    p = technique_params(st, relief.parameters(), has_lightmap=False, fog_density=0.01)
+    assert p["depth"] == pytest.approx(0.03)
+    assert p["parallax_scale"] == pytest.approx(0.03) and p["parallax_bias"] == pytest.approx(-0.03)
+    assert (p["linear_steps"], p["binary_steps"], p["self_shadow"]) == (20, 5, True)
+    assert p["lighting"] == "vertex" and p["fog_density"] == 0.01
+    plain = get_technique("plain")
+    q = technique_params(st, plain.parameters(), has_lightmap=True)
+    assert "depth" not in q and "linear_steps" not in q
+    assert q["lighting"] == "lightmap" and q["shadows"] is True
+    assert q["sun"] == (st.sun_azimuth, st.sun_elevation)
+    st.lightmap = False
+    assert technique_params(st, plain.parameters(), has_lightmap=True)["lighting"] == "vertex"
+    st.lightmap, st.sun_elevation, st.fog = True, -10.0, False
+    night = technique_params(st, plain.parameters(), has_lightmap=True)
+    assert night["lighting"] == "vertex"  # no lightmap for a sun below the horizon
+    assert night["fog_density"] == 0.0
+    # every name is a parameter the technique accepts
+    assert set(night) <= set(plain.parameters())
+
+
+def test_sky_colors_day_is_renderer_default_night_is_dark_dusk_is_warm():
+    day = sky_colors(1.0)
+    assert day["horizon_color"] == pytest.approx(COMMON_PARAMS["horizon_color"])
+    assert day["zenith_color"] == pytest.approx(COMMON_PARAMS["zenith_color"])
+    night = sky_colors(0.0)
+    assert sum(night["horizon_color"]) < 0.3 * sum(day["horizon_color"])
+    assert night["diffuse_color"] == (0.0, 0.0, 0.0)
+    dusk = sky_colors(0.5)["horizon_color"]
+    assert dusk[0] > dusk[2]  # reddish horizon at sunset
+
+
+def test_ground_height_is_bilinear_and_clamped():
+    z, x = np.mgrid[0:5, 0:7].astype(np.float32)
+    h = 0.5 * x * 2.0 + 0.25 * z * 3.0 + 1.0  # plane in world units (dx=2, dz=3)
+    spacing = (2.0, 3.0)
+    for wx, wz in [(0.0, 0.0), (3.3, 4.1), (11.9, 11.9), (5.0, 7.5)]:
+        assert ground_height(h, spacing, wx, wz) == pytest.approx(0.5 * wx + 0.25 * wz + 1.0)
+    # outside the map: the edge value
+    assert ground_height(h, spacing, -10.0, -10.0) == pytest.approx(1.0)
+    assert ground_height(h, spacing, 1e6, 1e6) == pytest.approx(float(h[-1, -1]))
+
+
+def test_start_camera_sees_the_whole_terrain():
+    hm = _terrain()
+    cam = start_camera(hm, (640, 360))
+    ex, ez = hm.extent
+    corners = np.array([[0, hm.min, 0], [ex, hm.min, 0], [0, hm.max, ez], [ex, hm.max, ez]])
+    px = cam.project(corners, (640, 360))
+    assert (px[:, 0] >= 0).all() and (px[:, 0] <= 640).all()
+    assert (px[:, 1] >= 0).all() and (px[:, 1] <= 360).all()
+    assert (px[:, 2] > cam.near).all() and (px[:, 2] < cam.far).all()
+
+
+def test_smoothed_average_and_key_repeat():
+    s = Smoothed(0.5)
+    assert s.add(10.0, 0.016) == 10.0
+    s.add(20.0, 0.5)  # one time constant: 1 - 1/e of the way
+    assert s.value == pytest.approx(20.0 - 10.0 / math.e)
+    for _ in range(400):
+        s.add(20.0, 0.016)
+    assert s.value == pytest.approx(20.0, abs=0.01)
+    r = KeyRepeat(delay=0.3, interval=0.1)
+    r.press("EQUAL", 0.0)
+    r.press("W", 0.0)  # not a repeating key
+    assert r.due(0.2) == []
+    assert r.due(0.31) == ["EQUAL"]
+    assert r.due(0.35) == []
+    assert r.due(0.42) == ["EQUAL"]
+    r.release("EQUAL")
+    assert r.due(5.0) == []
+
+
+def test_lod_manager_recomputes_only_on_change():
+    hm = _terrain(65)
+    lod = LodManager(hm, time_budget_ms=None)
+    cam = start_camera(hm, SIZE)
+    tris, changed = lod.update("roam", cam, SIZE, triangle_target=500, tolerance_px=2.0)
+    assert changed and 2 <= len(tris) <= 500 and tris.dtype == np.uint32
+    assert int(tris.max()) < hm.rows * hm.cols
+    assert lod.update("roam", cam, SIZE, triangle_target=500, tolerance_px=2.0) == (None, False)
+    moved = cam.moved((5.0, 0.0, 0.0))
+    assert lod.update("roam", moved, SIZE, triangle_target=500, tolerance_px=2.0)[1]
+    geo, changed = lod.update("geomipmap", moved, SIZE, triangle_target=500, tolerance_px=4.0)
+    assert changed and len(geo) > 0
+    turner, _ = lod.update("turner", moved, SIZE, triangle_target=2000, tolerance_px=4.0)
+    assert 0 < len(turner) <= 2 * 64 * 64
+    assert lod.update("none", moved, SIZE, triangle_target=1, tolerance_px=1.0) == (None, True)
+    odd = LodManager(Heightmap(np.zeros((20, 30), np.float32)))
+    with pytest.raises(InvalidParameterError, match="2\\^n\\+1"):
+        odd.update("roam", cam, SIZE, triangle_target=100, tolerance_px=1.0)
+
+
+# --- with GL -----------------------------------------------------------------------------
+def _frame(fbo) -> np.ndarray:
+    w, h = fbo.size
+    return np.frombuffer(fbo.read(components=3), np.uint8).reshape(h, w, 3)[::-1].astype(int)
+
+
+@pytest.fixture
+def session(gl_ctx):
+    from terrascape.viewer.session import ViewerSession
+
+    warnings = []
+    s = ViewerSession(gl_ctx, _terrain(), size=SIZE, hud=False, warn=warnings.append)
+    s.test_warnings = warnings
+    fbo = gl_ctx.simple_framebuffer(SIZE)
+    yield s, fbo
+    fbo.release()
+    s.release()
+
+
+@pytest.mark.gl
+def test_first_frame_has_sky_and_terrain_and_keys_change_it(session):
+    s, fbo = session
+    stats = s.render(fbo, 0.02)
+    img = _frame(fbo)
+    sky = (img[..., 2] > img[..., 0] + 20) & (img[..., 2] > 120)
+    assert sky[:4].mean() > 0.95  # the top of the frame is sky
+    assert 0.1 < (~sky).mean() < 0.95  # the terrain fills part of it
+    assert stats["triangles"] == 2 * 32 * 32
+    s.state.handle_key("Z")  # wireframe
+    s.render(fbo, 0.02)
+    wired = _frame(fbo)
+    diff = np.abs(wired - img).sum(-1) > 30
+    assert diff.mean() > 0.02
+    assert (wired.sum(-1)[diff] < img.sum(-1)[diff]).mean() > 0.8  # dark edges
+    s.state.handle_key("Z")
+    s.state.handle_key("N")
+    for _ in range(8):  # sun down to -5°: night
+        s.state.handle_key("N")
+    assert s.state.sun_elevation < 0
+    s.render(fbo, 0.02)
+    night = _frame(fbo)
+    assert night.mean() < 0.5 * img.mean()
+
+
+@pytest.mark.gl
+def test_technique_switch_and_lod_mode(session):
+    s, fbo = session
+    s.render(fbo, 0.02)
+    plain = _frame(fbo)
+    s.state.handle_key("TAB")
+    assert s.state.technique == "regions"
+    s.render(fbo, 0.02)
+    assert (np.abs(_frame(fbo) - plain).sum(-1) > 30).mean() > 0.02
+    s.state.handle_key("TAB", shift=True)
+    s.state.lod, s.state.triangle_target = "roam", 300
+    stats = s.render(fbo, 0.02)
+    assert 2 <= stats["triangles"] <= 300
+    s.state.lod = "none"
+    assert s.render(fbo, 0.02)["triangles"] == 2 * 32 * 32
+
+
+@pytest.mark.gl
+def test_broken_technique_falls_back_to_plain_once(session, tmp_path, monkeypatch):
+    from terrascape.render import techniques
+
+    bad = tmp_path / "broken.glsl"
+    bad.write_text("#if defined VERTEX_SHADER\nvoid main() { nonsense; }\n"
+                   "#elif defined FRAGMENT_SHADER\nvoid main() {}\n#endif\n")
+    monkeypatch.setitem(techniques._REGISTRY, "h9_broken",
+                        techniques.Technique("h9_broken", str(bad)))
+    s, fbo = session
+    s.state.available = (*s.state.available, "h9_broken")
+    s.state.technique = "h9_broken"
+    s.render(fbo, 0.02)
+    assert s.state.technique == "plain"
+    assert "h9_broken" not in s.state.available
+    assert len(s.test_warnings) == 1 and "h9_broken" in s.test_warnings[0]
+    s.render(fbo, 0.02)
+    assert len(s.test_warnings) == 1
+
+
+@pytest.mark.gl
+def test_flight_mouse_look_and_terrain_following(session):
+    s, _ = session
+    cam0 = s.camera
+    s.advance(0.1, {"W"})
+    step = s.camera.eye - cam0.eye
+    assert np.linalg.norm(step) == pytest.approx(s.state.speed * 0.1, rel=1e-6)
+    assert np.dot(step, cam0.forward) > 0.99 * np.linalg.norm(step)
+    s.advance(0.1, {"W"}, fast=True)  # Shift: four times faster
+    assert np.linalg.norm(s.camera.eye - cam0.eye) == pytest.approx(5 * s.state.speed * 0.1)
+    s.look(100, 0)  # mouse not captured: ignored
+    assert s.camera.yaw == pytest.approx(cam0.yaw)
+    s.state.mouse_captured = True
+    s.look(100, 0)
+    assert s.camera.yaw == pytest.approx((cam0.yaw + 15.0) % 360)
+    s.state.terrain_following = True
+    s.advance(0.01, set())
+    x, y, z = s.camera.eye
+    assert y == pytest.approx(s.ground(x, z) + s.clearance)
+
+
+@pytest.mark.gl
+def test_hud_and_screenshot(gl_ctx, tmp_path):
+    from PIL import Image
+
+    from terrascape.viewer.session import ViewerSession
+
+    s = ViewerSession(gl_ctx, _terrain(), size=(320, 240), warn=lambda m: None)
+    fbo = gl_ctx.simple_framebuffer((320, 240))
+    try:
+        s.render(fbo, 0.02)
+        s.render(fbo, 0.02)
+        lines = s.status_lines()
+        assert lines[0].strip().startswith("50.0 fps")
+        assert "triangles 2,048" in lines[1] and "technique: plain" in lines
+        with_hud = _frame(fbo)
+        white = with_hud.min(-1) > 200
+        assert white[8:100, 8:150].sum() > 100  # text in the status panel
+        s.state.show_help = True
+        panels = s.hud_panels((320, 240))
+        assert any(p.anchor == "top-right" and any("wireframe" in t for t in p.lines)
+                   for p in panels)
+        path = s.screenshot(fbo, tmp_path)
+        assert path.parent == tmp_path and path.suffix == ".png"
+        saved = np.asarray(Image.open(path).convert("RGB")).astype(int)
+        np.testing.assert_array_equal(saved, with_hud)
+        assert s.screenshot(fbo, tmp_path) != path  # never overwrites
+        with pytest.raises(InvalidParameterError, match="does not exist"):
+            s.screenshot(fbo, tmp_path / "missing")
+    finally:
+        fbo.release()
+        s.release()
+
+
+@pytest.mark.gl
+def test_session_validates_inputs(gl_ctx):
+    from terrascape.viewer.session import ViewerSession
+
+    hm = _terrain()
+    with pytest.raises(InvalidParameterError, match="unknown technique"):
+        ViewerSession(gl_ctx, hm, technique="nope", hud=False)
+    with pytest.raises(InvalidParameterError, match="--lod"):
+        ViewerSession(gl_ctx, hm, lod="quadtree", hud=False)
+    with pytest.raises(InvalidParameterError, match="Heightmap"):
+        ViewerSession(gl_ctx, np.zeros((9, 9)), hud=False)
+    notes = []
+    odd = Heightmap(np.zeros((20, 30), np.float32) + np.arange(30, dtype=np.float32))
+    s = ViewerSession(gl_ctx, odd, lod="roam", hud=False, warn=notes.append)
+    try:
+        assert s.state.lod == "none" and "--pad" in notes[0]
+    finally:
+        s.release()
+    assert isinstance(start_camera(hm, (4, 3)), Camera)
+    assert math.isfinite(start_camera(hm, (4, 3)).near)

@@ -1,0 +1,167 @@
+"""End-to-end: `terrascape view` in a real window under Xvfb, driven with xdotool, seen
+through screenshots of the X root window (ImageMagick `import`)."""
+
+from __future__ import annotations
+
+import io
+import os
+import random
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+IN_CI = os.environ.get("CI", "").lower() in {"1", "true", "yes"}
+TOOLS = ("Xvfb", "xdotool", "import")
+W, H = 320, 240
+# Rows below the HUD's status panel (7 lines of the 10 px font + padding at 240 px high):
+# the scene there is free of text that changes every frame (the frame rate).
+SCENE_ROWS = slice(150, H)
+
+pytestmark = pytest.mark.xvfb
+
+CLI = "import sys; from terrascape.cli import main; main(sys.argv[1:])"
+
+
+def _require_tools() -> None:
+    missing = [t for t in TOOLS if shutil.which(t) is None]
+    if missing:
+        if IN_CI:
+            pytest.fail(f"CI must provide {', '.join(missing)} for the viewer test")
+        pytest.skip(f"missing {', '.join(missing)}")
+
+
+def _free_display() -> int:
+    numbers = list(range(150, 250))
+    random.Random(os.getpid()).shuffle(numbers)
+    for n in numbers:
+        if not Path(f"/tmp/.X{n}-lock").exists() and not Path(f"/tmp/.X11-unix/X{n}").exists():
+            return n
+    pytest.skip("no free X display number")
+
+
+@pytest.fixture
+def xvfb():
+    _require_tools()
+    n = _free_display()
+    proc = subprocess.Popen(
+        ["Xvfb", f":{n}", "-screen", "0", "640x480x24", "-nolisten", "tcp"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )
+    socket = Path(f"/tmp/.X11-unix/X{n}")
+    deadline = time.monotonic() + 10
+    while not socket.exists():
+        if proc.poll() is not None or time.monotonic() > deadline:
+            proc.kill()
+            pytest.fail(f"Xvfb :{n} did not start")
+        time.sleep(0.05)
+    env = dict(os.environ, DISPLAY=f":{n}")
+    yield env
+    proc.terminate()
+    try:
+        proc.wait(5)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+
+
+def _grab(env) -> np.ndarray:
+    from PIL import Image
+
+    png = subprocess.run(["import", "-window", "root", "png:-"], env=env, check=True,
+                         capture_output=True, timeout=10).stdout
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)[:H, :W]
+
+
+def _wait_for(env, predicate, timeout: float, what: str) -> np.ndarray:
+    deadline = time.monotonic() + timeout
+    while True:
+        img = _grab(env)
+        if predicate(img):
+            return img
+        if time.monotonic() > deadline:
+            pytest.fail(f"timed out waiting for {what}")
+        time.sleep(0.2)
+
+
+def _key(env, wid: str, key: str) -> None:
+    subprocess.run(["xdotool", "windowfocus", "--sync", wid], env=env, check=True, timeout=10)
+    subprocess.run(["xdotool", "key", key], env=env, check=True, timeout=10)
+
+
+def _scene_change(a: np.ndarray, b: np.ndarray) -> float:
+    """Fraction of scene pixels whose colour changed by more than 24 levels."""
+    d = np.abs(a[SCENE_ROWS] - b[SCENE_ROWS]).max(axis=-1)
+    return float((d > 24).mean())
+
+
+def _is_sky(px: np.ndarray) -> np.ndarray:
+    r, g, b = px[..., 0], px[..., 1], px[..., 2]
+    return (b > r + 20) & (b >= g) & (b > 120)
+
+
+def test_view_window_keys_and_quit(xvfb, tmp_path):
+    env = xvfb
+    proc = subprocess.Popen(
+        [sys.executable, "-c", CLI, "view", "--generate", "diamond-square", "--gen-size", "65",
+         "--size", f"{W}x{H}"],
+        env=env, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    )
+    try:
+        wid = subprocess.run(
+            ["xdotool", "search", "--sync", "--name", "terrascape view"], env=env,
+            capture_output=True, text=True, timeout=20, check=True,
+        ).stdout.split()[0]
+        # First frame: not blank — sky at the top, and a terrain of other colours below it.
+        first = _wait_for(env, lambda im: im.std() > 10, 15, "a first frame")
+        # (the HUD panel starts 8 px below the top edge)
+        assert _is_sky(first[:6]).mean() > 0.95, "the top of the frame should be sky"
+        scene = first[SCENE_ROWS]
+        terrain = ~_is_sky(scene)
+        assert 0.1 < terrain.mean() < 0.9, "terrain and sky should share the lower frame"
+        greenish_or_brown = (scene[..., 0] + scene[..., 1] > 1.6 * scene[..., 2]) & terrain
+        assert greenish_or_brown.mean() > 0.02, "terrain colours (not sky blue) expected"
+        # HUD: white glyph pixels over the dark panel at the top left.
+        hud = first[5:60, 5:120]
+        assert (hud.min(axis=-1) > 200).sum() > 50, "HUD text should be drawn"
+
+        # The scene itself is static (no keys held): two grabs agree.
+        again = _grab(env)
+        assert _scene_change(first, again) < 0.01
+
+        _key(env, wid, "Tab")  # plain → regions: tiled materials instead of the region colour
+        tabbed = _wait_for(env, lambda im: _scene_change(first, im) > 0.02, 20,
+                           "the technique switch to change the image")
+        _key(env, wid, "z")  # wireframe overlay: dark edges over the terrain
+        wired = _wait_for(env, lambda im: _scene_change(tabbed, im) > 0.02, 10,
+                          "wireframe to change the image")
+        t_lum = tabbed[SCENE_ROWS].sum(-1)
+        w_lum = wired[SCENE_ROWS].sum(-1)
+        changed = np.abs(t_lum - w_lum) > 72
+        assert (w_lum[changed] < t_lum[changed]).mean() > 0.8, "wire lines should be dark"
+
+        _key(env, wid, "F12")  # screenshot into the working directory
+        deadline = time.monotonic() + 10
+        while not (shots := list(tmp_path.glob("terrascape-*.png"))):
+            assert time.monotonic() < deadline, "F12 wrote no screenshot"
+            time.sleep(0.1)
+        from PIL import Image
+
+        time.sleep(0.3)  # atomic rename: the file is complete once it exists
+        with Image.open(shots[0]) as shot:
+            saved = np.asarray(shot.convert("RGB"), dtype=np.int16)
+        assert saved.shape == (H, W, 3)
+        assert _scene_change(saved, wired) < 0.01  # it is the frame on screen before F12
+
+        t0 = time.monotonic()
+        _key(env, wid, "Escape")
+        rc = proc.wait(timeout=10)
+        assert time.monotonic() - t0 < 8
+        assert rc == 0, proc.stderr.read().decode()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
