@@ -43,7 +43,7 @@ fi
 if [ "$mode" = test ]; then
   command -v Xvfb >/dev/null 2>&1 || need_pkgs+=(xvfb)
   command -v xdotool >/dev/null 2>&1 || need_pkgs+=(xdotool)
-  command -v xwd >/dev/null 2>&1 || need_pkgs+=(x11-apps)
+  command -v import >/dev/null 2>&1 || need_pkgs+=(imagemagick)
 fi
 if [ "${#need_pkgs[@]}" -gt 0 ]; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then

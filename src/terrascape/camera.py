@@ -193,9 +193,18 @@ def frame_terrain(
     lo, hi = (check_finite(v, "height") for v in height_range)
     centre = np.array([w / 2.0, (lo + hi) / 2.0, d / 2.0])
     radius = 0.5 * math.sqrt(w * w + d * d + (hi - lo) ** 2)
-    half_fov = math.radians(fov_y) / 2.0
-    half_fov_x = math.atan(math.tan(half_fov) * aspect)
-    distance = radius / math.sin(min(half_fov, half_fov_x)) * 1.02
+    tan_y = math.tan(math.radians(fov_y) / 2.0)
+    tan_x = tan_y * aspect
+    # Fit the eight bounding-box corners, not the bounding sphere: a corner at offset
+    # (x, y, z) in the camera basis (z towards the eye) stays inside the view when the eye is
+    # at least z + |x|/tan_x (resp. |y|/tan_y) away from the centre. The sphere fit leaves a
+    # low-relief terrain filling a fifth of the frame.
+    probe = Camera.orbit(centre, azimuth, elevation, 1.0, fov_y=fov_y, aspect=aspect)
+    corners = np.array([[x, y, z] for x in (0.0, w) for y in (lo, hi) for z in (0.0, d)])
+    rel = corners - centre
+    along = rel @ -probe.forward
+    need = np.maximum(np.abs(rel @ probe.right) / tan_x, np.abs(rel @ probe.up) / tan_y)
+    distance = max(float(np.max(along + need)) * 1.04, radius * 1e-3)
     near = max(distance - radius * 1.5, distance * 1e-3)
     far = distance + radius * 2.0
     return Camera.orbit(
