@@ -1,5 +1,7 @@
 """Relief techniques registered into the terrain renderer (planar-mapped, tiled)."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -9,7 +11,7 @@ from terrascape.generate import diamond_square
 pytestmark = pytest.mark.gl
 
 NAMES = ["parallax", "parallax_limited", "steep_parallax", "pom", "relief", "interval",
-         "relief_by_distance"]
+         "relief_by_distance", "cone"]
 
 
 def test_relief_techniques_are_registered():
@@ -63,3 +65,36 @@ def test_relief_field_validation(terrain):
 
     with pytest.raises(InvalidParameterError, match="relief_field"):
         _draw(terrain, "relief", relief_field="bricks")
+
+
+def test_cone_on_terrain_agrees_with_relief_and_is_not_flat(terrain):
+    # Cone stepping and relief 16+8 trace the same surface: they agree on most pixels,
+    # and both differ clearly from the undisplaced texture.
+    relief = _draw(terrain, "relief", depth=0.08, self_shadow=False).astype(int)
+    cone = _draw(terrain, "cone", depth=0.08, self_shadow=False, cone_steps=64).astype(int)
+    flat = _draw(terrain, "relief", depth=1e-4, self_shadow=False).astype(int)
+    close = (np.abs(cone - relief)[..., :3].max(axis=-1) <= 12).mean()
+    moved = (np.abs(cone - flat)[..., :3].max(axis=-1) > 8).mean()
+    assert close > 0.85 and moved > 0.2, (close, moved)
+
+
+def test_unavailable_technique_falls_back_to_plain_with_one_warning(terrain):
+    """R11: a program this GL cannot compile renders as plain texturing, warning once."""
+    from terrascape.render.techniques import Technique, get_technique
+    from terrascape.render.terrain import TechniqueFallbackWarning
+
+    relief = get_technique("relief")
+    broken = Technique("broken_for_test", "relief/terrain", textures=relief.textures,
+                       defaults=relief.defaults, defines={"TECHNIQUE": "1 +"},
+                       description="does not compile")  # passed directly, not registered
+    r = terrain[0]
+    with pytest.warns(TechniqueFallbackWarning, match="broken_for_test"):
+        first = _draw(terrain, broken)
+    assert r.last_technique == "plain"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the second frame does not warn again
+        second = _draw(terrain, broken)
+    r, fbo, cam, size = terrain
+    r.render(fbo, cam, "plain", {"uv_scale": 4.0, "fog_density": 0.0, "sky": False})
+    expected = np.frombuffer(fbo.read(components=4), np.uint8).reshape(size[1], size[0], 4)
+    assert np.array_equal(first, expected) and np.array_equal(second, expected)

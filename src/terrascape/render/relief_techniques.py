@@ -10,9 +10,9 @@ bands of ``relief_by_distance`` (R10).
 
 Registered: ``parallax`` (R3), ``parallax_limited`` (R4), ``steep_parallax`` and ``pom``
 (R5), ``relief`` (R6, with R7 self-shadowing), ``interval`` (R8), ``relief_by_distance``
-(R10). Cone stepping and the exact min/max tracer need textures with custom filtering and
-mip chains, so they are available on :class:`~terrascape.render.relief_quad.
-ReliefQuadRenderer` only.
+(R10), ``cone`` (cone step mapping; its cone map is sampled NEAREST). The exact min/max
+tracer needs a hand-written mip chain, so it is available on :class:`~terrascape.render.
+relief_quad.ReliefQuadRenderer` only.
 """
 
 from __future__ import annotations
@@ -35,24 +35,36 @@ from terrascape.render.techniques import (
 FIELDS = ("city", "natural")
 
 
-def build_relief_texture(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
-    """Tiled RGBA (normal, height) texture of the ``relief_field`` test field (16-bit)."""
+def _relief_heights(params: Mapping[str, Any]) -> np.ndarray:
     from terrascape.errors import InvalidParameterError
     from terrascape.relief.fields import city_field, natural_field
 
     name = params["relief_field"]
     if isinstance(name, np.ndarray):
-        heights = name
-    elif name in FIELDS:
+        return name
+    if name in FIELDS:
         maker = city_field if name == "city" else natural_field
-        heights = maker(int(params["relief_size"]), seed=int(params["seed"]))
-    else:
-        raise InvalidParameterError(
-            f"relief_field must be one of {FIELDS} or a (rows, cols) array of heights in "
-            f"[0, 1], got {name!r}"
-        )
-    data = relief_texture_data(heights, depth=float(params["depth"]), bits=16)
+        return maker(int(params["relief_size"]), seed=int(params["seed"]))
+    raise InvalidParameterError(
+        f"relief_field must be one of {FIELDS} or a (rows, cols) array of heights in "
+        f"[0, 1], got {name!r}"
+    )
+
+
+def build_relief_texture(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Tiled RGBA (normal, height) texture of the ``relief_field`` test field (16-bit)."""
+    data = relief_texture_data(_relief_heights(params), depth=float(params["depth"]), bits=16)
     return TextureData(data, repeat=True, mipmaps=True)
+
+
+def build_cone_map(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Cone map of the same relief field (apex depth, cone ratio), sampled NEAREST
+    (Dummer 2006 cone step mapping; :func:`terrascape.relief.cone_map.footprint_cone_map`)."""
+    from terrascape.relief.cone_map import footprint_cone_map
+
+    cone = footprint_cone_map(_relief_heights(params))
+    return TextureData(np.ascontiguousarray(cone, dtype=np.float32), repeat=True,
+                       mipmaps=False, nearest=True)
 
 
 RELIEF_DEFAULTS: dict[str, Any] = {
@@ -66,6 +78,7 @@ RELIEF_DEFAULTS: dict[str, Any] = {
     "self_shadow": True,
     "parallax_scale": 0.05,
     "parallax_bias": -0.05,
+    "cone_steps": 32,
     "dist_relief": 200.0,
     "dist_parallax": 600.0,
     "dist_band": 100.0,
@@ -83,6 +96,12 @@ _SLOTS = (
                 description="tiled RGBA normal + height (16-bit) of the relief field"),
 )
 
+_CONE_SLOTS = (
+    *_SLOTS,
+    TextureSlot("u_cone", build_cone_map, depends=("relief_field", "relief_size", "seed"),
+                description="cone map (apex depth, cone ratio) of the relief field, NEAREST"),
+)
+
 _TERRAIN_NAMES = {
     "parallax": ("parallax", "seed 000 R3: Tn = Tv + h'·V.xy/V.z"),
     "parallax_limited": ("offset_limiting", "seed 000 R4: offset limiting Tn = Tv + h'·V.xy"),
@@ -91,6 +110,7 @@ _TERRAIN_NAMES = {
     "relief": ("relief", "R6/R7: relief mapping, linear + binary search, self-shadowing"),
     "interval": ("interval", "R8: interval mapping, linear + secant search"),
     "relief_by_distance": ("by_distance", "R10: relief near, parallax farther, plain far"),
+    "cone": ("cone", "cone step mapping (Dummer 2006) with a CPU-built cone map"),
 }
 
 
@@ -101,7 +121,7 @@ def register_relief_techniques(*, replace: bool = True) -> list[str]:
             Technique(
                 name,
                 "relief/terrain",
-                textures=_SLOTS,
+                textures=_CONE_SLOTS if tech == "cone" else _SLOTS,
                 defaults=RELIEF_DEFAULTS,
                 defines={"TECHNIQUE": TECHNIQUES[tech]},
                 description=text,

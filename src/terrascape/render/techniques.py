@@ -55,12 +55,16 @@ class TextureData:
     mipmaps
         Build mipmaps and sample trilinearly (off for 3D textures: their mip levels would
         average the layers together).
+    nearest
+        Sample without filtering or mipmaps (lookup tables such as cone maps, whose
+        interpolated values would be wrong).
     """
 
     data: np.ndarray
     kind: str = "2d"
     repeat: bool = True
     mipmaps: bool = True
+    nearest: bool = False
 
 
 TextureBuilder = Callable[[Heightmap, Mapping[str, Any]], TextureData]

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import math
+import warnings
 from collections.abc import Mapping
 from typing import Any
 
@@ -22,7 +23,7 @@ import numpy as np
 
 from terrascape._validate import check_int, check_positive
 from terrascape.camera import Camera
-from terrascape.errors import InvalidParameterError
+from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.lighting.sun import sun_direction
 from terrascape.mesh import DEFAULT_CHUNK, terrain_mesh
@@ -43,6 +44,11 @@ _SAMPLER_TYPES = frozenset(
 # Samplers a technique does not feed get their own units from here up, so no two samplers
 # of different types share unit 0 (a draw-time GL_INVALID_OPERATION that drops the draw).
 _SPARE_UNIT = 16
+_FALLBACK = "plain"
+
+
+class TechniqueFallbackWarning(UserWarning):
+    """A technique could not run on this GL; plain texturing was rendered instead (R11)."""
 
 
 def _vec(value: Any, n: int, name: str) -> tuple[float, ...]:
@@ -80,7 +86,8 @@ def as_texture_data(value: Any, *, name: str = "texture") -> TextureData:
         )
     if data.dtype == np.float32 and not np.isfinite(data).all():
         raise InvalidParameterError(f"{name}: texture contains NaN/inf")
-    return TextureData(np.ascontiguousarray(data), tex.kind, bool(tex.repeat), bool(tex.mipmaps))
+    return TextureData(np.ascontiguousarray(data), tex.kind, bool(tex.repeat), bool(tex.mipmaps),
+                       bool(tex.nearest))
 
 
 def upload_texture(ctx, tex: TextureData, *, name: str = "texture", limits: dict | None = None):
@@ -120,7 +127,9 @@ def upload_texture(ctx, tex: TextureData, *, name: str = "texture", limits: dict
             gl_tex = ctx.texture_array((w, h, n_layers), comps, data.tobytes(), dtype=dtype)
     gl_tex.repeat_x = tex.repeat
     gl_tex.repeat_y = tex.repeat
-    if tex.mipmaps and tex.kind != "3d":
+    if tex.nearest:
+        gl_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    elif tex.mipmaps and tex.kind != "3d":
         gl_tex.build_mipmaps()
         gl_tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         # No anisotropic filtering: on llvmpipe it costs 2-4× the frame time of a technique.
@@ -202,6 +211,8 @@ class TerrainRenderer:
         self._wire_prog = None
         self.last_stats: dict[str, int] = {}
         self._default_regions = None
+        self._fallen_back: set[str] = set()
+        self.last_technique: str | None = None  # what the last frame really drew (R11)
 
     # --- geometry ------------------------------------------------------------------------
     @_current
@@ -430,16 +441,36 @@ class TerrainRenderer:
             raise InvalidParameterError(f"camera must be a Camera, got {type(camera).__name__}")
         tech = get_technique(technique)
         p = tech.resolve(params)
-        for name, tex in (p.get("textures") or {}).items():
-            self.set_texture(name, tex)
-        samplers = self._ensure_textures(tech, p)
+        try:
+            samplers, program = self._prepare(tech, p)
+        except GLUnavailableError as exc:
+            # MISSION R11 / seed 000 §2.6.4.3: a technique this GL cannot run (compile or
+            # link failure, missing feature) degrades to plain texturing with one warning
+            # per technique instead of taking the viewer down.
+            if tech.name == _FALLBACK:
+                raise
+            if tech.name not in self._fallen_back:
+                self._fallen_back.add(tech.name)
+                warnings.warn(
+                    f"technique {tech.name!r} is not available on this GL ({exc}); "
+                    f"rendering with {_FALLBACK!r} texturing instead",
+                    TechniqueFallbackWarning,
+                    stacklevel=2,
+                )
+            tech = get_technique(_FALLBACK)
+            # Carry over what the caller set (sun, fog, ...), not the failed technique's
+            # own defaults, so the frame is exactly what "plain" would draw.
+            known = tech.parameters()
+            common = {k: v for k, v in (params or {}).items() if k in known}
+            p = tech.resolve(common)
+            samplers, program = self._prepare(tech, p)
+        self.last_technique = tech.name
         uniforms = self.frame_uniforms(camera, p)
         ctx = self.ctx
         fbo.use()
         ctx.viewport = (0, 0, *fbo.size)
         horizon = uniforms["u_fog_color"]
         fbo.clear(*horizon, 1.0, depth=1.0)
-        program = load_program(ctx, tech.program, tech.defines or None)
         set_uniforms(program, **uniforms)
         for unit, name in enumerate(samplers):
             self._textures[name][0].use(location=unit)
@@ -479,6 +510,15 @@ class TerrainRenderer:
         ctx.disable(moderngl.DEPTH_TEST)
         self.last_stats = stats
         return stats
+
+    def _prepare(self, tech: Technique, p: Mapping[str, Any]):
+        """Textures and compiled program of ``tech`` (raises GLUnavailableError if this GL
+        cannot run it)."""
+        for name, tex in (p.get("textures") or {}).items():
+            self.set_texture(name, tex)
+        samplers = self._ensure_textures(tech, p)
+        program = load_program(self.ctx, tech.program, tech.defines or None)
+        return samplers, program
 
     def _draw_geometry(self, program, camera: Camera) -> dict[str, int]:
         import moderngl
@@ -550,6 +590,7 @@ def check_output_size(ctx, size: Any) -> tuple[int, int]:
 
 
 __all__ = [
+    "TechniqueFallbackWarning",
     "TerrainRenderer",
     "as_texture_data",
     "check_output_size",

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+import warnings
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -30,7 +31,7 @@ from terrascape.viewer.controls import HELP, LOD_MODES, ViewerState, fly, look
 # family from cheapest to most expensive; techniques registered later are appended sorted.
 PREFERRED_ORDER: tuple[str, ...] = (
     "plain", "regions", "texture3d", "splat", "bump", "parallax", "parallax_limited",
-    "steep_parallax", "pom", "relief", "interval", "relief_by_distance",
+    "steep_parallax", "pom", "relief", "interval", "cone", "relief_by_distance",
 )  # fmt: skip
 
 DAY_HORIZON = (0.74, 0.82, 0.92)
@@ -428,6 +429,8 @@ class ViewerSession:
         A technique whose program or textures fail is reported once and replaced by
         ``plain`` (MISSION R11, seed 000 §2.6.4.3's "shaders disabled" fallback).
         """
+        from terrascape.render.terrain import TechniqueFallbackWarning
+
         w, h = fbo.size
         camera = replace(self.camera, aspect=w / h)
         self._update_lod(camera, (w, h))
@@ -436,12 +439,22 @@ class ViewerSession:
         while True:
             tech = self.state.technique
             try:
-                self.stats = self.renderer.render(fbo, camera, tech, self.frame_params(tech))
-                break
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always", TechniqueFallbackWarning)
+                    self.stats = self.renderer.render(fbo, camera, tech,
+                                                      self.frame_params(tech))
             except TerrascapeError as exc:
                 if tech == "plain":
                     raise
                 self._fall_back(tech, exc)
+                continue
+            if self.renderer.last_technique not in (None, tech):
+                # The renderer already drew plain texturing (R11); stop asking for tech.
+                reason = next((str(w.message) for w in caught
+                               if issubclass(w.category, TechniqueFallbackWarning)),
+                              "not available")
+                self._fall_back(tech, reason)
+            break
         if dt > 0:
             self.frame_ms.add(dt * 1000.0, dt)
         if self.hud is not None:
