@@ -529,7 +529,12 @@ class TerrainRenderer:
             return {"triangles": max(self._custom_count, 0) // 3, "chunks": 1, "chunks_culled": 0}
         planes = camera.frustum_planes()
         tris = drawn = culled = 0
-        for i, chunk in enumerate(self.chunks):
+        # Front to back, so the depth test rejects hidden fragments before shading them.
+        eye = camera.eye
+        order = sorted(range(len(self.chunks)), key=lambda k: float(
+            np.sum((np.clip(eye, *self._bbox[k]) - eye) ** 2)))
+        for i in order:
+            chunk = self.chunks[i]
             lo, hi = self._bbox[i]
             if not _aabb_visible(planes, lo, hi):
                 culled += 1

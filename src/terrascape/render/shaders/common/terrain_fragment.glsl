@@ -4,9 +4,19 @@
 
 in vec3 v_world;
 in vec3 v_normal;
+#ifdef TERRAIN_TANGENTS
 in vec4 v_tangent;
-in vec2 v_uv;
-in vec2 v_grid;
+#endif
+
+uniform vec2 u_extent;     // world size (x, z) of the terrain
+uniform float u_uv_scale;  // planar mapping repeats (seed 000 §2.6.4 makePlanarTextureMapping)
+
+// Planar texture coordinates from the interpolated world position: the same values as
+// interpolating them (they are linear in position) without two more varyings.
+// v_grid = (x / extent_x, z / extent_z) in [0, 1], for maps aligned with the grid;
+// v_uv = v_grid tiled u_uv_scale times over the terrain.
+#define v_grid (v_world.xz / u_extent)
+#define v_uv (v_grid * u_uv_scale)
 
 out vec4 f_color;
 

@@ -5,6 +5,7 @@
 // when u_uv_scale > 1, stretched when 1). Per fragment the view ray is taken into uvd space
 // with the basis (T * world length of one u unit, B * length of one v unit,
 // -N * u_depth * length of one UV unit) — the same geometry as terrascape.relief.reference.
+#define TERRAIN_TANGENTS
 #if defined VERTEX_SHADER
 #include "common/terrain_vertex.glsl"
 #elif defined FRAGMENT_SHADER
@@ -12,8 +13,6 @@
 #include "relief/common/heightfield.glsl"
 
 uniform sampler2D u_color_tex;   // colour texture, one texel per vertex (region_texture)
-uniform vec2 u_extent;
-uniform float u_uv_scale;
 uniform int u_self_shadow;       // R7 on/off
 uniform float u_relief_tint;     // how much the relief height darkens the albedo (0..1)
 

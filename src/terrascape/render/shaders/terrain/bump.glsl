@@ -3,6 +3,7 @@
 // pack_normal_height); it is taken to world space with the per-vertex frame
 //   n_world = T * n.x + B * n.y + N * n.z,   B = w * cross(N, T)
 // and lit with I = ka*ia + kd*(L.N)*id + ks*(R.V)^alpha*is.
+#define TERRAIN_TANGENTS
 #if defined VERTEX_SHADER
 #include "common/terrain_vertex.glsl"
 #elif defined FRAGMENT_SHADER
