@@ -100,7 +100,7 @@ def mesh_command(
     from terrascape.camera import Camera
     from terrascape.io.atomic import check_output_path
     from terrascape.io.mesh import MESH_FORMATS, compact_mesh, write_mesh
-    from terrascape.lod.mesh_checks import max_screen_error, max_vertical_error
+    from terrascape.lod.mesh_checks import frustum_mask, max_vertical_error, screen_errors
 
     if output.suffix.lower() not in MESH_FORMATS:
         raise FileFormatError(
@@ -171,10 +171,13 @@ def mesh_command(
                 roam.update(cam, (width, height), **kwargs)
                 tri = roam.triangles()
         with timed("measure", quiet=quiet):
-            screen = max_screen_error(hm, tri, cam, (width, height))
+            per_sample = screen_errors(hm, tri, cam, (width, height))
+            in_view = frustum_mask(hm, cam)
+            screen = float(per_sample[in_view].max()) if in_view.any() else 0.0
             vertical = max_vertical_error(hm, tri)
         summary = (
-            f"max screen error {screen:.4g} px (tolerance {tolerance:g} px), "
+            f"max screen error {screen:.4g} px in view (tolerance {tolerance:g} px; "
+            f"whole map {float(per_sample.max()):.4g} px), "
             f"max vertical error {vertical:.6g} (measured on every sample)"
         )
 

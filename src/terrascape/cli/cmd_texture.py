@@ -176,7 +176,10 @@ def splat_cmd(
             n_layers = len(regions)
             names = [f"{k}={r.name}" for k, r in enumerate(regions)]
         n_images = (n_layers + 3) // 4
-        paths = [Path(f"{output}_{k}.png") for k in range(n_images)]
+        # "-o splat.png" and "-o splat" both give splat_0.png, splat_1.png, ...
+        base = Path(output)
+        base = base.with_suffix("") if base.suffix.lower() == ".png" else base
+        paths = [Path(f"{base}_{k}.png") for k in range(n_images)]
         for p in paths:  # all-or-nothing: refuse before writing any
             check_output_path(p, force=force)
         bar.advance(task)

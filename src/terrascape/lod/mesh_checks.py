@@ -24,6 +24,7 @@ from terrascape.errors import InvalidParameterError
 __all__ = [
     "ConformityReport",
     "conformity_report",
+    "frustum_mask",
     "is_conforming",
     "max_screen_error",
     "max_vertical_error",
@@ -373,6 +374,24 @@ def screen_errors(heightmap, triangles, camera, viewport) -> np.ndarray:
     out = np.empty_like(err)
     _screen_errors(err, dx, dz, h, ex, ey, ez, k, float(camera.near), out)
     return out
+
+
+def frustum_mask(heightmap, camera) -> np.ndarray:
+    """``bool (rows, cols)``: which grid samples lie inside the camera's view frustum.
+
+    View-dependent LOD (ROAM's frustum flags, Duchaineau et al. 1997) only promises its
+    screen-space tolerance where the terrain can be seen; use this mask to measure there.
+    """
+    from terrascape.camera import Camera
+
+    if not isinstance(camera, Camera):
+        raise InvalidParameterError(f"camera must be a terrascape Camera, got {type(camera)}")
+    h, (dx, dz) = _heights_of(heightmap)
+    rows, cols = h.shape
+    z, x = np.mgrid[0:rows, 0:cols].astype(np.float64)
+    pts = np.stack([x * dx, h.astype(np.float64), z * dz], axis=-1)
+    planes = camera.frustum_planes()
+    return np.all(pts @ planes[:, :3].T + planes[:, 3] >= 0, axis=-1)
 
 
 def max_screen_error(heightmap, triangles, camera, viewport) -> float:
