@@ -16,7 +16,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from terrascape.bench import BenchTable, available_cases, get_case
+from terrascape.bench import available_cases, get_case
+from terrascape.report_analysis import save_figure
 
 
 @dataclass
@@ -104,9 +105,7 @@ def fractal_section(out: Path, *, quick: bool, tiny: bool = False) -> Section:
         ax.axis("off")
     fig.suptitle(f"Diamond-square, halving decay, {size}² — seed 001 figure 25")
     fig.tight_layout()
-    fig.savefig(out / "fractal_roughness.png", dpi=80)
-    plt.close(fig)
-    images.append("fractal_roughness.png")
+    images.append(save_figure(fig, out, "fractal_roughness.png"))
     md.append("![terrains for several roughness values](fractal_roughness.png)\n")
     md.append(
         "Height standard deviation grows with the start roughness: "
@@ -143,9 +142,7 @@ def fractal_section(out: Path, *, quick: bool, tiny: bool = False) -> Section:
     axes[3].legend()
     fig.suptitle(f"Decay laws side by side, {size}², integer mode — seed 001 figure 26")
     fig.tight_layout()
-    fig.savefig(out / "fractal_decay_laws.png", dpi=80)
-    plt.close(fig)
-    images.append("fractal_decay_laws.png")
+    images.append(save_figure(fig, out, "fractal_decay_laws.png"))
     md.append("![decay laws and their spectra](fractal_decay_laws.png)\n")
     md.append(_md_table(
         ["law", "spectral slope, f ≤ 1/16", "share of power at f ≥ 1/16 (finest 4 octaves)"],
@@ -170,22 +167,26 @@ def fractal_section(out: Path, *, quick: bool, tiny: bool = False) -> Section:
 
 # --- sections from benchmark cases ---------------------------------------------------------
 def tables_section(title: str, cases: list[str], *, quick: bool,
-                   plot: Callable[[list[BenchTable], Path], list[str]] | None = None,
                    out: Path | None = None) -> Section | None:
+    """Run ``cases`` and lay out their tables, each followed by its plots and discussion
+    (:mod:`terrascape.report_analysis`)."""
+    from terrascape.report_analysis import ANALYSES
+
     present = [c for c in cases if c in available_cases()]
     if not present:
         return None
     md: list[str] = []
     images: list[str] = []
-    tables: list[BenchTable] = []
     for case in present:
         md.append(f"Produced by `terrascape bench {case}{' --quick' if quick else ''}`.\n")
-        for table in get_case(case)(quick=quick):
-            tables.append(table)
-            md.append(table.to_markdown())
-    if plot is not None and out is not None:
-        images = plot(tables, out)
-        md += [f"![{name}]({name})\n" for name in images]
+        tables = get_case(case)(quick=quick)
+        md += [table.to_markdown() for table in tables]
+        analyse = ANALYSES.get(case)
+        if analyse is not None and out is not None:
+            text, plots = analyse(tables, out)
+            if text:
+                md.append(text)
+            images += plots
     return Section(title, "\n".join(md), images)
 
 
@@ -194,8 +195,11 @@ REPORT_SECTIONS: list[tuple[str, list[str]]] = [
     ("Texturing and shadow maps", ["texture", "shade"]),
     ("Rendering: texturing modes", ["render"]),
     ("Relief texturing: technique table and quality (seed 000 §2.7)", ["relief"]),
-    ("Level of detail: ROAM, Turner's ROAM, geomipmapping (seed 001 §5.3)",
-     ["lod_roam", "lod"]),
+    ("Relief-mapped texture terrain vs polygonal terrain with LOD (seed 000 §2.7, test 4)",
+     ["terrain_vs_relief"]),
+    ("ROAM analysis: ROAM, Turner's ROAM and geomipmapping on one flight (seed 001 §5.3)",
+     ["lod_flight", "lod_roam"]),
+    ("Level of detail: geomipmapping, culling and static meshes", ["lod"]),
 ]
 
 

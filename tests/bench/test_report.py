@@ -1,3 +1,5 @@
+import pytest
+
 from terrascape.report import write_report
 
 
@@ -13,3 +15,49 @@ def test_report_writes_markdown_and_plots(tmp_path):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert f"]({name})" in text
     assert not list(tmp_path.glob(".*.part"))
+
+
+def test_analyses_read_tables_and_write_plots(tmp_path):
+    """Each analysis builds its plots and discussion from the numbers in the tables."""
+    from terrascape.bench import BenchTable
+    from terrascape.report_analysis import ANALYSES
+
+    seed = BenchTable("Seed 000 §2.7 reproduction on the terrain mesh (x)",
+                      ["texture", "technique", "ms/frame", "% drop vs texture",
+                       "seed % drop (config 2)"],
+                      [["a", "texture mapping", 10.0, 0.0, 0.0],
+                       ["a", "parallax", 12.0, 10.0, 3.0],
+                       ["a", "relief 16+8", 40.0, 70.0, 75.0],
+                       ["b", "texture mapping", 10.0, 0.0, 0.0],
+                       ["b", "parallax", 12.0, 20.0, 3.0],
+                       ["b", "relief 16+8", 40.0, 80.0, 75.0]])
+    text, images = ANALYSES["relief"]([seed], tmp_path)
+    assert "parallax 15.00 %, relief mapping 75.00 %" in text  # averages of the rows
+    assert images == ["relief_seed_drop.png"]
+    assert (tmp_path / "relief_seed_drop.png").read_bytes()[:4] == b"\x89PNG"
+
+    roam = BenchTable("ROAM and Turner's ROAM: per-frame update at 80,000 triangles vs map size",
+                      ["algorithm", "map", "median ms", "triangles (median)"],
+                      [["ROAM", "513²", 2.0, 80000], ["ROAM", "4097²", 3.0, 79990]])
+    text, images = ANALYSES["lod_roam"]([roam], tmp_path)
+    assert "ROAM: 1.50× from 513² to 4097²" in text
+    assert images == ["roam_vs_map_size.png"]
+
+    flight = BenchTable("LOD flight: frame rate and triangles vs map size at 80,000 triangles",
+                        ["algorithm", "map", "triangles", "frames/s"],
+                        [["ROAM", "513²", 80000, 20.0], ["ROAM", "1025²", 79000, 19.0]])
+    text, images = ANALYSES["lod_flight"]([flight], tmp_path)
+    assert "ROAM 20.0 → 19.0 frames/s (513² → 1025²)" in text
+
+
+@pytest.mark.gl
+def test_quick_report_runs_every_benchmark_section(tmp_path, gl_ctx):
+    """The whole `bench report --quick` on this machine: every section, table and plot."""
+    path = write_report(tmp_path, quick=True, tiny=True)
+    text = path.read_text()
+    for title in ("Relief texturing", "ROAM analysis", "Rendering", "Level of detail"):
+        assert f"## {title}" in text
+    for image in ("relief_quality.png", "relief_seed_drop.png", "roam_vs_map_size.png",
+                  "render_modes.png"):
+        assert (tmp_path / image).exists() and f"]({image})" in text
+    assert "Average frame-rate drop against texture mapping" in text
