@@ -31,7 +31,11 @@ fi
 # Headless OpenGL through Mesa (llvmpipe): libEGL + the DRI drivers. The test suite also
 # starts the real viewer under Xvfb and drives it with xdotool.
 need_pkgs=()
-have_lib() { ldconfig -p 2>/dev/null | grep -q "$1"; }
+# ldconfig lives in /sbin, which a normal user's PATH may lack; fall back to the usual dirs.
+have_lib() {
+  { ldconfig -p 2>/dev/null || /sbin/ldconfig -p 2>/dev/null; } | grep -q "$1" ||
+    ls /usr/lib/*/"$1" /usr/lib/"$1" /lib/*/"$1" >/dev/null 2>&1
+}
 have_lib 'libEGL.so.1' || need_pkgs+=(libegl1)
 if ! ls /usr/lib/*/dri/swrast_dri.so /usr/lib/dri/swrast_dri.so >/dev/null 2>&1; then
   need_pkgs+=(libgl1-mesa-dri)
