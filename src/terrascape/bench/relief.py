@@ -218,7 +218,7 @@ SEED_FPS = {
 }
 
 
-def seed_table(ctx, *, size=(1024, 768), terrain=257, quick=False):
+def seed_table(ctx, *, size=(1280, 720), terrain=257, quick=False):
     from terrascape.camera import frame_terrain
     from terrascape.generate import diamond_square
     from terrascape.render.terrain import TerrainRenderer
