@@ -85,6 +85,33 @@ def _fmt(v: float, digits: int = 3) -> str:
 Analysis = tuple[str, list[str]]
 
 
+def plot_per_algorithm_vs_size(table: BenchTable, out: Path, name: str,
+                               panels: Sequence[tuple[str, str, bool]]) -> dict:
+    """One panel per ``(column, y label, log y)``: that column against the map side, a line per
+    algorithm. Returns ``{algorithm: {side: value of the first column}}``."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4), squeeze=False)
+    first: dict[str, dict[float, float]] = {}
+    for algo in dict.fromkeys(column(table, "algorithm")):
+        rows = [r for r in table.rows if r[0] == algo]
+        sizes = [as_number(r[column_index(table, "map")]) for r in rows]
+        for k, (ax, (col, _, _)) in enumerate(zip(axes[0], panels, strict=True)):
+            values = [as_number(r[column_index(table, col)]) for r in rows]
+            ax.plot(sizes, values, marker="o", label=algo)
+            if k == 0:
+                first[algo] = dict(zip(sizes, values, strict=True))
+    for ax, (_, label, log_y) in zip(axes[0], panels, strict=True):
+        ax.set_xscale("log", base=2)
+        if log_y:
+            ax.set_yscale("log")
+        ax.set_xlabel("heightmap side (samples)")
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+    save_figure(fig, out, name)
+    return first
+
+
 # --- relief texturing (seed 000 §2.7, issue: relief quality table) ----------------------------
 def analyse_relief(tables: Sequence[BenchTable], out: Path) -> Analysis:
     md: list[str] = []
@@ -207,24 +234,11 @@ def analyse_lod_roam(tables: Sequence[BenchTable], out: Path) -> Analysis:
     by_size = find_table(tables, "ROAM and Turner's ROAM: per-frame update")
     by_target = find_table(tables, "ROAM and Turner's ROAM: update time")
     if by_size is not None and by_size.rows:
-        algos = list(dict.fromkeys(column(by_size, "algorithm")))
-        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
-        series = {}
-        for algo in algos:
-            rows = [r for r in by_size.rows if r[0] == algo]
-            sizes = [as_number(r[by_size.columns.index("map")]) for r in rows]
-            ms = [as_number(r[by_size.columns.index("median ms")]) for r in rows]
-            tris = [as_number(r[by_size.columns.index("triangles (median)")]) for r in rows]
-            series[algo] = dict(zip(sizes, ms, strict=True))
-            ax1.plot(sizes, ms, marker="o", label=algo)
-            ax2.plot(sizes, tris, marker="o", label=algo)
-        for ax, label in ((ax1, "LOD update, median ms/frame"), (ax2, "triangles (median)")):
-            ax.set_xscale("log", base=2)
-            ax.set_xlabel("heightmap side (samples)")
-            ax.set_ylabel(label)
-            ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=8)
-        images.append(save_figure(fig, out, "roam_vs_map_size.png"))
+        series = plot_per_algorithm_vs_size(
+            by_size, out, "roam_vs_map_size.png",
+            [("median ms", "LOD update, median ms/frame", False),
+             ("triangles (median)", "triangles (median)", False)])
+        images.append("roam_vs_map_size.png")
         md.append("![ROAM update time and triangles vs map size](roam_vs_map_size.png)\n")
         ratios = []
         for algo, pts in series.items():
@@ -266,25 +280,11 @@ def analyse_lod_flight(tables: Sequence[BenchTable], out: Path) -> Analysis:
     by_size = find_table(tables, "LOD flight: frame rate and triangles vs map size")
     by_target = find_table(tables, "LOD flight: frame rate vs triangle target")
     if by_size is not None and by_size.rows:
-        algos = list(dict.fromkeys(column(by_size, "algorithm")))
-        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
-        fps_at: dict[str, dict[float, float]] = {}
-        for algo in algos:
-            rows = [r for r in by_size.rows if r[0] == algo]
-            sizes = [as_number(r[column_index(by_size, "map")]) for r in rows]
-            fps = [as_number(r[column_index(by_size, "frames/s")]) for r in rows]
-            tris = [as_number(r[column_index(by_size, "triangles")]) for r in rows]
-            fps_at[algo] = dict(zip(sizes, fps, strict=True))
-            ax1.plot(sizes, fps, marker="o", label=algo)
-            ax2.plot(sizes, tris, marker="o", label=algo)
-        for ax, label in ((ax1, "frames/s (LOD + draw)"), (ax2, "triangles drawn (mean)")):
-            ax.set_xscale("log", base=2)
-            ax.set_xlabel("heightmap side (samples)")
-            ax.set_ylabel(label)
-            ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=8)
-        ax2.set_yscale("log")
-        images.append(save_figure(fig, out, "lod_flight_vs_map_size.png"))
+        fps_at = plot_per_algorithm_vs_size(
+            by_size, out, "lod_flight_vs_map_size.png",
+            [("frames/s", "frames/s (LOD + draw)", False),
+             ("triangles", "triangles drawn (mean)", True)])
+        images.append("lod_flight_vs_map_size.png")
         md.append("![frame rate and triangles vs map size](lod_flight_vs_map_size.png)\n")
         parts = []
         for algo, pts in fps_at.items():
