@@ -35,6 +35,9 @@ TECHNIQUES: list[tuple[str, str, dict]] = [
     ("relief 16+8", "relief", {}),
     ("relief adaptive (1 texel, 16..256)+8", "relief",
      {"adaptive": True, "step_texels": 1.0, "max_steps": 256}),
+    # the grazing-angle setting: steps follow the ray's length, three texels each
+    ("relief adaptive (3 texels, 16..96)+8", "relief",
+     {"adaptive": True, "step_texels": 3.0, "max_steps": 96}),
     ("interval 16+8", "interval", {}),
     ("cone step 32+8", "cone", {"cone_steps": 32}),
     ("min/max exact", "minmax", {}),

@@ -22,8 +22,12 @@ void main() {
     vec3 T = normalize(v_tangent.xyz - N * dot(N, v_tangent.xyz));
     vec3 B = v_tangent.w * cross(N, T);
     vec2 unit = u_extent / max(u_uv_scale, 1e-6);
-    mat3 basis = mat3(T * unit.x, B * unit.y, -N * u_depth * sqrt(unit.x * unit.y));
-    mat3 to_uvd = inverse(basis);
+    // The basis (T·unit.x, B·unit.y, −N·depth·√(unit.x·unit.y)) has orthogonal columns
+    // (T, B, N orthonormal), so its inverse is its transpose with each row divided by that
+    // column's squared length: three dot products instead of a 3×3 inverse per fragment.
+    vec3 scale = 1.0 / vec3(unit.x, unit.y, -u_depth * sqrt(unit.x * unit.y));
+    mat3 to_uvd = transpose(mat3(T, B, N));
+    to_uvd = mat3(to_uvd[0] * scale, to_uvd[1] * scale, to_uvd[2] * scale);
     vec3 dir = to_uvd * (v_world - u_camera_pos);
     // On the mesh the local surface can face away from the eye (silhouettes, steep slopes
     // seen from behind): dir.z <= 0 would give an unbounded march. Clamp the ray to at most
@@ -34,7 +38,7 @@ void main() {
 #else
     vec3 hit = relief_trace(v_uv, ds);
 #endif
-    vec4 t = textureGrad(u_relief, hit.xy, g_uv_dx, g_uv_dy);
+    vec4 t = relief_sample(u_relief, hit.xy);
     vec3 n = t.rgb * 2.0 - 1.0;
     vec3 Nw = normalize(T * n.x + B * n.y + N * n.z);
     vec2 grid = v_grid + (hit.xy - v_uv) / max(u_uv_scale, 1e-6);

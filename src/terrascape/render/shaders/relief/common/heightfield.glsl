@@ -46,18 +46,29 @@ uniform int u_max_iterations;
 int g_fetches = 0;
 vec2 g_uv_dx = vec2(0.0);
 vec2 g_uv_dy = vec2(0.0);
+float g_lod = 0.0;
 
 // Gradients of the *base* texture coordinate, taken in uniform control flow so the
-// sampling inside loops keeps correct mip selection (textureGrad).
+// sampling inside loops keeps correct mip selection. The level of detail is computed once
+// from them (GL's isotropic rule: log2 of the longer footprint axis in texels) and every
+// fetch uses textureLod: the same level as textureGrad would pick, but llvmpipe would
+// otherwise redo the gradient-to-LOD work per fetch and per pixel.
 void relief_begin(vec2 uv0) {
     g_fetches = 0;
     g_uv_dx = dFdx(uv0);
     g_uv_dy = dFdy(uv0);
+    vec2 size = vec2(textureSize(u_relief, 0));
+    float rho = max(length(g_uv_dx * size), length(g_uv_dy * size));
+    g_lod = log2(max(rho, 1e-8));
+}
+
+vec4 relief_sample(sampler2D tex, vec2 uv) {
+    return textureLod(tex, uv, g_lod);
 }
 
 vec4 relief_texel(vec2 uv) {
     g_fetches += 1;
-    return textureGrad(u_relief, uv, g_uv_dx, g_uv_dy);
+    return relief_sample(u_relief, uv);
 }
 
 float relief_depth(vec2 uv) {
