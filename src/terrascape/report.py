@@ -199,7 +199,7 @@ REPORT_SECTIONS: list[tuple[str, list[str]]] = [
      ["terrain_vs_relief"]),
     ("ROAM analysis: ROAM, Turner's ROAM and geomipmapping on one flight (seed 001 §5.3)",
      ["lod_flight", "lod_roam"]),
-    ("Level of detail: geomipmapping, culling and static meshes", ["lod"]),
+    ("Level of detail: geomipmapping, culling, static meshes and peers", ["lod", "lod_peers"]),
 ]
 
 
