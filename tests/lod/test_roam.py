@@ -243,3 +243,76 @@ def test_bad_input(rng):
     with pytest.raises(InvalidParameterError):
         roam.merge(2)  # the base diamond is not split
     assert roam.triangle_count == 2  # nothing changed
+
+
+def test_records_track_the_bintree(rng):
+    """The per-leaf / per-diamond records the per-frame refresh reads (instead of walking the
+    bintree) always list exactly the leaves and mergeable diamonds, with their corners,
+    heights and error bounds."""
+    from terrascape.lod.bintree import triangle_vertices
+
+    hm = _terrain(rng, 33)
+    n = hm.rows
+    roam = Roam(hm)
+    h = hm.heights
+    err = roam.error_bounds
+
+    def check():
+        leaves, diamonds = roam._record_ids()
+        assert np.array_equal(leaves, np.sort(roam.leaf_ids()))
+        assert np.array_equal(diamonds, np.sort(roam.mergeable_diamonds()))
+        nl = leaves.size
+        ids, co, fl = roam._leaves[0][:nl], roam._leaves[1][:nl], roam._leaves[2][:nl]
+        verts = triangle_vertices(ids, n - 1).astype(np.int64)
+        assert np.array_equal(co[:, 0::2] * n + co[:, 1::2], verts)
+        assert np.array_equal(fl[:, 1:4], h.reshape(-1)[verts])
+        mid = ((co[:, 2] + co[:, 4]) // 2) * n + (co[:, 3] + co[:, 5]) // 2
+        finest = np.frexp(ids.astype(float))[1] - 2 >= roam.max_level
+        assert np.array_equal(fl[:, 0], np.where(finest, 0.0, err.reshape(-1)[mid]))
+
+    check()
+    for step in range(150):
+        diamonds = roam.mergeable_diamonds()
+        if diamonds.size and rng.random() < 0.4:
+            roam.merge(int(rng.choice(diamonds)))
+        else:
+            leaves = roam.leaf_ids()
+            cand = leaves[np.frexp(leaves.astype(float))[1] - 2 < roam.max_level]
+            roam.force_split(int(rng.choice(cand)))
+        if step % 10 == 0:
+            check()
+    for _ in range(4):
+        roam.update(_random_camera(rng, hm), VIEWPORT, max_triangles=int(rng.integers(50, 900)))
+        check()
+    roam.reset()
+    check()
+    assert roam.triangle_count == 2
+
+
+def test_partial_split_queue_gives_the_same_meshes(rng):
+    """The per-frame split queue holds only leaves above a fraction θ of the previous
+    maximum, rebuilt in full when it runs empty: any θ gives the same meshes and statistics
+    as the full queue (θ = 0), frame after frame, including after fast turns."""
+    hm = _terrain(rng, 129)
+    w, d = hm.extent
+    start = Camera.look_at((0.3 * w, hm.max + 20, 1.1 * d), (0.5 * w, hm.min, 0.5 * d),
+                           near=0.5, far=2000.0)  # fmt: skip
+    fractions = (0.0, 0.97, 2.0)  # full queue, default, always rebuilt
+    roams = [Roam(hm) for _ in fractions]
+    cam = start
+    for k in range(24):
+        if k % 4 == 3:
+            cam = cam.turned(float(rng.uniform(-70, 70)), 0.0)  # fast turn
+        else:
+            cam = cam.moved(tuple(rng.uniform(-3, 3, 3))).turned(float(rng.uniform(-4, 4)), 0.0)
+        kw = ({"max_triangles": int(rng.integers(300, 8000))}, {"tolerance_px": 1.5})[k % 2]
+        results = []
+        for roam, frac in zip(roams, fractions, strict=True):
+            roam._theta_frac = frac
+            s = roam.update(cam, VIEWPORT, **kw)
+            results.append((s.triangles, s.splits, s.merges, s.max_screen_error, s.stopped_by))
+        assert results[1] == results[0] and results[2] == results[0], k
+        tri = roams[0].triangles()
+        for roam in roams[1:]:
+            assert np.array_equal(roam.triangles(), tri), k
+    assert roams[0].rebuilds == 0 and roams[2].rebuilds > 0

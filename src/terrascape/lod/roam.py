@@ -17,6 +17,17 @@ a triangle count, and a time budget, whichever comes first. With a triangle budg
 keeps swapping (merge the lowest diamond, split the highest triangle) while the highest
 split priority exceeds the lowest merge priority, as in the seed's pseudocode.
 
+Per-frame cost independent of the map size (seed §5.3)
+-----------------------------------------------------
+The refresh never walks the bintree nor reads the height/error grids (at 4097² far larger
+than the caches): every leaf and mergeable diamond has a compact record (corners, heights,
+error bound, bounding sphere) kept up to date by the splits and merges, and the refresh
+reads only these O(triangles) records. The split queue is partial: a leaf whose cheap
+sphere bound is below θ (a fraction of the previous frame's maximum priority) is left out,
+and the queue is rebuilt in full in the rare frame where it runs empty — every left-out
+leaf is below every queued one, so the greedy loop makes exactly the same decisions. Equal
+priorities are ordered by id, so the meshes do not depend on the order of the records.
+
 Priority (projected wedgie, conservative)
 -----------------------------------------
 Every triangle has a nested wedgie thickness ``e_T`` (world units, a true bound on its
@@ -55,6 +66,7 @@ from terrascape.heightmap import Heightmap
 from terrascape.lod.bintree import (
     _level,
     _partner,
+    _partner_from_coords,
     _tri_coords,
     wedgie_errors,
 )
@@ -64,27 +76,50 @@ __all__ = ["Roam", "RoamStats", "roam_mesh"]
 ABSENT, LEAF, SPLIT = 0, 1, 2
 
 # camera parameter vector layout (one float64 array keeps the kernels' signatures short)
-_EYE, _FWD, _PLANES, _NEAR, _K, _STATIC, _DX, _DZ, _NCAM = 0, 3, 6, 30, 31, 32, 33, 34, 35
+_EYE, _FWD, _PLANES, _NEAR, _K, _STATIC, _DX, _DZ, _THETA = 0, 3, 6, 30, 31, 32, 33, 34, 35
+_NCAM = 36
+
+# the per-frame split queue holds the leaves with priority >= a fraction of the previous
+# frame's maximum (_fill_split). Any fraction gives the same meshes; it only trades per-frame
+# work against the chance of a full rebuild, so it adapts: it backs off after a frame that
+# needed a rebuild (a fast turn) and creeps back up while none is needed.
+_THETA_MAX, _THETA_MIN, _THETA_STEP_UP, _THETA_BACKOFF = 0.97, 0.5, 0.005, 0.1
+# a frame that starts from at most this many triangles keeps no records per operation
+_BUILD_FROM = 64
 
 # loop status codes returned by _roam_ops
-_MORE, _TOLERANCE, _TRIANGLES, _NO_MERGE = 0, 1, 2, 3
+_MORE, _TOLERANCE, _TRIANGLES, _NO_MERGE, _REFILL = 0, 1, 2, 3, 4
 _STOP_NAMES = {_TOLERANCE: "tolerance", _TRIANGLES: "triangles", _NO_MERGE: "triangles"}
 
 
 # --------------------------------------------------------------------------------------------
 # binary max-heaps on (key float64, id int64) arrays; the merge queue stores −priority
 # --------------------------------------------------------------------------------------------
+# Equal keys are ordered by id (``tie = −1``: smaller id first, the split queue; ``tie = +1``:
+# larger id first, the merge queue — finer diamonds of equal priority merge first). With a
+# total order the pop sequence depends only on the queue's contents, never on the order the
+# entries were inserted or heapified in, so the greedy loop's result is the same whatever
+# order the per-frame refresh lists the leaves and diamonds in.
+_TIE_S, _TIE_M = -1, 1
+
+
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _sift_down(keys, ids, n, i):
+def _above(k1, i1, k2, i2, tie):
+    """True when entry ``(k1, i1)`` belongs above ``(k2, i2)`` in the heap."""
+    return k1 > k2 or (k1 == k2 and i1 * tie > i2 * tie)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _sift_down(keys, ids, n, i, tie):
     k = keys[i]
     v = ids[i]
     while True:
         c = 2 * i + 1
         if c >= n:
             break
-        if c + 1 < n and keys[c + 1] > keys[c]:
+        if c + 1 < n and _above(keys[c + 1], ids[c + 1], keys[c], ids[c], tie):
             c += 1
-        if keys[c] <= k:
+        if not _above(keys[c], ids[c], k, v, tie):
             break
         keys[i] = keys[c]
         ids[i] = ids[c]
@@ -94,11 +129,11 @@ def _sift_down(keys, ids, n, i):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _hpush(keys, ids, n, k, v):
+def _hpush(keys, ids, n, k, v, tie):
     i = n
     while i > 0:
         p = (i - 1) >> 1
-        if keys[p] >= k:
+        if not _above(k, v, keys[p], ids[p], tie):
             break
         keys[i] = keys[p]
         ids[i] = ids[p]
@@ -109,19 +144,19 @@ def _hpush(keys, ids, n, k, v):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _hpop(keys, ids, n):
+def _hpop(keys, ids, n, tie):
     n -= 1
     if n > 0:
         keys[0] = keys[n]
         ids[0] = ids[n]
-        _sift_down(keys, ids, n, 0)
+        _sift_down(keys, ids, n, 0, tie)
     return n
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _heapify(keys, ids, n):
+def _heapify(keys, ids, n, tie):
     for i in range(n // 2 - 1, -1, -1):
-        _sift_down(keys, ids, n, i)
+        _sift_down(keys, ids, n, i, tie)
 
 
 # --------------------------------------------------------------------------------------------
@@ -204,6 +239,274 @@ def _diamond_priority(t, cam, h, err, size, max_lvl):
 
 
 # --------------------------------------------------------------------------------------------
+# per-entry records of the queues' elements (leaves and mergeable diamonds)
+# --------------------------------------------------------------------------------------------
+# The per-frame refresh must not touch the bintree: at 4097² its node array (4·S² bytes) and
+# the height/error grids (67 MB each) are far larger than the caches, and a walk over them
+# costs a cache miss per node — the refresh then grows with the map although the mesh does
+# not (seed 001 §5.3: the map size must not matter). Every leaf and every mergeable diamond
+# therefore has a record in a dense array — its id, corner coordinates, wedgie thickness
+# and corner heights — created and deleted by the split/merge operations themselves. The
+# refresh reads only these O(triangles) contiguous records.
+#
+# A record set is the tuple ``(ids, co, fl, ht, keys)``: ``ids[s]`` int64, ``co[s] = (ar, ac,
+# r0, c0, r1, c1)`` int32, ``fl[s]`` float32 values (leaves: ``e, y_a, y_0, y_1`` and a
+# bounding sphere ``c_x, c_y, c_z, r`` of the wedgie, world units, see :func:`_leaf_add`;
+# diamonds: ``e, y_a, y_0, y_1, y_b``, ``y_b`` the height at the base neighbour's apex), for
+# slots ``s < n``; ``ht`` an open-addressing hash table (linear probing, load <= 1/2) of
+# ``(key, slot)`` pairs and ``keys[s]`` each record's key (a leaf's id; a diamond's split
+# vertex ``row·(S+1) + col``, which both its triangles and their children know without a
+# neighbour search), so a record is found and deleted (swap with the last one) in O(1). The
+# memory grows with the mesh, not with the map. The counts live in ``cnt = [leaves,
+# diamonds]``.
+_LEAF_FIELDS, _DIAMOND_FIELDS = 8, 5  # float32 values per record (widths of ``fl``)
+_FIB = np.uint64(0x9E3779B97F4A7C15)  # Fibonacci hashing (Knuth): spreads structured ids
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _hslot(key, mask):
+    return np.int64((np.uint64(key) * _FIB) >> np.uint64(32)) & mask
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _hfind(ht, key):
+    """Table index of ``key``, or −1 when absent."""
+    mask = ht.shape[0] - 1
+    i = _hslot(key, mask)
+    while True:
+        k = ht[i, 0]
+        if k == key:
+            return i
+        if k < 0:
+            return -1
+        i = (i + 1) & mask
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _hput(ht, key, val):
+    """Insert ``key`` (absent) with value ``val``."""
+    mask = ht.shape[0] - 1
+    i = _hslot(key, mask)
+    while ht[i, 0] >= 0:
+        i = (i + 1) & mask
+    ht[i, 0] = key
+    ht[i, 1] = val
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _hdel_at(ht, i):
+    """Delete table entry ``i`` by backward shifting (no tombstones, so probe chains stay as
+    short as the load allows)."""
+    mask = ht.shape[0] - 1
+    j = i
+    while True:
+        j = (j + 1) & mask
+        k = ht[j, 0]
+        if k < 0:
+            break
+        # the entry at j may move to the hole i unless its home slot lies in (i, j]
+        if ((j - _hslot(k, mask)) & mask) >= ((j - i) & mask):
+            ht[i, 0] = k
+            ht[i, 1] = ht[j, 1]
+            i = j
+    ht[i, 0] = -1
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _rehash(ids, n, ht):
+    ht[:, 0] = -1
+    for s in range(n):
+        _hput(ht, ids[s], s)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _rec_add(rec, n, key, tid, ar, ac, r0, c0, r1, c1):
+    """Append a record with hash key ``key`` and triangle id ``tid`` at slot ``n``
+    (returned); the caller fills ``fl[n]``."""
+    ids, co, _, ht, keys = rec
+    ids[n] = tid
+    keys[n] = key
+    co[n, 0], co[n, 1], co[n, 2] = ar, ac, r0
+    co[n, 3], co[n, 4], co[n, 5] = c0, r1, c1
+    _hput(ht, key, n)
+    return n
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _rec_remove_at(rec, n, i):
+    """Delete the record of table entry ``i``; the last record fills its slot. Returns the
+    new count."""
+    ids, co, fl, ht, keys = rec
+    s = ht[i, 1]
+    _hdel_at(ht, i)
+    n -= 1
+    if s != n:
+        last = keys[n]
+        keys[s] = last
+        ids[s] = ids[n]
+        for k in range(6):
+            co[s, k] = co[n, k]
+        for k in range(fl.shape[1]):
+            fl[s, k] = fl[n, k]
+        ht[_hfind(ht, last), 1] = s
+    return n
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _leaf_add(leaves, cnt, t, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1):
+    """Record leaf ``t`` (level ``lvl``): corners, heights, its wedgie thickness (0 at the
+    finest level, whose hypotenuse midpoint is not a grid vertex) and a bounding sphere of
+    its wedgie (grid spacing ``dx``, ``dz``).
+
+    The sphere is the one :func:`_wedgie_priority` uses, stored in float32 with its radius
+    enlarged by the centre's rounding and rounded up, so it still contains the wedgie: the
+    refresh bounds the priority with it (:func:`_fill_split`)."""
+    s = _rec_add(leaves, cnt[0], t, t, ar, ac, r0, c0, r1, c1)
+    cnt[0] = s + 1
+    fl = leaves[2]
+    e = np.float64(err[(r0 + r1) >> 1, (c0 + c1) >> 1]) if lvl < max_lvl else 0.0
+    ya = np.float64(h[ar, ac])
+    y0 = np.float64(h[r0, c0])
+    y1 = np.float64(h[r1, c1])
+    fl[s, 0] = e
+    fl[s, 1] = ya
+    fl[s, 2] = y0
+    fl[s, 3] = y1
+    xa, za, x0, z0, x1, z1 = ac * dx, ar * dz, c0 * dx, r0 * dz, c1 * dx, r1 * dz
+    cx = 0.5 * (x0 + x1)
+    cz = 0.5 * (z0 + z1)
+    ylo = min(ya, y0, y1) - e
+    yhi = max(ya, y0, y1) + e
+    cy = 0.5 * (ylo + yhi)
+    r2 = max(
+        (xa - cx) ** 2 + (za - cz) ** 2,
+        (x0 - cx) ** 2 + (z0 - cz) ** 2,
+        (x1 - cx) ** 2 + (z1 - cz) ** 2,
+    )
+    rad = math.sqrt(r2 + (0.5 * (yhi - ylo)) ** 2)
+    fl[s, 4] = cx
+    fl[s, 5] = cy
+    fl[s, 6] = cz
+    slack = abs(fl[s, 4] - cx) + abs(fl[s, 5] - cy) + abs(fl[s, 6] - cz)
+    fl[s, 7] = (rad + slack) * (1.0 + 1e-6)  # float32 rounding is < 1e-7 relative
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _leaf_remove(leaves, cnt, t):
+    cnt[0] = _rec_remove_at(leaves, cnt[0], _hfind(leaves[3], t))
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _vertex_key(r, c, size):
+    """Hash key of a diamond: its split vertex (the shared hypotenuse midpoint), which both
+    triangles know without a neighbour search."""
+    return r * (size + 1) + c
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _diamond_drop(r, c, size, diamonds, cnt):
+    """Delete the record of the diamond split at vertex ``(r, c)``, if any."""
+    i = _hfind(diamonds[3], _vertex_key(r, c, size))
+    if i >= 0:
+        cnt[1] = _rec_remove_at(diamonds, cnt[1], i)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _diamond_sync(t, state, h, err, size, diamonds, cnt):
+    """Make the diamond record of the diamond containing ``t`` agree with the bintree: present
+    exactly when the diamond is mergeable (``t`` and its base neighbour split, all four
+    children leaves). Found by its split vertex; its id is, as in the merge queue, the
+    canonical (smaller) one."""
+    if t < 2:
+        return
+    ar, ac, r0, c0, r1, c1 = _tri_coords(t, size)
+    b = _partner_from_coords(_level(t), ar, ac, r0, c0, r1, c1, size)
+    _diamond_sync_known(t, b, ar, ac, r0, c0, r1, c1, state, h, err, size, diamonds, cnt)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _diamond_sync_known(t, b, ar, ac, r0, c0, r1, c1, state, h, err, size, diamonds, cnt):
+    """:func:`_diamond_sync` with ``t``'s corners and base neighbour ``b`` already known."""
+    mergeable = (
+        state[t] == SPLIT
+        and state[2 * t] == LEAF
+        and state[2 * t + 1] == LEAF
+        and (b < 0 or (state[b] == SPLIT and state[2 * b] == LEAF and state[2 * b + 1] == LEAF))
+    )
+    c = t if (b < 0 or t < b) else b
+    key = _vertex_key((r0 + r1) >> 1, (c0 + c1) >> 1, size)
+    i = _hfind(diamonds[3], key)
+    if mergeable and i < 0:
+        if c != t:
+            ar, ac, r0, c0, r1, c1 = _tri_coords(c, size)
+        s = _rec_add(diamonds, cnt[1], key, c, ar, ac, r0, c0, r1, c1)
+        cnt[1] = s + 1
+        fl = diamonds[2]
+        fl[s, 0] = err[(r0 + r1) >> 1, (c0 + c1) >> 1]
+        fl[s, 1] = h[ar, ac]
+        fl[s, 2] = h[r0, c0]
+        fl[s, 3] = h[r1, c1]
+        br = r0 + r1 - ar
+        bc = c0 + c1 - ac
+        fl[s, 4] = h[br, bc] if (0 <= br <= size and 0 <= bc <= size) else 0.0
+    elif not mergeable and i >= 0:
+        cnt[1] = _rec_remove_at(diamonds, cnt[1], i)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _records_reset(leaves, diamonds, cnt, h, err, size, max_lvl, dx, dz):
+    """Empty both record sets and record the two root triangles (the base mesh)."""
+    leaves[3][:, 0] = -1
+    diamonds[3][:, 0] = -1
+    cnt[0] = 0
+    cnt[1] = 0
+    _leaf_add(leaves, cnt, 2, 0, max_lvl, h, err, dx, dz, size, 0, size, size, 0, 0)
+    _leaf_add(leaves, cnt, 3, 0, max_lvl, h, err, dx, dz, 0, size, 0, 0, size, size)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _records_rebuild(state, h, err, size, max_lvl, dx, dz, leaves, diamonds, cnt, stack):
+    """Rebuild both record sets from the bintree in one walk (after a frame that ran with
+    ``cnt[2] = 0``: building a mesh from the base triangulation takes tens of thousands of
+    splits, and one walk at the end is cheaper than keeping the records per split)."""
+    leaves[3][:, 0] = -1
+    diamonds[3][:, 0] = -1
+    cnt[0] = 0
+    cnt[1] = 0
+    sp = 0
+    for root in range(2, 4):
+        stack[sp, 0] = root
+        if root == 2:
+            stack[sp, 2], stack[sp, 3], stack[sp, 4] = size, 0, size
+            stack[sp, 5], stack[sp, 6], stack[sp, 7] = size, 0, 0
+        else:
+            stack[sp, 2], stack[sp, 3], stack[sp, 4] = 0, size, 0
+            stack[sp, 5], stack[sp, 6], stack[sp, 7] = 0, size, size
+        sp += 1
+    while sp > 0:
+        sp -= 1
+        x = stack[sp, 0]
+        ar, ac, r0, c0 = stack[sp, 2], stack[sp, 3], stack[sp, 4], stack[sp, 5]
+        r1, c1 = stack[sp, 6], stack[sp, 7]
+        st = state[x]
+        if st == LEAF:
+            _leaf_add(leaves, cnt, x, _level(x), max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1)
+        elif st == SPLIT:
+            if state[2 * x] == LEAF and state[2 * x + 1] == LEAF:
+                _diamond_sync(x, state, h, err, size, diamonds, cnt)
+            mr = (r0 + r1) >> 1
+            mc = (c0 + c1) >> 1
+            stack[sp, 0] = 2 * x
+            stack[sp, 2], stack[sp, 3], stack[sp, 4] = mr, mc, ar
+            stack[sp, 5], stack[sp, 6], stack[sp, 7] = ac, r0, c0
+            sp += 1
+            stack[sp, 0] = 2 * x + 1
+            stack[sp, 2], stack[sp, 3], stack[sp, 4] = mr, mc, r1
+            stack[sp, 5], stack[sp, 6], stack[sp, 7] = c1, ar, ac
+            sp += 1
+
+
+# --------------------------------------------------------------------------------------------
 # split / merge
 # --------------------------------------------------------------------------------------------
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -228,9 +531,11 @@ def _canonical(t, size):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _split_one(t, state, h, err, cam, size, max_lvl, sk, si, ns):
-    """Replace leaf ``t`` by its children ``T0 = (v_c, v_a, v_0)``, ``T1 = (v_c, v_1, v_a)``
-    and queue them."""
+def _split_one(t, b, state, h, err, cam, size, max_lvl, sk, si, ns, leaves, diamonds, cnt):
+    """Replace leaf ``t`` (base neighbour ``b``, −1 on the border) by its children
+    ``T0 = (v_c, v_a, v_0)``, ``T1 = (v_c, v_1, v_a)``, queue them and update the records
+    (the leaf's, and the diamonds of ``t`` and its parent, the only ones whose mergeability
+    a split of ``t`` can change)."""
     state[t] = SPLIT
     state[2 * t] = LEAF
     state[2 * t + 1] = LEAF
@@ -238,17 +543,31 @@ def _split_one(t, state, h, err, cam, size, max_lvl, sk, si, ns):
     mr = (r0 + r1) >> 1
     mc = (c0 + c1) >> 1
     lvl = _level(t) + 1
+    if cnt[2]:  # records kept per operation (else rebuilt after the frame)
+        _leaf_remove(leaves, cnt, t)
+        dx = cam[_DX]
+        dz = cam[_DZ]
+        _leaf_add(leaves, cnt, 2 * t, lvl, max_lvl, h, err, dx, dz, mr, mc, ar, ac, r0, c0)
+        _leaf_add(leaves, cnt, 2 * t + 1, lvl, max_lvl, h, err, dx, dz, mr, mc, r1, c1, ar, ac)
+        _diamond_sync_known(t, b, ar, ac, r0, c0, r1, c1, state, h, err, size, diamonds, cnt)
+        # the parent's diamond (split at t's apex) is no longer mergeable; it had a record
+        # only if both its children were leaves
+        if t >= 4 and state[t ^ 1] == LEAF:
+            _diamond_drop(ar, ac, size, diamonds, cnt)
+    # the split queue holds the leaves with p > 0 and p >= theta (see _fill_split)
+    theta = cam[_THETA]
     p = _priority(cam, h, err, lvl, max_lvl, mr, mc, ar, ac, r0, c0)
-    if p > 0.0:
-        ns = _hpush(sk, si, ns, p, 2 * t)
+    if p > 0.0 and p >= theta:
+        ns = _hpush(sk, si, ns, p, 2 * t, _TIE_S)
     p = _priority(cam, h, err, lvl, max_lvl, mr, mc, r1, c1, ar, ac)
-    if p > 0.0:
-        ns = _hpush(sk, si, ns, p, 2 * t + 1)
+    if p > 0.0 and p >= theta:
+        ns = _hpush(sk, si, ns, p, 2 * t + 1, _TIE_S)
     return ns
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _force_split(t, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, stack):
+def _force_split(t, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, stack,
+                 leaves, diamonds, cnt):  # fmt: skip
     """Split leaf ``t`` together with its base neighbour; a coarser base neighbour is force
     split first, recursively (explicit stack). Returns ``(ns, nm, leaves_added)``."""
     added = 0
@@ -269,19 +588,21 @@ def _force_split(t, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, s
             stack[sp] = b >> 1
             sp += 1
             continue
-        ns = _split_one(x, state, h, err, cam, size, max_lvl, sk, si, ns)
+        ns = _split_one(x, b, state, h, err, cam, size, max_lvl, sk, si, ns, leaves, diamonds, cnt)
         added += 1
         if b >= 0 and state[b] == LEAF:
-            ns = _split_one(b, state, h, err, cam, size, max_lvl, sk, si, ns)
+            ns = _split_one(
+                b, x, state, h, err, cam, size, max_lvl, sk, si, ns, leaves, diamonds, cnt
+            )
             added += 1
         d = x if (b < 0 or x < b) else b
-        nm = _hpush(mk, mi, nm, -_diamond_priority(d, cam, h, err, size, max_lvl), d)
+        nm = _hpush(mk, mi, nm, -_diamond_priority(d, cam, h, err, size, max_lvl), d, _TIE_M)
         sp -= 1
     return ns, nm, added
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _merge(d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm):
+def _merge(d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, leaves, diamonds, cnt):
     """Merge the (mergeable) diamond of ``d``; queue the parents and any diamond one level up
     that became mergeable. Returns ``(ns, nm, leaves_removed)``."""
     b = _partner(d, size)
@@ -296,17 +617,28 @@ def _merge(d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm):
         state[x] = LEAF
         removed += 1
         ar, ac, r0, c0, r1, c1 = _tri_coords(x, size)
+        if cnt[2]:
+            _leaf_remove(leaves, cnt, 2 * x)
+            _leaf_remove(leaves, cnt, 2 * x + 1)
+            _leaf_add(
+                leaves, cnt, x, lvl, max_lvl, h, err, cam[_DX], cam[_DZ], ar, ac, r0, c0, r1, c1
+            )
         p = _priority(cam, h, err, lvl, max_lvl, ar, ac, r0, c0, r1, c1)
-        if p > 0.0:
-            ns = _hpush(sk, si, ns, p, x)
+        if p > 0.0 and p >= cam[_THETA]:
+            ns = _hpush(sk, si, ns, p, x, _TIE_S)
+    # the merged diamond's record goes; the parents' diamonds may have become mergeable
+    if cnt[2]:
+        _diamond_sync(d, state, h, err, size, diamonds, cnt)
     for k in range(2):
         x = d if k == 0 else b
         if x < 4:  # roots have no parent
             continue
         par = x >> 1
+        if cnt[2]:
+            _diamond_sync(par, state, h, err, size, diamonds, cnt)
         if _mergeable(par, state, size):
             dd = _canonical(par, size)
-            nm = _hpush(mk, mi, nm, -_diamond_priority(dd, cam, h, err, size, max_lvl), dd)
+            nm = _hpush(mk, mi, nm, -_diamond_priority(dd, cam, h, err, size, max_lvl), dd, _TIE_M)
     return ns, nm, removed
 
 
@@ -314,168 +646,137 @@ def _merge(d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm):
 # per-frame refresh, greedy loop, output
 # --------------------------------------------------------------------------------------------
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _push_node(stack, sp, x, lvl, ar, ac, r0, c0, r1, c1, b, lf, rt):
-    stack[sp, 0], stack[sp, 1] = x, lvl
-    stack[sp, 2], stack[sp, 3], stack[sp, 4] = ar, ac, r0
-    stack[sp, 5], stack[sp, 6], stack[sp, 7] = c0, r1, c1
-    stack[sp, 8], stack[sp, 9], stack[sp, 10] = b, lf, rt
-    return sp + 1
+def _fill_split(cam, leaves, cnt, sk, si):
+    """Build the split queue for ``cam`` from the leaf records alone (no bintree walk, no
+    height or error lookups). Returns its length.
+
+    Partial queue: only leaves with ``p > 0`` and ``p >= θ = cam[_THETA]`` are queued (θ = 0:
+    all with ``p > 0``). A leaf is skipped without computing its priority when the cheap
+    bound ``e·K / max(near, depth(centre) − r)`` of its bounding sphere (which contains the
+    wedgie, so no wedgie corner is nearer than that) is below θ. Every left-out leaf has a
+    priority below every queued one, so while the queue has a valid entry its top is the
+    true maximum; the greedy loop asks for a full rebuild (θ = 0, status ``_REFILL``) only
+    if it empties. The greedy loop typically pops a few dozen leaves per frame, so θ near
+    the previous frame's maximum avoids computing and heapifying tens of thousands of exact
+    priorities. The exact priorities are those of :func:`_priority` (same formula, same
+    float32 inputs).
+    """
+    static = cam[_STATIC] > 0.0
+    theta = cam[_THETA]
+    # a relative margin far above the float64 rounding of the bound's few operations
+    theta_b = theta * (1.0 - 1e-9)
+    dx, dz, near, kpx = cam[_DX], cam[_DZ], cam[_NEAR], cam[_K]
+    ex, ey, ez = cam[_EYE], cam[_EYE + 1], cam[_EYE + 2]
+    fx, fy, fz = cam[_FWD], cam[_FWD + 1], cam[_FWD + 2]
+    planes = cam[_PLANES : _PLANES + 24].reshape((6, 4))
+    lid, lco, lfl = leaves[0], leaves[1], leaves[2]
+    ns = 0
+    for i in range(cnt[0]):
+        e = np.float64(lfl[i, 0])
+        if e <= 0.0:
+            continue
+        if static:
+            p = e
+        else:
+            if theta > 0.0:
+                zb = (
+                    (np.float64(lfl[i, 4]) - ex) * fx
+                    + (np.float64(lfl[i, 5]) - ey) * fy
+                    + (np.float64(lfl[i, 6]) - ez) * fz
+                    - np.float64(lfl[i, 7])
+                )
+                if zb < near:
+                    zb = near
+                if e * kpx / zb < theta_b:
+                    continue
+            ar, ac, r0, c0, r1, c1 = (
+                lco[i, 0], lco[i, 1], lco[i, 2], lco[i, 3], lco[i, 4], lco[i, 5]
+            )  # fmt: skip
+            p = _wedgie_priority(
+                e, ac * dx, np.float64(lfl[i, 1]), ar * dz, c0 * dx, np.float64(lfl[i, 2]),
+                r0 * dz, c1 * dx, np.float64(lfl[i, 3]), r1 * dz,
+                planes, ex, ey, ez, fx, fy, fz, near, kpx,
+            )  # fmt: skip
+        if p > 0.0 and p >= theta:
+            sk[ns] = p
+            si[ns] = lid[i]
+            ns += 1
+    _heapify(sk, si, ns, _TIE_S)
+    return ns
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _priorities(cam, h, err, max_lvl, tasks, n, out):
-    """``out[i]`` = priority of the triangle ``tasks[i] = (level, ar, ac, r0, c0, r1, c1)``.
-
-    The same computation as :func:`_priority`, as one flat loop for the per-frame refresh.
-    """
+def _fill_merge(cam, size, diamonds, cnt, mk, mi):
+    """Build the merge queue for ``cam`` from the diamond records: every mergeable diamond
+    keyed by ``−max{p(T), p(T_B)}`` (as :func:`_diamond_priority`). Returns its length."""
     static = cam[_STATIC] > 0.0
     dx, dz, near, kpx = cam[_DX], cam[_DZ], cam[_NEAR], cam[_K]
     ex, ey, ez = cam[_EYE], cam[_EYE + 1], cam[_EYE + 2]
     fx, fy, fz = cam[_FWD], cam[_FWD + 1], cam[_FWD + 2]
     planes = cam[_PLANES : _PLANES + 24].reshape((6, 4))
-    for i in range(n):
-        lvl, ar, ac, r0, c0 = tasks[i, 0], tasks[i, 1], tasks[i, 2], tasks[i, 3], tasks[i, 4]
-        r1, c1 = tasks[i, 5], tasks[i, 6]
-        p = 0.0
-        if lvl < max_lvl:
-            e = np.float64(err[(r0 + r1) >> 1, (c0 + c1) >> 1])
-            if e > 0.0:
-                if static:
-                    p = e
-                else:
-                    xa, ya, za = ac * dx, np.float64(h[ar, ac]), ar * dz
-                    x0, y0, z0 = c0 * dx, np.float64(h[r0, c0]), r0 * dz
-                    x1, y1, z1 = c1 * dx, np.float64(h[r1, c1]), r1 * dz
-                    p = _wedgie_priority(
-                        e, xa, ya, za, x0, y0, z0, x1, y1, z1,
-                        planes, ex, ey, ez, fx, fy, fz, near, kpx,
-                    )  # fmt: skip
-        out[i] = p
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _push_node(stack, sp, x, lvl, ar, ac, r0, c0, r1, c1, b, lf, rt):
-    stack[sp, 0], stack[sp, 1] = x, lvl
-    stack[sp, 2], stack[sp, 3], stack[sp, 4] = ar, ac, r0
-    stack[sp, 5], stack[sp, 6], stack[sp, 7] = c0, r1, c1
-    stack[sp, 8], stack[sp, 9], stack[sp, 10] = b, lf, rt
-    return sp + 1
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _add_task(tasks, n, lvl, ar, ac, r0, c0, r1, c1):
-    tasks[n, 0], tasks[n, 1], tasks[n, 2], tasks[n, 3] = lvl, ar, ac, r0
-    tasks[n, 4], tasks[n, 5], tasks[n, 6] = c0, r1, c1
-    return n + 1
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _roam_refresh(state, h, err, cam, size, max_lvl, sk, si, mk, mi, stack, tasks, pri):
-    """Rebuild both queues from the current triangulation with priorities for ``cam``.
-
-    1. Depth-first walk carrying each node's corners and its same-level neighbours (base,
-       left, right) in the uniform bintree, so no node needs a coordinate walk or a
-       neighbour search. The neighbours follow from the parent's: with T = (v_a, v_0, v_1),
-       base B, left neighbour L and right neighbour R (a shared leg is always one
-       triangle's left and the other's right edge),
-
-           T0: base 2L + 1, left 2T + 1, right 2B + 1;   T1: base 2R, left 2B, right 2T.
-
-       Leaves, and both triangles of every mergeable diamond, go to a task list.
-    2. One flat loop computes all priorities (:func:`_priorities`).
-    3. Both queues are filled and heapified.
-
-    ``tasks`` needs ``leaves + 2·diamonds`` rows. Returns ``(ns, nm, leaves)``.
-    """
-    nt = 0
-    leaves = 0
-    ndia = 0
-    sp = _push_node(stack, 0, 2, 0, size, 0, size, size, 0, 0, 3, -1, -1)
-    sp = _push_node(stack, sp, 3, 0, 0, size, 0, 0, size, size, 2, -1, -1)
-    # task ids: leaf x as x, diamond canonical x as -x (two consecutive tasks)
-    while sp > 0:
-        sp -= 1
-        x, lvl = stack[sp, 0], stack[sp, 1]
-        ar, ac, r0, c0 = stack[sp, 2], stack[sp, 3], stack[sp, 4], stack[sp, 5]
-        r1, c1 = stack[sp, 6], stack[sp, 7]
-        b, lf, rt = stack[sp, 8], stack[sp, 9], stack[sp, 10]
-        st = state[x]
-        if st == LEAF:
-            leaves += 1
-            si[nt] = x
-            nt = _add_task(tasks, nt, lvl, ar, ac, r0, c0, r1, c1)
-        elif st == SPLIT:
-            mr = (r0 + r1) >> 1
-            mc = (c0 + c1) >> 1
-            sp = _push_node(
-                stack, sp, 2 * x, lvl + 1, mr, mc, ar, ac, r0, c0,
-                2 * lf + 1 if lf >= 0 else -1, 2 * x + 1, 2 * b + 1 if b >= 0 else -1,
-            )  # fmt: skip
-            sp = _push_node(
-                stack, sp, 2 * x + 1, lvl + 1, mr, mc, r1, c1, ar, ac,
-                2 * rt if rt >= 0 else -1, 2 * b if b >= 0 else -1, 2 * x,
-            )  # fmt: skip
-            if (
-                state[2 * x] == LEAF
-                and state[2 * x + 1] == LEAF
-                and (
-                    b < 0
-                    or (
-                        b > x
-                        and state[b] == SPLIT
-                        and state[2 * b] == LEAF
-                        and state[2 * b + 1] == LEAF
-                    )
-                )
-            ):
-                ndia += 1
-                si[nt] = -x
-                nt = _add_task(tasks, nt, lvl, ar, ac, r0, c0, r1, c1)
-                # the partner (mirrored apex); a border diamond repeats its single triangle
-                if b >= 0:
-                    si[nt] = 0
-                    nt = _add_task(tasks, nt, lvl, r0 + r1 - ar, c0 + c1 - ac, r1, c1, r0, c0)
-                else:
-                    si[nt] = 0
-                    nt = _add_task(tasks, nt, lvl, ar, ac, r0, c0, r1, c1)
-    _priorities(cam, h, err, max_lvl, tasks, nt, pri)
-    ns = 0
+    did, dco, dfl = diamonds[0], diamonds[1], diamonds[2]
     nm = 0
-    i = 0
-    while i < nt:
-        x = si[i]
-        if x > 0:
-            if pri[i] > 0.0:
-                sk[ns] = pri[i]
-                si[ns] = x  # ns <= i: compacting in place is safe
-                ns += 1
-            i += 1
-        else:
-            mk[nm] = -max(pri[i], pri[i + 1])
-            mi[nm] = -x
-            nm += 1
-            i += 2
-    _heapify(sk, si, ns)
-    _heapify(mk, mi, nm)
-    return ns, nm, leaves
+    for j in range(cnt[1]):
+        e = np.float64(dfl[j, 0])
+        p = 0.0
+        if e > 0.0:
+            if static:
+                p = e
+            else:
+                ar, ac, r0, c0, r1, c1 = (
+                    dco[j, 0], dco[j, 1], dco[j, 2], dco[j, 3], dco[j, 4], dco[j, 5]
+                )  # fmt: skip
+                y0 = np.float64(dfl[j, 2])
+                y1 = np.float64(dfl[j, 3])
+                p = _wedgie_priority(
+                    e, ac * dx, np.float64(dfl[j, 1]), ar * dz, c0 * dx, y0, r0 * dz,
+                    c1 * dx, y1, r1 * dz, planes, ex, ey, ez, fx, fy, fz, near, kpx,
+                )  # fmt: skip
+                br = r0 + r1 - ar
+                bc = c0 + c1 - ac
+                if 0 <= br <= size and 0 <= bc <= size:  # T_B: mirrored apex, v0 ↔ v1
+                    q = _wedgie_priority(
+                        e, bc * dx, np.float64(dfl[j, 4]), br * dz, c1 * dx, y1, r1 * dz,
+                        c0 * dx, y0, r0 * dz, planes, ex, ey, ez, fx, fy, fz, near, kpx,
+                    )  # fmt: skip
+                    if q > p:
+                        p = q
+        mk[nm] = -p
+        mi[nm] = did[j]
+        nm += 1
+    _heapify(mk, mi, nm, _TIE_M)
+    return nm
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _roam_ops(state, h, err, cam, size, max_lvl, sk, si, mk, mi, stack, ivars, tau, max_ops):
+def _roam_ops(state, h, err, cam, size, max_lvl, sk, si, mk, mi, stack, ivars, tau, max_ops,
+              leaves, diamonds, cnt, per_op):  # fmt: skip
     """Greedy split/merge loop of seed §4.1.3, at most ``max_ops`` operations.
 
-    ``ivars`` = [ns, nm, count, max_triangles, splits, merges] is updated in place.
-    Returns a status code (``_MORE`` when the operation budget ran out).
+    ``ivars`` = [ns, nm, count, max_triangles, splits, merges, ops] is updated in place.
+    Returns a status code (``_MORE`` when the operation budget ran out, or when a queue or
+    record array has less than ``per_op`` free entries — the caller grows it and resumes;
+    ``_REFILL`` when a partial split queue ran empty — the caller rebuilds it with θ = 0).
     """
     ns, nm, count, nmax = ivars[0], ivars[1], ivars[2], ivars[3]
     status = _MORE
     ops = 0
     while ops < max_ops:
+        if (
+            ns + per_op > sk.shape[0]
+            or nm + per_op > mk.shape[0]
+            or (cnt[2] and cnt[0] + per_op > leaves[0].shape[0])
+            or (cnt[2] and cnt[1] + per_op > diamonds[0].shape[0])
+        ):
+            break
         # lazy deletion: drop entries that are no longer leaves / mergeable diamonds
         while ns > 0 and state[si[0]] != LEAF:
-            ns = _hpop(sk, si, ns)
+            ns = _hpop(sk, si, ns, _TIE_S)
+        if ns == 0 and cam[_THETA] > 0.0:  # leaves were left out: need the full queue
+            status = _REFILL
+            break
         while nm > 0 and not _mergeable(mi[0], state, size):
-            nm = _hpop(mk, mi, nm)
+            nm = _hpop(mk, mi, nm, _TIE_M)
         ps = sk[0] if ns > 0 else 0.0
         pm = -mk[0] if nm > 0 else np.inf
         do_merge = False
@@ -498,20 +799,25 @@ def _roam_ops(state, h, err, cam, size, max_lvl, sk, si, mk, mi, stack, ivars, t
             break
         if do_merge:
             d = mi[0]
-            nm = _hpop(mk, mi, nm)
-            ns, nm, removed = _merge(d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm)
+            nm = _hpop(mk, mi, nm, _TIE_M)
+            ns, nm, removed = _merge(
+                d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm,
+                leaves, diamonds, cnt,
+            )  # fmt: skip
             count -= removed
             ivars[5] += 1
         else:
             t = si[0]
-            ns = _hpop(sk, si, ns)
+            ns = _hpop(sk, si, ns, _TIE_S)
             ns, nm, added = _force_split(
-                t, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, stack
-            )
+                t, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, stack,
+                leaves, diamonds, cnt,
+            )  # fmt: skip
             count += added
             ivars[4] += 1
         ops += 1
     ivars[0], ivars[1], ivars[2] = ns, nm, count
+    ivars[6] += ops
     return status
 
 
@@ -573,6 +879,32 @@ def _mergeable_ids(state, size, out):
             out[m] = t
             m += 1
     return m
+
+
+def _alloc_records(cap: int, width: int):
+    """An empty record set (see "per-entry records") for ``cap`` records of ``width`` float
+    values; the hash table has a power-of-two size >= 2·cap (load <= 1/2)."""
+    hcap = 1 << max(4, (2 * cap - 1).bit_length())
+    return (
+        np.zeros(cap, np.int64),
+        np.zeros((cap, 6), np.int32),
+        np.zeros((cap, width), np.float32),
+        np.full((hcap, 2), -1, np.int64),  # (key, slot) pairs: one cache line per probe
+        np.zeros(cap, np.int64),  # each record's hash key (leaves: the id)
+    )
+
+
+def _grow_records(rec, n: int, extra: int):
+    """``rec`` itself when it has room for ``extra`` more records, else a copy with at least
+    twice the capacity (records kept in their slots, hash table rebuilt)."""
+    if rec[0].size >= n + extra:
+        return rec
+    new = _alloc_records(max(n + extra, 2 * rec[0].size), rec[2].shape[1])
+    for k in range(3):
+        new[k][:n] = rec[k][:n]
+    new[4][:n] = rec[4][:n]
+    _rehash(new[4], np.int64(n), new[3])
+    return new
 
 
 # --------------------------------------------------------------------------------------------
@@ -670,8 +1002,9 @@ class Roam:
     Notes
     -----
     Memory: one byte per bintree node (``4·S²`` for ``S = 2**n`` cells per side) plus one
-    float32 error per grid vertex; the queues grow with the mesh. Nothing is allocated per
-    triangle.
+    float32 error per grid vertex, and per leaf / mergeable diamond a record (~60 bytes) and
+    queue entries, which grow with the mesh. The per-frame refresh reads only the records,
+    so its time depends on the triangle count, not on the map size.
     """
 
     def __init__(self, heightmap: Heightmap) -> None:
@@ -681,6 +1014,9 @@ class Roam:
         self.heightmap = heightmap
         self.size = n - 1
         self.max_level = 2 * (self.size.bit_length() - 1)
+        # entries one operation (a split with its forced splits, or a merge) can add to a
+        # queue or a record set
+        self._per_op = 4 * (self.max_level + 2)
         self._h = heightmap.heights
         self._err = wedgie_errors(self._h)
         self._state = np.zeros(4 * self.size * self.size, np.uint8)
@@ -690,10 +1026,14 @@ class Roam:
         self._si = np.zeros(0, np.int64)
         self._mk = np.zeros(0, np.float64)
         self._mi = np.zeros(0, np.int64)
-        self._tasks = np.zeros((0, 7), np.int32)
-        self._pri = np.zeros(0, np.float64)
+        # records: [leaves, mergeable diamonds, kept per operation (1) or rebuilt (0)]
+        self._cnt = np.array([0, 0, 1], np.int64)
+        self._leaves = _alloc_records(1024, _LEAF_FIELDS)
+        self._diamonds = _alloc_records(1024, _DIAMOND_FIELDS)
         self.frame = 0
         self.max_screen_error = math.inf
+        self._theta_frac = _THETA_MAX
+        self.rebuilds = 0  # full split-queue rebuilds after a partial one ran empty (stats)
         self.reset()
 
     # --- state -------------------------------------------------------------------------
@@ -702,6 +1042,11 @@ class Roam:
         self._state[:] = ABSENT
         self._state[2] = self._state[3] = LEAF
         self._count = 2
+        dx, dz = self.heightmap.spacing
+        _records_reset(
+            self._leaves, self._diamonds, self._cnt, self._h, self._err,
+            np.int64(self.size), np.int64(self.max_level), float(dx), float(dz),
+        )  # fmt: skip
         self.max_screen_error = math.inf
 
     @property
@@ -716,6 +1061,8 @@ class Roam:
         return v
 
     def _ensure(self, split_extra: int, merge_extra: int, ns: int = 0, nm: int = 0) -> None:
+        """Room for ``split_extra`` / ``merge_extra`` more queue entries than ``ns`` / ``nm``
+        and for 64 operations' worth of new records, with doubling growth."""
         need_s = ns + split_extra
         if self._sk.size < need_s:
             cap = max(need_s, 2 * self._sk.size, 1024)
@@ -728,47 +1075,104 @@ class Roam:
             mk, mi = np.zeros(cap, np.float64), np.zeros(cap, np.int64)
             mk[:nm], mi[:nm] = self._mk[:nm], self._mi[:nm]
             self._mk, self._mi = mk, mi
+        extra = 64 * self._per_op
+        self._leaves = _grow_records(self._leaves, int(self._cnt[0]), extra)
+        self._diamonds = _grow_records(self._diamonds, int(self._cnt[1]), extra)
+
+    def _record_ids(self) -> tuple[np.ndarray, np.ndarray]:
+        """Sorted ids of the leaf and diamond records (tests: they must equal
+        :meth:`leaf_ids` and :meth:`mergeable_diamonds`)."""
+        nl, nd = int(self._cnt[0]), int(self._cnt[1])
+        return np.sort(self._leaves[0][:nl]), np.sort(self._diamonds[0][:nd])
+
+    def _rebuild_split_queue(self, cam, nm: int) -> int:
+        """Full split queue (θ = 0) for ``cam`` after a partial one ran empty; keeps the first
+        ``nm`` merge queue entries. Returns the split queue's length."""
+        cam[_THETA] = 0.0
+        self._ensure(int(self._cnt[0]) + 64 * self._per_op, 0, 0, nm)
+        self.rebuilds += 1
+        return int(_fill_split(cam, self._leaves, self._cnt, self._sk, self._si))
 
     def _run(self, cam, tau: float, nmax: int, budget_s: float | None, t0: float):
         """Refresh queues for ``cam`` and run the greedy loop. Returns (splits, merges, stop)."""
         size, lvl = np.int64(self.size), np.int64(self.max_level)
-        self._ensure(2 * self._count + 16, self._count // 2 + 16)
-        if self._tasks.shape[0] < 2 * self._count + 16:
-            self._tasks = np.zeros((4 * self._count + 64, 7), np.int32)
-            self._pri = np.zeros(4 * self._count + 64, np.float64)
-        ns, nm, leaves = _roam_refresh(
-            self._state, self._h, self._err, cam, size, lvl, self._sk, self._si,
-            self._mk, self._mi, self._stack8, self._tasks, self._pri,
-        )  # fmt: skip
-        if leaves != self._count:  # pragma: no cover - internal consistency
-            raise RuntimeError(f"ROAM leaf count drifted: {leaves} != {self._count}")
-        ivars = np.array([ns, nm, self._count, nmax, 0, 0], np.int64)
+        per_op = self._per_op
+        if int(self._cnt[0]) != self._count:  # pragma: no cover - internal consistency
+            raise RuntimeError(f"ROAM leaf records drifted: {self._cnt[0]} != {self._count}")
+        self._ensure(int(self._cnt[0]) + 64 * per_op, int(self._cnt[1]) + 64 * per_op)
+        # partial split queue (see _fill_split): the leaves that can still be split this
+        # frame are, by frame coherence, near the top of last frame's queue
+        prev = self.max_screen_error
+        dynamic = cam[_STATIC] == 0.0
+        # from a (nearly) base mesh the frame is a build of many splits: records are rebuilt
+        # once after it instead of per split (then the split queue must be full: a rebuild
+        # of it would read the records)
+        keep = self._count > _BUILD_FROM
+        cam[_THETA] = self._theta_frac * prev if keep and dynamic and 0.0 < prev < math.inf else 0.0
+        partial = cam[_THETA] > 0.0
+        ns = _fill_split(cam, self._leaves, self._cnt, self._sk, self._si)
+        nm = _fill_merge(cam, size, self._diamonds, self._cnt, self._mk, self._mi)
+        ivars = np.array([ns, nm, self._count, nmax, 0, 0, 0], np.int64)
+        self._cnt[2] = 1 if keep else 0
+        try:
+            stop = self._loop(cam, tau, budget_s, t0, ivars)
+        finally:
+            self._count = int(ivars[2])
+            if not keep:
+                self._leaves = _grow_records(self._leaves, 0, self._count + 64 * per_op)
+                self._diamonds = _grow_records(self._diamonds, 0, self._count + 64 * per_op)
+                dx, dz = self.heightmap.spacing
+                _records_rebuild(
+                    self._state, self._h, self._err, size, lvl, float(dx), float(dz),
+                    self._leaves, self._diamonds, self._cnt, self._stack8,
+                )  # fmt: skip
+                self._cnt[2] = 1
+        # the split queue holds every leaf with a priority > max(0, θ), and left-out leaves
+        # are below θ: its valid top is the maximum unless it ran empty
+        ns = int(ivars[0])
+        while ns > 0 and self._state[self._si[0]] != LEAF:
+            ns = _hpop(self._sk, self._si, ns, _TIE_S)
+        if ns == 0 and cam[_THETA] > 0.0:
+            ns = self._rebuild_split_queue(cam, int(ivars[1]))
+        if partial:
+            if cam[_THETA] == 0.0:  # rebuilt this frame
+                self._theta_frac = max(_THETA_MIN, self._theta_frac - _THETA_BACKOFF)
+            else:
+                self._theta_frac = min(_THETA_MAX, self._theta_frac + _THETA_STEP_UP)
+        self.max_screen_error = float(self._sk[0]) if ns > 0 else 0.0
+        return int(ivars[4]), int(ivars[5]), stop
+
+    def _loop(self, cam, tau: float, budget_s: float | None, t0: float, ivars) -> str:
+        """The greedy loop in chunks of operations; returns the stop reason."""
+        size, lvl = np.int64(self.size), np.int64(self.max_level)
+        per_op = self._per_op
+        nmax = int(ivars[3])
         chunk = 64 if budget_s is not None else 4096
-        per_op = 4 * (self.max_level + 2)
         finite_target = min(nmax, 2 * self.size * self.size)
         op_cap = 4 * (self._count + finite_target) + 10_000
-        ops_done = 0
+        op_cap = chunk * -(-op_cap // chunk)  # whole chunks: the limit does not depend on
+        # how often the kernel returns early to grow an array or rebuild the split queue
         stop = "operations"
-        while ops_done < op_cap:
-            self._ensure(chunk * per_op, chunk * per_op, int(ivars[0]), int(ivars[1]))
+        while ivars[6] < op_cap:
+            # the kernel stops early (status _MORE) when a queue or record array is nearly
+            # full; growing here and resuming is invisible to the result
+            self._ensure(64 * per_op, 64 * per_op, int(ivars[0]), int(ivars[1]))
             status = _roam_ops(
                 self._state, self._h, self._err, cam, size, lvl, self._sk, self._si,
-                self._mk, self._mi, self._stack1, ivars, float(tau), np.int64(chunk),
+                self._mk, self._mi, self._stack1, ivars, float(tau),
+                np.int64(min(chunk, op_cap - int(ivars[6]))),
+                self._leaves, self._diamonds, self._cnt, np.int64(per_op),
             )  # fmt: skip
-            ops_done += chunk
+            if status == _REFILL:
+                ivars[0] = self._rebuild_split_queue(cam, int(ivars[1]))
+                continue
             if status != _MORE:
                 stop = _STOP_NAMES[status]
                 break
             if budget_s is not None and time.perf_counter() - t0 >= budget_s:
                 stop = "time"
                 break
-        self._count = int(ivars[2])
-        # the split queue holds every leaf with a non-zero priority: its valid top is the max
-        ns = int(ivars[0])
-        while ns > 0 and self._state[self._si[0]] != LEAF:
-            ns = _hpop(self._sk, self._si, ns)
-        self.max_screen_error = float(self._sk[0]) if ns > 0 else 0.0
-        return int(ivars[4]), int(ivars[5]), stop
+        return stop
 
     # --- per frame -----------------------------------------------------------------------
     def update(
@@ -849,6 +1253,7 @@ class Roam:
     def _static_cam(self) -> np.ndarray:
         cam = np.zeros(_NCAM, np.float64)
         cam[_STATIC] = 1.0
+        cam[_DX], cam[_DZ] = self.heightmap.spacing  # for the records' bounding spheres
         return cam
 
     def force_split(self, tri: int) -> int:
@@ -859,12 +1264,11 @@ class Roam:
             raise InvalidParameterError(f"triangle {tri} is not a leaf of the current mesh")
         if _level(tri) >= self.max_level:
             raise InvalidParameterError(f"triangle {tri} is at the finest level; cannot split")
-        per = 4 * (self.max_level + 2)
-        self._ensure(per, per)
+        self._ensure(self._per_op, self._per_op)
         _, _, added = _force_split(
             np.int64(tri), self._state, self._h, self._err, self._static_cam(),
             np.int64(self.size), np.int64(self.max_level), self._sk, self._si, 0,
-            self._mk, self._mi, 0, self._stack1,
+            self._mk, self._mi, 0, self._stack1, self._leaves, self._diamonds, self._cnt,
         )  # fmt: skip
         self._count += int(added)
         return int(added)
@@ -878,7 +1282,7 @@ class Roam:
         _, _, removed = _merge(
             np.int64(diamond), self._state, self._h, self._err, self._static_cam(),
             np.int64(self.size), np.int64(self.max_level), self._sk, self._si, 0,
-            self._mk, self._mi, 0,
+            self._mk, self._mi, 0, self._leaves, self._diamonds, self._cnt,
         )  # fmt: skip
         self._count -= int(removed)
         return int(removed)
