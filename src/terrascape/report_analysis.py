@@ -215,8 +215,10 @@ def analyse_relief(tables: Sequence[BenchTable], out: Path) -> Analysis:
                 f"parallax {avg_p:.2f} %, relief mapping {avg_r:.2f} % (seed 000: "
                 f"{SEED_PARALLAX_DROP} % and {SEED_RELIEF_DROP} %). "
                 + ("Relief mapping costs about what it cost the seed; "
-                   if abs(avg_r - SEED_RELIEF_DROP) < 15 else
-                   "Relief mapping's cost differs from the seed's; ")
+                   if abs(avg_r - SEED_RELIEF_DROP) < 10 else
+                   "Relief mapping costs more than it cost the seed; "
+                   if avg_r > SEED_RELIEF_DROP else
+                   "Relief mapping costs less than it cost the seed; ")
                 + ("parallax costs far more here than on the seed's GPU, because llvmpipe "
                    "shades fragments on the CPU, where one more dependent texture fetch per "
                    "pixel is a large share of a cheap frame.\n"
@@ -248,10 +250,10 @@ def analyse_lod_roam(tables: Sequence[BenchTable], out: Path) -> Analysis:
                     ratios.append(f"{algo}: {pts[big] / pts[513]:.2f}× from 513² to {int(big)}²")
         if ratios:
             md.append(
-                "Discussion: at a fixed 80,000-triangle target the update time grows only "
-                "weakly with the map (" + "; ".join(ratios) + "), which is the seed's finding "
-                "that map size does not drive ROAM's cost; the small 257² map cannot supply "
-                "80,000 visible triangles, the seed's own exception.\n"
+                "Discussion: at a fixed 80,000-triangle target the update time changes "
+                "little with the map (" + "; ".join(ratios) + "), the seed's finding that map "
+                "size does not drive ROAM's cost; the small 257² map cannot supply 80,000 "
+                "visible triangles, the seed's own exception.\n"
             )
     if by_target is not None and by_target.rows:
         fig, ax = plt.subplots(figsize=(6, 4))
