@@ -316,3 +316,38 @@ def test_partial_split_queue_gives_the_same_meshes(rng):
         for roam in roams[1:]:
             assert np.array_equal(roam.triangles(), tri), k
     assert roams[0].rebuilds == 0 and roams[2].rebuilds > 0
+
+
+def test_budget_and_tolerance_together_terminate_without_flipping():
+    """With both a triangle budget and a tolerance the greedy loop must stop by its real
+    criterion after a bounded number of operations. Regression: a split whose forced splits
+    overshot the budget was merged back regardless of priority, which made its forced
+    diamonds mergeable again; merging them to make room undid the split and the loop flipped
+    between the same merges and splits until the operation cap (seed 19's first frame:
+    ~6k splits + ~10k merges for ~1.3k triangles, stopped_by == "operations")."""
+    for seed in range(24):
+        rng = np.random.default_rng(seed)
+        hm = _terrain(rng, int(rng.choice([33, 65, 129])))
+        roam = Roam(hm)
+        for frame in range(4):
+            cam = _random_camera(rng, hm)
+            nmax = int(rng.integers(10, 3000))
+            tau = float(rng.uniform(0.3, 6.0))
+            before = roam.triangle_count
+            stats = roam.update(cam, VIEWPORT, max_triangles=nmax, tolerance_px=tau)
+            where = (seed, frame, nmax, tau, stats)
+            assert stats.stopped_by in ("tolerance", "triangles"), where
+            # a small multiple of the triangles that change (removed ones included)
+            assert stats.splits + stats.merges <= 4 * max(before, stats.triangles) + 1000, where
+            tri = roam.triangles()
+            assert len(tri) == stats.triangles <= nmax, where  # budget never exceeded
+            assert conformity_report(tri, hm.shape).ok, where
+            if stats.stopped_by == "tolerance":  # refined down to τ within the budget
+                assert stats.max_screen_error <= tau, where
+            else:  # the budget stopped refinement while some leaf was still above τ
+                assert stats.max_screen_error > tau, where
+                assert stats.triangles >= nmax - 2 * roam.max_level - 2, where
+            # a fixed point: the same view and limits change nothing (no flip-flopping)
+            again = roam.update(cam, VIEWPORT, max_triangles=nmax, tolerance_px=tau)
+            assert again.splits == again.merges == 0, where
+            assert again.stopped_by == stats.stopped_by, where

@@ -15,7 +15,10 @@ elemente Q_s, Q_m") and the greedy loop splits the highest-priority triangle or 
 lowest-priority diamond until the targets are met: a screen-space error tolerance (pixels),
 a triangle count, and a time budget, whichever comes first. With a triangle budget the loop
 keeps swapping (merge the lowest diamond, split the highest triangle) while the highest
-split priority exceeds the lowest merge priority, as in the seed's pseudocode.
+split priority exceeds the lowest merge priority, as in the seed's pseudocode. A split is
+taken only when it fits the budget together with its forced splits (otherwise the swap
+merges first): an overshoot would have to be merged back regardless of priority, which can
+undo the split and make the loop flip between the same splits and merges.
 
 Per-frame cost independent of the map size (seed §5.3)
 -----------------------------------------------------
@@ -602,6 +605,23 @@ def _force_split(t, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, s
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
+def _split_cost(t, state, size):
+    """Triangles a forced split of leaf ``t`` adds (what :func:`_force_split` would return),
+    without changing the mesh: ``t`` and its base neighbour, plus the forced split of the
+    neighbour's parent when the neighbour is coarser, recursively (§4.1.2, Slika 21)."""
+    need = 0
+    x = t
+    while True:
+        b = _partner(x, size)
+        if b < 0:
+            return need + 1
+        need += 2
+        if state[b] != ABSENT:
+            return need
+        x = b >> 1
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
 def _merge(d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, leaves, diamonds, cnt):
     """Merge the (mergeable) diamond of ``d``; queue the parents and any diamond one level up
     that became mergeable. Returns ``(ns, nm, leaves_removed)``."""
@@ -786,7 +806,15 @@ def _roam_ops(state, h, err, cam, size, max_lvl, sk, si, mk, mi, stack, ivars, t
                 break
             do_merge = True
         elif ps > tau:  # too coarse somewhere
-            if count + 2 > nmax:  # at the triangle budget: swap only if it lowers the max
+            # at the triangle budget (counting the forced splits): swap only if it lowers
+            # the max. A split must never overshoot the budget: the overshoot would be
+            # merged back regardless of priority — typically the diamond just created, which
+            # makes the forced diamonds below it mergeable again, and merging those to make
+            # room undoes the split, which the next pass repeats (an endless split/merge
+            # flip). With every merge here below the top split priority, the top priority
+            # never rises within the frame and no merged diamond is re-created and merged
+            # again, so the loop ends after O(triangles changed) operations.
+            if count + _split_cost(si[0], state, size) > nmax:
                 if pm < ps:
                     do_merge = True
                 else:
