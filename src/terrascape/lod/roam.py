@@ -468,6 +468,34 @@ def _records_reset(leaves, diamonds, cnt, h, err, size, max_lvl, dx, dz):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
+def _walk_roots(stack, size):
+    """Start a depth-first walk of the bintree: push the two root triangles (id, -, apex,
+    v0, v1 as row/col pairs); returns the stack height."""
+    stack[0, 0] = 2
+    stack[0, 2], stack[0, 3], stack[0, 4] = size, 0, size
+    stack[0, 5], stack[0, 6], stack[0, 7] = size, 0, 0
+    stack[1, 0] = 3
+    stack[1, 2], stack[1, 3], stack[1, 4] = 0, size, 0
+    stack[1, 5], stack[1, 6], stack[1, 7] = 0, size, size
+    return 2
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _walk_children(stack, sp, x, ar, ac, r0, c0, r1, c1):
+    """Push split triangle ``x``'s children ``T0 = (v_c, v_a, v_0)``, ``T1 = (v_c, v_1, v_a)``
+    with their corners; returns the new stack height."""
+    mr = (r0 + r1) >> 1
+    mc = (c0 + c1) >> 1
+    stack[sp, 0] = 2 * x
+    stack[sp, 2], stack[sp, 3], stack[sp, 4] = mr, mc, ar
+    stack[sp, 5], stack[sp, 6], stack[sp, 7] = ac, r0, c0
+    stack[sp + 1, 0] = 2 * x + 1
+    stack[sp + 1, 2], stack[sp + 1, 3], stack[sp + 1, 4] = mr, mc, r1
+    stack[sp + 1, 5], stack[sp + 1, 6], stack[sp + 1, 7] = c1, ar, ac
+    return sp + 2
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
 def _records_rebuild(state, h, err, size, max_lvl, dx, dz, leaves, diamonds, cnt, stack):
     """Rebuild both record sets from the bintree in one walk (after a frame that ran with
     ``cnt[2] = 0``: building a mesh from the base triangulation takes tens of thousands of
@@ -476,16 +504,7 @@ def _records_rebuild(state, h, err, size, max_lvl, dx, dz, leaves, diamonds, cnt
     diamonds[3][:, 0] = -1
     cnt[0] = 0
     cnt[1] = 0
-    sp = 0
-    for root in range(2, 4):
-        stack[sp, 0] = root
-        if root == 2:
-            stack[sp, 2], stack[sp, 3], stack[sp, 4] = size, 0, size
-            stack[sp, 5], stack[sp, 6], stack[sp, 7] = size, 0, 0
-        else:
-            stack[sp, 2], stack[sp, 3], stack[sp, 4] = 0, size, 0
-            stack[sp, 5], stack[sp, 6], stack[sp, 7] = 0, size, size
-        sp += 1
+    sp = _walk_roots(stack, size)
     while sp > 0:
         sp -= 1
         x = stack[sp, 0]
@@ -497,16 +516,7 @@ def _records_rebuild(state, h, err, size, max_lvl, dx, dz, leaves, diamonds, cnt
         elif st == SPLIT:
             if state[2 * x] == LEAF and state[2 * x + 1] == LEAF:
                 _diamond_sync(x, state, h, err, size, diamonds, cnt)
-            mr = (r0 + r1) >> 1
-            mc = (c0 + c1) >> 1
-            stack[sp, 0] = 2 * x
-            stack[sp, 2], stack[sp, 3], stack[sp, 4] = mr, mc, ar
-            stack[sp, 5], stack[sp, 6], stack[sp, 7] = ac, r0, c0
-            sp += 1
-            stack[sp, 0] = 2 * x + 1
-            stack[sp, 2], stack[sp, 3], stack[sp, 4] = mr, mc, r1
-            stack[sp, 5], stack[sp, 6], stack[sp, 7] = c1, ar, ac
-            sp += 1
+            sp = _walk_children(stack, sp, x, ar, ac, r0, c0, r1, c1)
 
 
 # --------------------------------------------------------------------------------------------
@@ -854,16 +864,7 @@ def _roam_collect(state, size, out, stack):
     """Write the leaves as ``(apex, v0, v1)`` grid indices; returns the count."""
     n = size + 1
     m = 0
-    sp = 0
-    for root in range(2, 4):
-        stack[sp, 0] = root
-        if root == 2:
-            stack[sp, 2], stack[sp, 3], stack[sp, 4] = size, 0, size
-            stack[sp, 5], stack[sp, 6], stack[sp, 7] = size, 0, 0
-        else:
-            stack[sp, 2], stack[sp, 3], stack[sp, 4] = 0, size, 0
-            stack[sp, 5], stack[sp, 6], stack[sp, 7] = 0, size, size
-        sp += 1
+    sp = _walk_roots(stack, size)
     while sp > 0:
         sp -= 1
         x = stack[sp, 0]
@@ -876,16 +877,7 @@ def _roam_collect(state, size, out, stack):
             out[m, 2] = r1 * n + c1
             m += 1
         elif st == SPLIT:
-            mr = (r0 + r1) >> 1
-            mc = (c0 + c1) >> 1
-            stack[sp, 0] = 2 * x
-            stack[sp, 2], stack[sp, 3], stack[sp, 4] = mr, mc, ar
-            stack[sp, 5], stack[sp, 6], stack[sp, 7] = ac, r0, c0
-            sp += 1
-            stack[sp, 0] = 2 * x + 1
-            stack[sp, 2], stack[sp, 3], stack[sp, 4] = mr, mc, r1
-            stack[sp, 5], stack[sp, 6], stack[sp, 7] = c1, ar, ac
-            sp += 1
+            sp = _walk_children(stack, sp, x, ar, ac, r0, c0, r1, c1)
     return m
 
 
