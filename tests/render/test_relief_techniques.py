@@ -11,7 +11,7 @@ from terrascape.generate import diamond_square
 pytestmark = pytest.mark.gl
 
 NAMES = ["parallax", "parallax_limited", "steep_parallax", "pom", "relief", "interval",
-         "relief_by_distance", "cone"]
+         "relief_by_distance", "cone", "minmax"]
 
 
 def test_relief_techniques_are_registered():
@@ -78,6 +78,19 @@ def test_cone_on_terrain_agrees_with_relief_and_is_not_flat(terrain):
     assert close > 0.85 and moved > 0.2, (close, moved)
 
 
+def test_minmax_on_terrain_uses_its_mip_chain_and_agrees_with_relief(terrain):
+    # The exact tracer and relief 16+8 (close to exact at these angles) see the same surface;
+    # a broken pyramid (e.g. levels uniform or mip chain missing) would leave it flat.
+    relief = _draw(terrain, "relief", depth=0.08, self_shadow=False).astype(int)
+    exact = _draw(terrain, "minmax", depth=0.08, self_shadow=False).astype(int)
+    flat = _draw(terrain, "relief", depth=1e-4, self_shadow=False).astype(int)
+    close = (np.abs(exact - relief)[..., :3].max(axis=-1) <= 12).mean()
+    moved = (np.abs(exact - flat)[..., :3].max(axis=-1) > 8).mean()
+    assert close > 0.8 and moved > 0.2, (close, moved)
+    r = terrain[0]
+    assert r._mip_levels["u_minmax"] == 7  # 64² relief texture: 64, 32, …, 1
+
+
 def test_unavailable_technique_falls_back_to_plain_with_one_warning(terrain):
     """R11: a program this GL cannot compile renders as plain texturing, warning once."""
     from terrascape.render.techniques import Technique, get_technique
@@ -98,3 +111,16 @@ def test_unavailable_technique_falls_back_to_plain_with_one_warning(terrain):
     r.render(fbo, cam, "plain", {"uv_scale": 4.0, "fog_density": 0.0, "sky": False})
     expected = np.frombuffer(fbo.read(components=4), np.uint8).reshape(size[1], size[0], 4)
     assert np.array_equal(first, expected) and np.array_equal(second, expected)
+
+
+def test_explicit_mip_chain_is_validated():
+    from terrascape.errors import InvalidParameterError
+    from terrascape.render.techniques import TextureData
+    from terrascape.render.terrain import as_texture_data
+
+    base = np.zeros((8, 8, 2), np.float32)
+    good = TextureData(base, levels=(np.zeros((4, 4, 2), np.float32),
+                                     np.zeros((2, 2, 2), np.float32)))
+    assert len(as_texture_data(good).levels) == 2
+    with pytest.raises(InvalidParameterError, match="mip level 1"):
+        as_texture_data(TextureData(base, levels=(np.zeros((3, 4, 2), np.float32),)))

@@ -10,9 +10,8 @@ bands of ``relief_by_distance`` (R10).
 
 Registered: ``parallax`` (R3), ``parallax_limited`` (R4), ``steep_parallax`` and ``pom``
 (R5), ``relief`` (R6, with R7 self-shadowing), ``interval`` (R8), ``relief_by_distance``
-(R10), ``cone`` (cone step mapping; its cone map is sampled NEAREST). The exact min/max
-tracer needs a hand-written mip chain, so it is available on :class:`~terrascape.render.
-relief_quad.ReliefQuadRenderer` only.
+(R10), ``cone`` (cone step mapping; its cone map is sampled NEAREST) and ``minmax`` (the
+exact min/max-mip tracer, whose depth pyramid is uploaded as an explicit mip chain).
 """
 
 from __future__ import annotations
@@ -79,6 +78,7 @@ RELIEF_DEFAULTS: dict[str, Any] = {
     "parallax_scale": 0.05,
     "parallax_bias": -0.05,
     "cone_steps": 32,
+    "max_iterations": 1024,
     "dist_relief": 200.0,
     "dist_parallax": 600.0,
     "dist_band": 100.0,
@@ -96,6 +96,36 @@ _SLOTS = (
                 description="tiled RGBA normal + height (16-bit) of the relief field"),
 )
 
+def build_minmax_pyramid(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Min/max depth pyramid of the relief field (level k: R = min, G = max depth of its
+    2^k × 2^k cells), as an explicit NEAREST mip chain (maximum mipmaps / quadtree
+    displacement mapping; :func:`terrascape.relief.minmax_mip.minmax_mip`)."""
+    from terrascape.relief.minmax_mip import minmax_mip
+
+    levels = [np.ascontiguousarray(lv, dtype=np.float32) for lv in
+              minmax_mip(_relief_heights(params))]
+    return TextureData(levels[0], repeat=True, mipmaps=False, nearest=True,
+                       levels=tuple(levels[1:]))
+
+
+def build_cell_corners(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """Per cell (i, j) the depths of texels (i,j), (i+1,j), (i,j+1), (i+1,j+1) as RGBA, so
+    the exact tracer reads a bilinear cell with one fetch (wrapping like the tiled texture)."""
+    depth = 1.0 - np.asarray(_relief_heights(params), dtype=np.float64)
+    right = np.roll(depth, -1, axis=1)
+    corners = np.stack([depth, right, np.roll(depth, -1, axis=0), np.roll(right, -1, axis=0)],
+                       axis=-1).astype(np.float32)
+    return TextureData(corners, repeat=True, mipmaps=False, nearest=True)
+
+
+_MINMAX_SLOTS = (
+    *_SLOTS,
+    TextureSlot("u_minmax", build_minmax_pyramid, depends=("relief_field", "relief_size", "seed"),
+                description="min/max depth pyramid of the relief field (explicit mip chain)"),
+    TextureSlot("u_cells", build_cell_corners, depends=("relief_field", "relief_size", "seed"),
+                description="the four corner depths of every relief cell (RGBA32F)"),
+)
+
 _CONE_SLOTS = (
     *_SLOTS,
     TextureSlot("u_cone", build_cone_map, depends=("relief_field", "relief_size", "seed"),
@@ -111,6 +141,7 @@ _TERRAIN_NAMES = {
     "interval": ("interval", "R8: interval mapping, linear + secant search"),
     "relief_by_distance": ("by_distance", "R10: relief near, parallax farther, plain far"),
     "cone": ("cone", "cone step mapping (Dummer 2006) with a CPU-built cone map"),
+    "minmax": ("minmax", "exact hierarchical min/max-mip tracer (maximum mipmaps)"),
 }
 
 
@@ -121,7 +152,7 @@ def register_relief_techniques(*, replace: bool = True) -> list[str]:
             Technique(
                 name,
                 "relief/terrain",
-                textures=_CONE_SLOTS if tech == "cone" else _SLOTS,
+                textures={"cone": _CONE_SLOTS, "minmax": _MINMAX_SLOTS}.get(tech, _SLOTS),
                 defaults=RELIEF_DEFAULTS,
                 defines={"TECHNIQUE": TECHNIQUES[tech]},
                 description=text,

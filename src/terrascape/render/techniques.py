@@ -58,6 +58,11 @@ class TextureData:
     nearest
         Sample without filtering or mipmaps (lookup tables such as cone maps, whose
         interpolated values would be wrong).
+    levels
+        An explicit mip chain for a 2D texture: levels 1, 2, … (level 0 is ``data``), each
+        half the size of the previous one, sampled NEAREST (e.g. min/max depth pyramids,
+        which averaging would break). The renderer also sets the integer uniform
+        ``<sampler>_levels`` to the number of levels including level 0.
     """
 
     data: np.ndarray
@@ -65,6 +70,7 @@ class TextureData:
     repeat: bool = True
     mipmaps: bool = True
     nearest: bool = False
+    levels: tuple[np.ndarray, ...] = ()
 
 
 TextureBuilder = Callable[[Heightmap, Mapping[str, Any]], TextureData]

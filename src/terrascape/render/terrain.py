@@ -86,8 +86,20 @@ def as_texture_data(value: Any, *, name: str = "texture") -> TextureData:
         )
     if data.dtype == np.float32 and not np.isfinite(data).all():
         raise InvalidParameterError(f"{name}: texture contains NaN/inf")
+    levels = tuple(np.ascontiguousarray(lv) for lv in tex.levels)
+    if levels:
+        if tex.kind != "2d":
+            raise InvalidParameterError(f"{name}: an explicit mip chain needs a 2d texture")
+        h, w = data.shape[:2]
+        for k, lv in enumerate(levels, start=1):
+            want = (max(h >> k, 1), max(w >> k, 1))
+            if lv.shape[:2] != want or lv.dtype != data.dtype or lv.shape[2:] != data.shape[2:]:
+                raise InvalidParameterError(
+                    f"{name}: mip level {k} must be {want[1]}×{want[0]} {data.dtype} with "
+                    f"{data.shape[2:] or 1} channel(s), got {lv.shape} {lv.dtype}"
+                )
     return TextureData(np.ascontiguousarray(data), tex.kind, bool(tex.repeat), bool(tex.mipmaps),
-                       bool(tex.nearest))
+                       bool(tex.nearest), levels)
 
 
 def upload_texture(ctx, tex: TextureData, *, name: str = "texture", limits: dict | None = None):
@@ -127,7 +139,12 @@ def upload_texture(ctx, tex: TextureData, *, name: str = "texture", limits: dict
             gl_tex = ctx.texture_array((w, h, n_layers), comps, data.tobytes(), dtype=dtype)
     gl_tex.repeat_x = tex.repeat
     gl_tex.repeat_y = tex.repeat
-    if tex.nearest:
+    if tex.levels:
+        gl_tex.build_mipmaps(0, len(tex.levels))  # allocates the chain; overwritten below
+        for k, lv in enumerate(tex.levels, start=1):
+            gl_tex.write(lv.tobytes(), level=k)
+        gl_tex.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
+    elif tex.nearest:
         gl_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
     elif tex.mipmaps and tex.kind != "3d":
         gl_tex.build_mipmaps()
@@ -212,6 +229,7 @@ class TerrainRenderer:
         self.last_stats: dict[str, int] = {}
         self._default_regions = None
         self._fallen_back: set[str] = set()
+        self._mip_levels: dict[str, int] = {}  # sampler -> levels, for "<sampler>_levels"
         self.last_technique: str | None = None  # what the last frame really drew (R11)
 
     # --- geometry ------------------------------------------------------------------------
@@ -274,6 +292,7 @@ class TerrainRenderer:
         if old is not None:
             old[0].release()
         self._textures[uniform] = (gl_tex, None)
+        self._mip_levels[uniform] = 1 + len(as_texture_data(texture, name=uniform).levels)
         self._pinned.add(uniform)
 
     def _ensure_textures(self, tech: Technique, params: Mapping[str, Any]) -> list[str]:
@@ -286,8 +305,9 @@ class TerrainRenderer:
             have = self._textures.get(slot.uniform)
             if have is not None and have[1] == key:
                 continue
-            data = slot.builder(self.heightmap, params)
+            data = as_texture_data(slot.builder(self.heightmap, params), name=slot.uniform)
             gl_tex = upload_texture(self.ctx, data, name=slot.uniform, limits=self.limits)
+            self._mip_levels[slot.uniform] = 1 + len(data.levels)
             if have is not None:
                 have[0].release()
             self._textures[slot.uniform] = (gl_tex, key)
@@ -475,6 +495,8 @@ class TerrainRenderer:
         for unit, name in enumerate(samplers):
             self._textures[name][0].use(location=unit)
             set_uniforms(program, **{name: unit})
+            if f"{name}_levels" in program:
+                set_uniforms(program, **{f"{name}_levels": self._mip_levels.get(name, 1)})
         spare = _SPARE_UNIT
         for name in program:
             member = program[name]

@@ -31,7 +31,7 @@ from terrascape.viewer.controls import HELP, LOD_MODES, ViewerState, fly, look
 # family from cheapest to most expensive; techniques registered later are appended sorted.
 PREFERRED_ORDER: tuple[str, ...] = (
     "plain", "regions", "texture3d", "splat", "bump", "parallax", "parallax_limited",
-    "steep_parallax", "pom", "relief", "interval", "cone", "relief_by_distance",
+    "steep_parallax", "pom", "relief", "interval", "cone", "minmax", "relief_by_distance",
 )  # fmt: skip
 
 DAY_HORIZON = (0.74, 0.82, 0.92)
