@@ -230,7 +230,13 @@ def _priority(cam, h, err, level, max_lvl, ar, ac, r0, c0, r1, c1):
 def _diamond_priority(t, cam, h, err, size, max_lvl):
     """``max{p(T), p(T_B)}`` of the diamond containing ``t`` (T_B's corners are mirrored)."""
     ar, ac, r0, c0, r1, c1 = _tri_coords(t, size)
-    lvl = _level(t)
+    return _diamond_priority_at(cam, h, err, size, max_lvl, _level(t), ar, ac, r0, c0, r1, c1)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _diamond_priority_at(cam, h, err, size, max_lvl, lvl, ar, ac, r0, c0, r1, c1):
+    """:func:`_diamond_priority` of the diamond of the level-``lvl`` triangle with the given
+    corners (either triangle of the pair: the maximum is symmetric)."""
     p = _priority(cam, h, err, lvl, max_lvl, ar, ac, r0, c0, r1, c1)
     br = r0 + r1 - ar
     bc = c0 + c1 - ac
@@ -268,7 +274,10 @@ _FIB = np.uint64(0x9E3779B97F4A7C15)  # Fibonacci hashing (Knuth): spreads struc
 
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _hslot(key, mask):
-    return np.int64((np.uint64(key) * _FIB) >> np.uint64(32)) & mask
+    # keys 2k and 2k + 1 (sibling leaves, which a split creates and a merge removes
+    # together) get adjacent home slots, usually in one cache line
+    hk = np.int64((np.uint64(key >> 1) * _FIB) >> np.uint64(32))
+    return ((hk << 1) | (key & 1)) & mask
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -336,6 +345,21 @@ def _rec_add(rec, n, key, tid, ar, ac, r0, c0, r1, c1):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
+def _rec_replace(rec, i, key, tid, ar, ac, r0, c0, r1, c1):
+    """Give the record of table entry ``i`` the new key ``key`` (absent) and triangle id
+    ``tid``, keeping its slot (returned); the caller fills ``fl``."""
+    ids, co, _, ht, keys = rec
+    s = ht[i, 1]
+    _hdel_at(ht, i)
+    _hput(ht, key, s)
+    ids[s] = tid
+    keys[s] = key
+    co[s, 0], co[s, 1], co[s, 2] = ar, ac, r0
+    co[s, 3], co[s, 4], co[s, 5] = c0, r1, c1
+    return s
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
 def _rec_remove_at(rec, n, i):
     """Delete the record of table entry ``i``; the last record fills its slot. Returns the
     new count."""
@@ -366,7 +390,21 @@ def _leaf_add(leaves, cnt, t, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, 
     refresh bounds the priority with it (:func:`_fill_split`)."""
     s = _rec_add(leaves, cnt[0], t, t, ar, ac, r0, c0, r1, c1)
     cnt[0] = s + 1
-    fl = leaves[2]
+    _leaf_fill(leaves[2], s, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _leaf_replace(leaves, old, t, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1):
+    """Turn the record of leaf ``old`` into one of leaf ``t`` in the same slot (a split's
+    first child, a merge's parent): cheaper than a removal (which moves the last record)
+    plus an append. Record order is free: the queues order ties by id."""
+    s = _rec_replace(leaves, _hfind(leaves[3], old), t, t, ar, ac, r0, c0, r1, c1)
+    _leaf_fill(leaves[2], s, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _leaf_fill(fl, s, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1):
+    """The float values of leaf record ``s`` (see :func:`_leaf_add`)."""
     e = np.float64(err[(r0 + r1) >> 1, (c0 + c1) >> 1]) if lvl < max_lvl else 0.0
     ya = np.float64(h[ar, ac])
     y0 = np.float64(h[r0, c0])
@@ -428,20 +466,25 @@ def _diamond_sync(t, state, h, err, size, diamonds, cnt):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _diamond_sync_known(t, b, ar, ac, r0, c0, r1, c1, state, h, err, size, diamonds, cnt):
-    """:func:`_diamond_sync` with ``t``'s corners and base neighbour ``b`` already known."""
+def _diamond_sync_known(t, b, ar, ac, r0, c0, r1, c1, state, h, err, size, diamonds, cnt,
+                        absent=False):  # fmt: skip
+    """:func:`_diamond_sync` with ``t``'s corners and base neighbour ``b`` already known.
+    ``absent``: the caller knows the diamond has no record (it was not mergeable before the
+    operation), which saves the hash lookup when it is not mergeable now either."""
     mergeable = (
         state[t] == SPLIT
         and state[2 * t] == LEAF
         and state[2 * t + 1] == LEAF
         and (b < 0 or (state[b] == SPLIT and state[2 * b] == LEAF and state[2 * b + 1] == LEAF))
     )
+    if absent and not mergeable:
+        return
     c = t if (b < 0 or t < b) else b
     key = _vertex_key((r0 + r1) >> 1, (c0 + c1) >> 1, size)
-    i = _hfind(diamonds[3], key)
+    i = -1 if absent else _hfind(diamonds[3], key)
     if mergeable and i < 0:
-        if c != t:
-            ar, ac, r0, c0, r1, c1 = _tri_coords(c, size)
+        if c != t:  # the base neighbour: mirrored apex, v0 and v1 swapped
+            ar, ac, r0, c0, r1, c1 = r0 + r1 - ar, c0 + c1 - ac, r1, c1, r0, c0
         s = _rec_add(diamonds, cnt[1], key, c, ar, ac, r0, c0, r1, c1)
         cnt[1] = s + 1
         fl = diamonds[2]
@@ -544,25 +587,28 @@ def _canonical(t, size):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _split_one(t, b, state, h, err, cam, size, max_lvl, sk, si, ns, leaves, diamonds, cnt):
+def _split_one(t, b, ar, ac, r0, c0, r1, c1, state, h, err, cam, size, max_lvl, sk, si, ns,
+               leaves, diamonds, cnt):  # fmt: skip
     """Replace leaf ``t`` (base neighbour ``b``, −1 on the border) by its children
     ``T0 = (v_c, v_a, v_0)``, ``T1 = (v_c, v_1, v_a)``, queue them and update the records
     (the leaf's, and the diamonds of ``t`` and its parent, the only ones whose mergeability
-    a split of ``t`` can change)."""
+    a split of ``t`` can change). ``ar … c1`` are ``t``'s corners (callers know them: an
+    O(level) :func:`_tri_coords` per triangle is a large part of an operation's cost)."""
     state[t] = SPLIT
     state[2 * t] = LEAF
     state[2 * t + 1] = LEAF
-    ar, ac, r0, c0, r1, c1 = _tri_coords(t, size)
     mr = (r0 + r1) >> 1
     mc = (c0 + c1) >> 1
     lvl = _level(t) + 1
     if cnt[2]:  # records kept per operation (else rebuilt after the frame)
-        _leaf_remove(leaves, cnt, t)
         dx = cam[_DX]
         dz = cam[_DZ]
-        _leaf_add(leaves, cnt, 2 * t, lvl, max_lvl, h, err, dx, dz, mr, mc, ar, ac, r0, c0)
+        _leaf_replace(leaves, t, 2 * t, lvl, max_lvl, h, err, dx, dz, mr, mc, ar, ac, r0, c0)
         _leaf_add(leaves, cnt, 2 * t + 1, lvl, max_lvl, h, err, dx, dz, mr, mc, r1, c1, ar, ac)
-        _diamond_sync_known(t, b, ar, ac, r0, c0, r1, c1, state, h, err, size, diamonds, cnt)
+        # t was a leaf: its diamond had no record
+        _diamond_sync_known(
+            t, b, ar, ac, r0, c0, r1, c1, state, h, err, size, diamonds, cnt, True
+        )  # fmt: skip
         # the parent's diamond (split at t's apex) is no longer mergeable; it had a record
         # only if both its children were leaves
         if t >= 4 and state[t ^ 1] == LEAF:
@@ -596,20 +642,27 @@ def _force_split(t, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, s
             stack[sp] = x >> 1
             sp += 1
             continue
-        b = _partner(x, size)
+        ar, ac, r0, c0, r1, c1 = _tri_coords(x, size)
+        lvl = _level(x)
+        b = _partner_from_coords(lvl, ar, ac, r0, c0, r1, c1, size)
         if b >= 0 and state[b] == ABSENT:  # T_B is coarser: its parent must split first
             stack[sp] = b >> 1
             sp += 1
             continue
-        ns = _split_one(x, b, state, h, err, cam, size, max_lvl, sk, si, ns, leaves, diamonds, cnt)
+        ns = _split_one(
+            x, b, ar, ac, r0, c0, r1, c1, state, h, err, cam, size, max_lvl, sk, si, ns,
+            leaves, diamonds, cnt,
+        )  # fmt: skip
         added += 1
-        if b >= 0 and state[b] == LEAF:
+        if b >= 0 and state[b] == LEAF:  # T_B's corners: mirrored apex, v0 and v1 swapped
             ns = _split_one(
-                b, x, state, h, err, cam, size, max_lvl, sk, si, ns, leaves, diamonds, cnt
-            )
+                b, x, r0 + r1 - ar, c0 + c1 - ac, r1, c1, r0, c0, state, h, err, cam, size,
+                max_lvl, sk, si, ns, leaves, diamonds, cnt,
+            )  # fmt: skip
             added += 1
         d = x if (b < 0 or x < b) else b
-        nm = _hpush(mk, mi, nm, -_diamond_priority(d, cam, h, err, size, max_lvl), d, _TIE_M)
+        p = _diamond_priority_at(cam, h, err, size, max_lvl, lvl, ar, ac, r0, c0, r1, c1)
+        nm = _hpush(mk, mi, nm, -p, d, _TIE_M)
         sp -= 1
     return ns, nm, added
 
@@ -635,9 +688,11 @@ def _split_cost(t, state, size):
 def _merge(d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, leaves, diamonds, cnt):
     """Merge the (mergeable) diamond of ``d``; queue the parents and any diamond one level up
     that became mergeable. Returns ``(ns, nm, leaves_removed)``."""
-    b = _partner(d, size)
-    removed = 0
     lvl = _level(d)
+    ar, ac, r0, c0, r1, c1 = _tri_coords(d, size)
+    b = _partner_from_coords(lvl, ar, ac, r0, c0, r1, c1, size)
+    dco = (ar, ac, r0, c0, r1, c1)
+    removed = 0
     for k in range(2):
         x = d if k == 0 else b
         if x < 0:
@@ -646,29 +701,56 @@ def _merge(d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, leaves,
         state[2 * x + 1] = ABSENT
         state[x] = LEAF
         removed += 1
-        ar, ac, r0, c0, r1, c1 = _tri_coords(x, size)
+        if k == 1:  # T_B's corners: mirrored apex, v0 and v1 swapped
+            ar, ac, r0, c0, r1, c1 = dco[2] + dco[4] - dco[0], dco[3] + dco[5] - dco[1], \
+                dco[4], dco[5], dco[2], dco[3]  # fmt: skip
         if cnt[2]:
-            _leaf_remove(leaves, cnt, 2 * x)
-            _leaf_remove(leaves, cnt, 2 * x + 1)
-            _leaf_add(
-                leaves, cnt, x, lvl, max_lvl, h, err, cam[_DX], cam[_DZ], ar, ac, r0, c0, r1, c1
+            _leaf_replace(
+                leaves, 2 * x, x, lvl, max_lvl, h, err, cam[_DX], cam[_DZ], ar, ac, r0, c0, r1, c1
             )
+            _leaf_remove(leaves, cnt, 2 * x + 1)
         p = _priority(cam, h, err, lvl, max_lvl, ar, ac, r0, c0, r1, c1)
         if p > 0.0 and p >= cam[_THETA]:
             ns = _hpush(sk, si, ns, p, x, _TIE_S)
     # the merged diamond's record goes; the parents' diamonds may have become mergeable
     if cnt[2]:
-        _diamond_sync(d, state, h, err, size, diamonds, cnt)
+        _diamond_drop((dco[2] + dco[4]) >> 1, (dco[3] + dco[5]) >> 1, size, diamonds, cnt)
     for k in range(2):
         x = d if k == 0 else b
         if x < 4:  # roots have no parent
             continue
         par = x >> 1
+        ar, ac, r0, c0, r1, c1 = dco
+        if k == 1:
+            ar, ac, r0, c0, r1, c1 = r0 + r1 - ar, c0 + c1 - ac, r1, c1, r0, c0
+        # the parent's corners from its child's: x = T0 = (v_c, v_a, v_0) or
+        # T1 = (v_c, v_1, v_a) of the parent, and v_c is the midpoint of v_0 and v_1
+        if x & 1 == 0:
+            pa_r, pa_c, p0_r, p0_c = r0, c0, r1, c1
+            p1_r, p1_c = 2 * ar - r1, 2 * ac - c1
+        else:
+            pa_r, pa_c, p1_r, p1_c = r1, c1, r0, c0
+            p0_r, p0_c = 2 * ar - r0, 2 * ac - c0
+        bp = _partner_from_coords(lvl - 1, pa_r, pa_c, p0_r, p0_c, p1_r, p1_c, size)
         if cnt[2]:
-            _diamond_sync(par, state, h, err, size, diamonds, cnt)
-        if _mergeable(par, state, size):
-            dd = _canonical(par, size)
-            nm = _hpush(mk, mi, nm, -_diamond_priority(dd, cam, h, err, size, max_lvl), dd, _TIE_M)
+            # x was split: the parent's diamond had no record
+            _diamond_sync_known(
+                par, bp, pa_r, pa_c, p0_r, p0_c, p1_r, p1_c, state, h, err, size, diamonds,
+                cnt, True,
+            )  # fmt: skip
+        if (
+            state[2 * par] == LEAF
+            and state[2 * par + 1] == LEAF
+            and (
+                bp < 0
+                or (state[bp] == SPLIT and state[2 * bp] == LEAF and state[2 * bp + 1] == LEAF)
+            )
+        ):  # mergeable (par itself is split)
+            dd = par if (bp < 0 or par < bp) else bp
+            p = _diamond_priority_at(
+                cam, h, err, size, max_lvl, lvl - 1, pa_r, pa_c, p0_r, p0_c, p1_r, p1_c
+            )
+            nm = _hpush(mk, mi, nm, -p, dd, _TIE_M)
     return ns, nm, removed
 
 
@@ -901,15 +983,17 @@ def _mergeable_ids(state, size, out):
     return m
 
 
-def _alloc_records(cap: int, width: int):
+def _alloc_records(cap: int, width: int, key_dtype=np.int64):
     """An empty record set (see "per-entry records") for ``cap`` records of ``width`` float
-    values; the hash table has a power-of-two size >= 2·cap (load <= 1/2)."""
+    values; the hash table has a power-of-two size >= 2·cap (load <= 1/2) and holds
+    ``key_dtype`` (key, slot) pairs (int32 when the keys fit: half the table's cache
+    footprint, and the table is read at random places by every split and merge)."""
     hcap = 1 << max(4, (2 * cap - 1).bit_length())
     return (
         np.zeros(cap, np.int64),
         np.zeros((cap, 6), np.int32),
         np.zeros((cap, width), np.float32),
-        np.full((hcap, 2), -1, np.int64),  # (key, slot) pairs: one cache line per probe
+        np.full((hcap, 2), -1, key_dtype),  # (key, slot) pairs: one cache line per probe
         np.zeros(cap, np.int64),  # each record's hash key (leaves: the id)
     )
 
@@ -919,7 +1003,7 @@ def _grow_records(rec, n: int, extra: int):
     twice the capacity (records kept in their slots, hash table rebuilt)."""
     if rec[0].size >= n + extra:
         return rec
-    new = _alloc_records(max(n + extra, 2 * rec[0].size), rec[2].shape[1])
+    new = _alloc_records(max(n + extra, 2 * rec[0].size), rec[2].shape[1], rec[3].dtype)
     for k in range(3):
         new[k][:n] = rec[k][:n]
     new[4][:n] = rec[4][:n]
@@ -1048,8 +1132,10 @@ class Roam:
         self._mi = np.zeros(0, np.int64)
         # records: [leaves, mergeable diamonds, kept per operation (1) or rebuilt (0)]
         self._cnt = np.array([0, 0, 1], np.int64)
-        self._leaves = _alloc_records(1024, _LEAF_FIELDS)
-        self._diamonds = _alloc_records(1024, _DIAMOND_FIELDS)
+        # hash keys: leaf ids < 4·S², diamond split vertices < (S + 1)²
+        key_dtype = np.int32 if 4 * self.size * self.size < 2**31 else np.int64
+        self._leaves = _alloc_records(1024, _LEAF_FIELDS, key_dtype)
+        self._diamonds = _alloc_records(1024, _DIAMOND_FIELDS, key_dtype)
         self.frame = 0
         self.max_screen_error = math.inf
         self._theta_frac = _THETA_MAX
