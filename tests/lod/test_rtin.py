@@ -105,3 +105,37 @@ def test_bad_inputs():
         r.mesh(max_triangles=10.5)
     with pytest.raises(InvalidParameterError, match="give"):
         r.mesh()
+
+
+@pytest.mark.parametrize("kind", ["smooth", "rough", "terraced", "spiky"])
+def test_one_error_fast_path_equals_the_full_error_table(kind):
+    # rtin_mesh(max_error=…) decides each vertex with bounds and early-exit scans instead of
+    # every triangle's exact error; the mesh must be the same, triangle for triangle.
+    rng = np.random.default_rng(len(kind))
+    n = 129
+    if kind == "smooth":
+        h = ndimage.gaussian_filter(rng.standard_normal((n, n)), 5) * 900
+    elif kind == "rough":
+        h = rng.random((n, n)) * 30 + np.arange(n)[None, :] * 2
+    elif kind == "terraced":  # plateaus: many exact zeros and ties with the tolerance
+        h = np.floor(ndimage.gaussian_filter(rng.standard_normal((n, n)), 8) * 200) * 4.0
+    else:  # flat with isolated spikes: errors only where a scan reaches a spike
+        h = np.zeros((n, n))
+        h[rng.integers(0, n, 12), rng.integers(0, n, 12)] = 50.0
+    hm = Heightmap(h.astype(np.float32), spacing=(10.0, 10.0))
+    full = Rtin(hm)
+    tolerances = [0.0, 0.5, 2.0, 4.0, 10.0, 49.9, 50.0, 1000.0]
+    tolerances += list(np.quantile(full.errors[full.errors > 0], [0.1, 0.5, 0.9]))  # exact ties
+    for tol in tolerances:
+        fast = rtin_mesh(hm, max_error=float(tol))
+        np.testing.assert_array_equal(fast, full.mesh(max_error=float(tol)).triangles)
+        assert max_vertical_error(hm, fast) <= tol
+
+
+def test_fast_path_bad_inputs():
+    with pytest.raises(HeightmapSizeError):
+        rtin_mesh(Heightmap(np.zeros((30, 30), np.float32)), max_error=1.0)
+    with pytest.raises(InvalidParameterError, match="max_error"):
+        rtin_mesh(Heightmap(np.zeros((17, 17), np.float32)), max_error=-1.0)
+    with pytest.raises(InvalidParameterError, match="Heightmap"):
+        rtin_mesh(np.zeros((17, 17), np.float32), max_error=1.0)
