@@ -243,37 +243,63 @@ def is_conforming(triangles, shape) -> bool:
 # --------------------------------------------------------------------------------------------
 # vertical error: rasterise every triangle over the grid samples it covers
 # --------------------------------------------------------------------------------------------
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _tri_max_error(h, ar, ac, br, bc, cr, cc):
-    """Maximum |h − plane| over the grid samples covered by triangle (a, b, c), edges included.
-
-    Edge functions are exact in integer arithmetic, so a sample on a shared edge is counted by
-    both triangles, and both interpolate it identically (linear along the edge).
-    """
+@njit(cache=CACHE, fastmath={"nnan", "nsz"})
+def _tri_error_upto(h, ar, ac, br, bc, cr, cc, tol):
+    """Maximum ``|h − plane|`` over the grid samples of triangle (a, b, c), edges included,
+    or the first row maximum found above ``tol`` (early exit, tested once per row so the
+    inner loop stays branch-free). Each row is clipped to the triangle's exact integer span
+    (edge functions are exact in integer arithmetic, so a sample on a shared edge is counted
+    by both triangles, and both interpolate it identically, linear along the edge). The
+    fastmath flags only drop NaN and signed-zero handling, which finite heights never need;
+    no reassociation or contraction, so the arithmetic is that of :func:`_sample_errors`."""
     det = (bc - ac) * (cr - ar) - (br - ar) * (cc - ac)
     if det == 0:
         return 0.0
+    sg = 1 if det > 0 else -1
     ha = np.float64(h[ar, ac])
     hb = np.float64(h[br, bc])
     hc = np.float64(h[cr, cc])
     inv = 1.0 / det
-    rmin, rmax = min(ar, br, cr), max(ar, br, cr)
+    # edge functions w = A·r + B·c + C (w_a is 0 on edge b–c, …), inside: sg·w ≥ 0
+    aa, ba, ca = cc - bc, br - cr, bc * cr - br * cc
+    ab, bb, cb = ac - cc, cr - ar, cc * ar - cr * ac
+    a_c, b_c, c_c = bc - ac, ar - br, ac * br - ar * bc
     cmin, cmax = min(ac, bc, cc), max(ac, bc, cc)
     best = 0.0
-    for r in range(rmin, rmax + 1):
-        for c in range(cmin, cmax + 1):
-            wa = (bc - c) * (cr - r) - (br - r) * (cc - c)
-            wb = (cc - c) * (ar - r) - (cr - r) * (ac - c)
-            wc = (ac - c) * (br - r) - (ar - r) * (bc - c)
-            if det > 0:
-                if wa < 0 or wb < 0 or wc < 0:
-                    continue
-            elif wa > 0 or wb > 0 or wc > 0:
-                continue
+    for r in range(min(ar, br, cr), max(ar, br, cr) + 1):
+        ka = aa * r + ca
+        kb = ab * r + cb
+        kc = a_c * r + c_c
+        lo = cmin
+        hi = cmax
+        for k in range(3):
+            if k == 0:
+                b, w = sg * ba, sg * ka
+            elif k == 1:
+                b, w = sg * bb, sg * kb
+            else:
+                b, w = sg * b_c, sg * kc
+            if b > 0:  # b·c + w ≥ 0  ⇔  c ≥ ceil(−w / b)
+                lo = max(lo, -(w // b))
+            elif b < 0:  # c ≤ floor(w / −b)
+                hi = min(hi, w // (-b))
+            elif w < 0:
+                hi = lo - 1
+        for c in range(lo, hi + 1):
+            wa = ka + ba * c
+            wb = kb + bb * c
+            wc = kc + b_c * c
             e = abs(np.float64(h[r, c]) - (wa * ha + wb * hb + wc * hc) * inv)
-            if e > best:
-                best = e
+            best = max(best, e)
+        if best > tol:  # checked per row: the inner loop stays branch-free
+            return best
     return best
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _tri_max_error(h, ar, ac, br, bc, cr, cc):
+    """Maximum |h − plane| over the grid samples covered by triangle (a, b, c), edges included."""
+    return _tri_error_upto(h, ar, ac, br, bc, cr, cc, np.inf)
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)

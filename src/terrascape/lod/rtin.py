@@ -47,7 +47,7 @@ from terrascape._numba import CACHE, FASTMATH, njit, prange
 from terrascape._validate import check_int, check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
-from terrascape.lod.mesh_checks import _tri_max_error
+from terrascape.lod.mesh_checks import _tri_error_upto, _tri_max_error
 
 __all__ = ["Rtin", "RtinMesh", "rtin_mesh"]
 
@@ -146,59 +146,6 @@ def _vertex_errors(h, n, err, lev):
                     err[(r0 + half) * size + c0],
                     err[(r0 + half) * size + c0 + side],
                 )
-
-
-@njit(cache=CACHE, fastmath={"nnan", "ninf", "nsz"})
-def _tri_error_upto(h, ar, ac, br, bc, cr, cc, tol):
-    """Maximum ``|h − plane|`` over the grid samples of triangle (a, b, c), edges included,
-    or the first value found above ``tol`` (early exit): :func:`~terrascape.lod.mesh_checks.
-    _tri_max_error` with each row clipped to the triangle's exact integer span (no
-    bounding-box scan). The per-sample expression is the same: the two agree bit for bit
-    (the fastmath flags only drop NaN/Inf/signed-zero handling, which finite heights never
-    need; no reassociation or contraction, so the arithmetic is unchanged). The early exit
-    is tested once per row, keeping the inner loop branch-free."""
-    det = (bc - ac) * (cr - ar) - (br - ar) * (cc - ac)
-    if det == 0:
-        return 0.0
-    sg = 1 if det > 0 else -1
-    ha = np.float64(h[ar, ac])
-    hb = np.float64(h[br, bc])
-    hc = np.float64(h[cr, cc])
-    inv = 1.0 / det
-    # edge functions w = A·r + B·c + C (w_a is 0 on edge b–c, …), inside: sg·w ≥ 0
-    aa, ba, ca = cc - bc, br - cr, bc * cr - br * cc
-    ab, bb, cb = ac - cc, cr - ar, cc * ar - cr * ac
-    a_c, b_c, c_c = bc - ac, ar - br, ac * br - ar * bc
-    cmin, cmax = min(ac, bc, cc), max(ac, bc, cc)
-    best = 0.0
-    for r in range(min(ar, br, cr), max(ar, br, cr) + 1):
-        ka = aa * r + ca
-        kb = ab * r + cb
-        kc = a_c * r + c_c
-        lo = cmin
-        hi = cmax
-        for k in range(3):
-            if k == 0:
-                b, w = sg * ba, sg * ka
-            elif k == 1:
-                b, w = sg * bb, sg * kb
-            else:
-                b, w = sg * b_c, sg * kc
-            if b > 0:  # b·c + w ≥ 0  ⇔  c ≥ ceil(−w / b)
-                lo = max(lo, -(w // b))
-            elif b < 0:  # c ≤ floor(w / −b)
-                hi = min(hi, w // (-b))
-            elif w < 0:
-                hi = lo - 1
-        for c in range(lo, hi + 1):
-            wa = ka + ba * c
-            wb = kb + bb * c
-            wc = kc + b_c * c
-            e = abs(np.float64(h[r, c]) - (wa * ha + wb * hb + wc * hc) * inv)
-            best = max(best, e)
-        if best > tol:  # checked per row: the inner loop stays branch-free
-            return best
-    return best
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -392,7 +339,7 @@ def _active_set(heightmap: Heightmap, max_error: float) -> np.ndarray:
     active = np.empty((size, size), np.bool_)
     active[0, 0] = active[0, -1] = active[-1, 0] = active[-1, -1] = False  # never split
     # rounding of the float64 bound, relative to the heights' magnitude
-    slack = 1e-12 * float(np.max(np.abs(h))) if h.size else 0.0
+    slack = 1e-12 * float(np.max(np.abs(h)))
     _active_for_error(h, n, float(max_error), slack, ud, active)
     return active.reshape(-1)
 
@@ -497,8 +444,9 @@ def rtin_mesh(heightmap: Heightmap, *, max_error: float | None = None,
     See :class:`Rtin` (and the module docstring) for the algorithm and the guarantee:
     measured on every grid sample, the error never exceeds ``max_error``. With
     ``max_error`` alone, the mesh (identical to ``Rtin(heightmap).mesh(max_error=…)``) is
-    built without every triangle's exact error (:func:`_active_for_error`): about 5–10×
-    faster for one mesh. Use :class:`Rtin` to extract several meshes or budgets from one map.
+    built without every triangle's exact error (:func:`_active_for_error`): 7–15× faster
+    than ``Rtin`` for one mesh (`terrascape bench lod`). Use :class:`Rtin` to extract
+    several meshes or budgets from one map.
 
     Returns
     -------
