@@ -227,16 +227,10 @@ def _priority(cam, h, err, level, max_lvl, ar, ac, r0, c0, r1, c1):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _diamond_priority(t, cam, h, err, size, max_lvl):
-    """``max{p(T), p(T_B)}`` of the diamond containing ``t`` (T_B's corners are mirrored)."""
-    ar, ac, r0, c0, r1, c1 = _tri_coords(t, size)
-    return _diamond_priority_at(cam, h, err, size, max_lvl, _level(t), ar, ac, r0, c0, r1, c1)
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
 def _diamond_priority_at(cam, h, err, size, max_lvl, lvl, ar, ac, r0, c0, r1, c1):
-    """:func:`_diamond_priority` of the diamond of the level-``lvl`` triangle with the given
-    corners (either triangle of the pair: the maximum is symmetric)."""
+    """``max{p(T), p(T_B)}`` of the diamond of the level-``lvl`` triangle with the given
+    corners (either triangle of the pair: the maximum is symmetric; T_B's corners are the
+    mirrored apex with v0 and v1 swapped)."""
     p = _priority(cam, h, err, lvl, max_lvl, ar, ac, r0, c0, r1, c1)
     br = r0 + r1 - ar
     bc = c0 + c1 - ac
@@ -820,7 +814,7 @@ def _fill_split(cam, leaves, cnt, sk, si):
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _fill_merge(cam, size, diamonds, cnt, mk, mi):
     """Build the merge queue for ``cam`` from the diamond records: every mergeable diamond
-    keyed by ``−max{p(T), p(T_B)}`` (as :func:`_diamond_priority`). Returns its length."""
+    keyed by ``−max{p(T), p(T_B)}`` (as :func:`_diamond_priority_at`). Returns its length."""
     static = cam[_STATIC] > 0.0
     dx, dz, near, kpx = cam[_DX], cam[_DZ], cam[_NEAR], cam[_K]
     ex, ey, ez = cam[_EYE], cam[_EYE + 1], cam[_EYE + 2]
