@@ -79,6 +79,30 @@ def test_traced_hits_match_the_exact_reference_on_natural(
     assert err.mean() <= mean
 
 
+def test_default_relief_mode_clearance_steps(renderers, natural):
+    # ReliefSettings() marches clearance-scaled linear steps (+ 4 binary): within the seed's
+    # 18 fetches and the p95 bound, and fewer skipped crests than equal 16+8 steps at grazing
+    # angles (Policarpo 2005's linear search with sample placement following the clearance).
+    from terrascape.render.relief_quad import ReliefSettings
+
+    fixed = ReliefSettings(march="fixed", linear_steps=16, binary_steps=8)
+    assert ReliefSettings().march == "clearance"
+    for theta in (30, 70, 80):
+        cam = _camera(theta)
+        ref = reference_image(natural, TILED, cam, FB, FB)
+        out = renderers["natural"].render(TILED, cam, "relief")
+        err, _ = _errors(out, ref)
+        fetches = out[..., 3][ref.valid].mean()
+        assert np.percentile(err, 95) <= 0.06
+        assert fetches <= 14.0
+        if theta == 80:
+            base = renderers["natural"].render(TILED, cam, "relief", settings=fixed)
+            base_err, _ = _errors(base, ref)
+            assert (err > 1).mean() <= 0.008
+            assert (err > 1).mean() < 0.6 * (base_err > 1).mean()
+            assert fetches < base[..., 3][ref.valid].mean() - 3.0
+
+
 @pytest.mark.parametrize("theta", [30, 60, 80])
 def test_minmax_is_exact_on_thin_city_walls(renderers, city, theta):
     cam = _camera(theta, azimuth=20)

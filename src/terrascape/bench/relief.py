@@ -26,20 +26,25 @@ import numpy as np
 from terrascape.bench import BenchTable, best_of
 
 ANGLES = (30, 60, 70, 80)
+# The seed's relief mapping: 16 equal linear steps, 8 binary steps — the time baseline.
+RELIEF_16_8 = {"march": "fixed", "linear_steps": 16, "binary_steps": 8}
 TECHNIQUES: list[tuple[str, str, dict]] = [
     # (label, shader technique, settings)
     ("parallax", "parallax", {}),
     ("offset limiting", "offset_limiting", {}),
-    ("steep parallax 16", "steep", {}),
-    ("POM 16", "pom", {}),
-    ("relief 16+8", "relief", {}),
+    ("steep parallax 16", "steep", {"linear_steps": 16}),
+    ("POM 16", "pom", {"linear_steps": 16}),
+    ("relief 16+8", "relief", RELIEF_16_8),
+    # ReliefSettings() for "relief": the default mode (see ReliefSettings: march)
+    ("relief default: clearance steps Δs = gap/(1 + 0.025·L), 1.5 texels..1/16, + 4 binary",
+     "relief", {}),
     ("relief adaptive (1 texel, 16..256)+8", "relief",
-     {"adaptive": True, "step_texels": 1.0, "max_steps": 256}),
+     {"adaptive": True, "step_texels": 1.0, "max_steps": 256, "binary_steps": 8}),
     # the grazing-angle setting: steps follow the ray's length, three texels each
     ("relief adaptive (3 texels, 16..96)+8", "relief",
-     {"adaptive": True, "step_texels": 3.0, "max_steps": 96}),
-    ("interval 16+8", "interval", {}),
-    ("cone step 32+8", "cone", {"cone_steps": 32}),
+     {"adaptive": True, "step_texels": 3.0, "max_steps": 96, "binary_steps": 8}),
+    ("interval 16+8", "interval", {"linear_steps": 16, "binary_steps": 8}),
+    ("cone step 32+8", "cone", {"cone_steps": 32, "binary_steps": 8}),
     ("min/max exact", "minmax", {}),
 ]
 
@@ -142,7 +147,7 @@ def quality_tables(ctx, *, tex=256, fb=512, depth=0.1, angles=ANGLES, quick=Fals
             for theta in angles:
                 cam = _camera(theta)
                 ref = reference_image(heights, quad, cam, fb, fb, light_dir=light)
-                base_ms = _time_draw(r, quad, cam, "relief", ReliefSettings())
+                base_ms = _time_draw(r, quad, cam, "relief", ReliefSettings(**RELIEF_16_8))
                 for label, tech, kw in TECHNIQUES:
                     st = ReliefSettings(**kw)
                     out = r.render(quad, cam, tech, settings=st)

@@ -35,6 +35,7 @@ TECHNIQUES: dict[str, int] = {
     "by_distance": 10,
 }
 OUTPUTS = {"colour": 0, "hit": 1, "shadow": 2}
+MARCHES = {"fixed": 0, "angle": 1, "clearance": 2}  # u_adaptive
 PROGRAM = "relief/quad"
 
 
@@ -48,13 +49,34 @@ class ReliefSettings:
 
     ``parallax_scale``/``parallax_bias`` default to ``depth``/``-depth``: the polygon is the
     top of the relief, as for the ray-marched techniques (so all are comparable).
+
+    Where relief mapping's linear search puts its samples (``march``; Policarpo et al. 2005
+    march equal steps, seed 000 §2.4.7):
+
+    * ``"fixed"``: ``linear_steps`` equal steps from depth 0 to 1 (the seed's relief 16+8
+      with ``binary_steps=8``);
+    * ``"angle"`` (or ``adaptive=True``): equal steps of ``step_texels`` texels of the ray's
+      length, ``linear_steps`` … ``max_steps`` of them;
+    * ``"clearance"`` (the default): at a sample the ray is ``g`` above the surface; the next
+      step is ``g / (1 + clearance_slope · L)`` in depth (``L`` = ray length in texels from
+      depth 0 to 1), the distance a surface of that slope (depth per texel) needs to reach
+      the ray — the sphere-tracing bound with a typical rather than maximal slope — clamped
+      to ``[min_step_texels texels, 1/linear_steps]``, at most ``max_steps`` steps. Long
+      steps where the ray is far above the surface, short ones where it grazes crests, which
+      equal steps skip. Then ``binary_steps`` binary steps as always.
+
+    Steep parallax, POM and interval mapping use equal steps (``"clearance"`` counts as
+    ``"fixed"`` for them).
     """
 
     linear_steps: int = 16
-    binary_steps: int = 8
+    binary_steps: int = 4
     adaptive: bool = False
     step_texels: float = 2.0
     max_steps: int = 128
+    march: str = "clearance"
+    clearance_slope: float = 0.025
+    min_step_texels: float = 1.5
     cone_steps: int = 32
     shadow_steps: int = 16
     shadows: bool = False
@@ -72,6 +94,15 @@ class ReliefSettings:
         check_int(self.max_iterations, "max_iterations", minimum=1, maximum=1 << 20)
         check_positive(self.step_texels, "step_texels")
         check_positive(self.dist_band, "dist_band")
+        if self.march not in MARCHES:
+            raise InvalidParameterError(
+                f"march must be one of {', '.join(MARCHES)}, got {self.march!r}")
+        if self.adaptive:
+            object.__setattr__(self, "march", "angle")
+        if not self.clearance_slope >= 0.0:
+            raise InvalidParameterError(
+                f"clearance_slope must be >= 0, got {self.clearance_slope!r}")
+        check_positive(self.min_step_texels, "min_step_texels")
 
     def uniforms(self, depth: float) -> dict:
         scale = depth if self.parallax_scale is None else self.parallax_scale
@@ -82,7 +113,9 @@ class ReliefSettings:
             "u_parallax_bias": bias,
             "u_linear_steps": self.linear_steps,
             "u_binary_steps": self.binary_steps,
-            "u_adaptive": int(self.adaptive),
+            "u_adaptive": MARCHES[self.march],
+            "u_clearance_slope": self.clearance_slope,
+            "u_min_step_texels": self.min_step_texels,
             "u_step_texels": self.step_texels,
             "u_max_steps": self.max_steps,
             "u_cone_steps": self.cone_steps,

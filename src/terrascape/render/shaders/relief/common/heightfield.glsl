@@ -27,9 +27,12 @@ uniform float u_parallax_scale;    // h' = scale * h + bias (R3, R4)
 uniform float u_parallax_bias;
 uniform int u_linear_steps;        // relief / interval / steep / POM linear search (R6)
 uniform int u_binary_steps;        // relief binary steps (~8, §2.4.7) / interval secant steps
-uniform int u_adaptive;            // 1: linear step count follows the ray's texel length (R5)
+uniform int u_adaptive;            // 1: linear step count follows the ray's texel length (R5);
+                                   // 2: relief only, clearance-scaled steps (trace_relief)
 uniform float u_step_texels;       // adaptive: target linear step length in texels
 uniform int u_max_steps;           // adaptive: upper bound of the linear step count
+uniform float u_clearance_slope;   // clearance steps: assumed surface slope (depth / texel)
+uniform float u_min_step_texels;   // clearance steps: shortest step, in texels
 uniform int u_cone_steps;          // cone step mapping iterations
 uniform int u_shadow_steps;        // self-shadowing linear steps toward the light (R7)
 
@@ -96,7 +99,7 @@ vec3 trace_offset_limiting(vec2 uv0, vec3 V) {
 // --- ray-marched family (R5, R6, R8) -------------------------------------------------------
 
 int relief_linear_count(vec2 ds) {
-    if (u_adaptive == 0) {
+    if (u_adaptive != 1) {
         return max(u_linear_steps, 1);
     }
     // Angle-adaptive: as many steps as the ray's horizontal length in texels / step length,
@@ -145,18 +148,65 @@ vec3 trace_pom(vec2 uv0, vec2 ds) {
 }
 
 // Relief mapping: linear search then binary search (Policarpo et al. 2005, §2.4.6–2.4.7).
+//
+// The linear search walks the ray from depth 0 toward depth 1 and stops at the first sample
+// under the surface; the binary search then halves the bracket [last outside, first inside]
+// u_binary_steps times. Where the linear samples sit (u_adaptive):
+//   0: n = u_linear_steps equal steps (the seed's "δ times the length AB");
+//   1: equal steps, n from the ray's length in texels (u_step_texels per step);
+//   2: clearance-scaled steps. At a sample outside the surface the ray is g = depth − s above
+//      it; a surface of slope G (depth per texel) can rise to meet a ray that descends
+//      1/L per texel (L = ray length in texels from depth 0 to 1) only after
+//      Δs = g / (1 + G·L) — the sphere-tracing bound (Hart 1996) with a global Lipschitz
+//      constant. G = u_clearance_slope is a *typical* slope, not the maximum, so steps are
+//      long far above the surface and short where the ray grazes it (where a fixed step
+//      skips thin crests, the > 1 texel errors of relief 16+8 at 70°); each step is kept in
+//      [u_min_step_texels texels, 1/u_linear_steps] and at most u_max_steps are taken.
+// Two samples are known without a fetch: s = 0 lies on the polygon (under the surface only
+// where the depth there is 0, which the binary search from 0 then finds) and s = 1 is always
+// under or on it (depth <= 1).
+vec2 relief_linear_search(vec2 uv0, vec2 ds) {
+    if (u_adaptive == 2) {
+        float texels = length(ds * vec2(textureSize(u_relief, 0)));
+        float max_step = 1.0 / float(max(u_linear_steps, 1));
+        float min_step = min(u_min_step_texels / max(texels, 1e-6), max_step);
+        float k = 1.0 / (1.0 + u_clearance_slope * texels);
+        float s_out = 0.0;
+        float s = max_step;  // no clearance known at s = 0: the longest step
+        for (int i = 0; i < u_max_steps; ++i) {
+            if (s >= 1.0) {
+                return vec2(s_out, 1.0);
+            }
+            float gap = relief_depth(uv0 + s * ds) - s;
+            if (gap <= 0.0) {
+                return vec2(s_out, s);
+            }
+            s_out = s;
+            s += clamp(gap * k, min_step, max_step);
+        }
+        return vec2(s_out, 1.0);  // step budget spent: bracket the rest of the ray
+    }
+    int n = relief_linear_count(ds);
+    float step_s = 1.0 / float(n);
+    for (int i = 1; i < n; ++i) {
+        float s = float(i) * step_s;
+        if (s >= relief_depth(uv0 + s * ds)) {
+            return vec2(s - step_s, s);
+        }
+    }
+    return vec2(1.0 - step_s, 1.0);
+}
+
 vec3 trace_relief(vec2 uv0, vec2 ds) {
-    vec4 b = linear_bracket(uv0, ds, relief_linear_count(ds));
+    vec2 b = relief_linear_search(uv0, ds);
     float lo = b.x;
     float hi = b.y;
-    if (hi > lo) {
-        for (int i = 0; i < u_binary_steps; ++i) {
-            float mid = 0.5 * (lo + hi);
-            if (mid >= relief_depth(uv0 + mid * ds)) {
-                hi = mid;
-            } else {
-                lo = mid;
-            }
+    for (int i = 0; i < u_binary_steps; ++i) {
+        float mid = 0.5 * (lo + hi);
+        if (mid >= relief_depth(uv0 + mid * ds)) {
+            hi = mid;
+        } else {
+            lo = mid;
         }
     }
     float s = 0.5 * (lo + hi);
