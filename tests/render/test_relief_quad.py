@@ -186,6 +186,34 @@ def test_self_shadowing_against_exact(renderers, natural):
     assert not off[..., 0].any()
 
 
+@pytest.mark.parametrize(("field", "bound"), [("natural", 0.02), ("city", 0.06)])
+def test_relief_shadow_march_matches_exact_shadow_at_its_own_hit(renderers, natural, city,
+                                                                 field, bound):
+    # The shadow march (R7) starts on the surface at the hit's uv and steps one texel of the
+    # light ray: compared with the exact shadow of that same surface point it never shadows a
+    # lit point (no self-shadowing from the search's depth error) and misses only light rays
+    # that clip an edge by less than a step.
+    from terrascape.relief.reference import light_slope, shadow_exact
+    from terrascape.render.relief_quad import ReliefSettings
+
+    heights = {"natural": natural, "city": city}[field]
+    light = (0.8, 0.35, 0.2)
+    st = ReliefSettings(shadows=True)
+    for theta in (45, 70):
+        cam = _camera(theta)
+        v = quad_entry(TILED, cam, FB, FB)[2]
+        hit = renderers[field].render(TILED, cam, "relief", settings=st)
+        mine = renderers[field].render(TILED, cam, "relief", settings=st, output="shadow",
+                                       light_dir=light)[..., 0] > 0.5
+        uv = np.where(v[..., None], hit[..., :2].astype(np.float64), np.nan)
+        surface = 1.0 - sample_bilinear(heights, np.nan_to_num(uv), wrap=True)
+        exact = shadow_exact(heights, uv, np.where(v, surface, np.nan),
+                             light_slope(TILED, cam.eye, light))
+        assert 0.03 < exact[v].mean() < 0.9
+        assert (mine != exact)[v].mean() <= bound
+        assert (mine & ~exact)[v].mean() <= 0.001
+
+
 def test_runtime_uniforms_change_the_result(renderers, city):
     from terrascape.render.relief_quad import ReliefSettings
 

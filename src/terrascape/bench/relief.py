@@ -186,8 +186,11 @@ def quality_tables(ctx, *, tex=256, fb=512, depth=0.1, angles=ANGLES, quick=Fals
         "llvmpipe timings (CPU rasteriser, 2 shared cores): best of 3 after a warm-up",
     ]
     shadow.notes += [
-        "relief: 16 linear steps from the hit toward the light; min/max: exact hierarchical "
-        "march toward the light",
+        "relief (default mode): from the surface point at the hit's uv toward the light in "
+        "steps of one texel of the light ray, at most 16; min/max: exact hierarchical march "
+        "toward the light",
+        "both are measured at their own view hit: where the view ray missed a thin wall, the "
+        "shadow of the wrong point is compared with the exact one",
         "shadow cost = (time with shadow − time without) / relief 16+8 time",
     ]
     if quick:

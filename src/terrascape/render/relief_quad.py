@@ -79,6 +79,7 @@ class ReliefSettings:
     min_step_texels: float = 1.5
     cone_steps: int = 32
     shadow_steps: int = 16
+    shadow_step_texels: float = 1.0
     shadows: bool = False
     parallax_scale: float | None = None
     parallax_bias: float | None = None
@@ -103,6 +104,7 @@ class ReliefSettings:
             raise InvalidParameterError(
                 f"clearance_slope must be >= 0, got {self.clearance_slope!r}")
         check_positive(self.min_step_texels, "min_step_texels")
+        check_positive(self.shadow_step_texels, "shadow_step_texels")
 
     def uniforms(self, depth: float) -> dict:
         scale = depth if self.parallax_scale is None else self.parallax_scale
@@ -120,6 +122,7 @@ class ReliefSettings:
             "u_max_steps": self.max_steps,
             "u_cone_steps": self.cone_steps,
             "u_shadow_steps": self.shadow_steps,
+            "u_shadow_step_texels": self.shadow_step_texels,
             "u_shadows": int(self.shadows),
             "u_max_iterations": self.max_iterations,
             "u_dist_relief": self.dist_relief,

@@ -34,7 +34,11 @@ uniform int u_max_steps;           // adaptive: upper bound of the linear step c
 uniform float u_clearance_slope;   // clearance steps: assumed surface slope (depth / texel)
 uniform float u_min_step_texels;   // clearance steps: shortest step, in texels
 uniform int u_cone_steps;          // cone step mapping iterations
-uniform int u_shadow_steps;        // self-shadowing linear steps toward the light (R7)
+uniform int u_shadow_steps;        // self-shadowing: most linear steps toward the light (R7)
+uniform float u_shadow_step_texels; // self-shadowing: step length in texels (0: u_shadow_steps)
+#ifndef SHADOW_TOL
+#define SHADOW_TOL 1e-3
+#endif
 
 #if TECHNIQUE == TECH_CONE
 uniform sampler2D u_cone;          // NEAREST: R = apex depth, G = cone ratio (UV / depth)
@@ -408,12 +412,24 @@ float relief_shadow(vec3 hit, vec2 lds) {
 #else
     // March from the hit toward the light (Policarpo 2005 traces the same segment from the
     // light's entry point); in shadow if a sample lies under the surface.
-    int n = max(u_shadow_steps, 1);
-    float step_s = hit.z / float(n);
-    for (int i = 1; i <= n; ++i) {
-        float t = float(i) * step_s - 0.5 * step_s;
-        float s = hit.z - t;
-        if (s > relief_depth(hit.xy + t * lds) + 1e-3) {
+    // The start is the surface point at the hit's uv: the search's hit lies up to half its
+    // last bracket inside or above the surface, and on a steep face that is a large depth
+    // error (a start inside the face shadows itself, one above it misses the face's own
+    // occluders). The reference (terrascape.relief.reference.shadow_exact) also starts on
+    // the surface and calls a point shadowed when any point of its light ray is under it.
+    // Steps are u_shadow_step_texels texels of the light ray's horizontal length (thin
+    // walls are one texel), at most u_shadow_steps of them; samples at step midpoints.
+    float s0 = relief_depth(hit.xy);
+    if (s0 <= 1e-4) {
+        return 0.0;
+    }
+    float texels = s0 * length(lds * vec2(textureSize(u_relief, 0)));
+    int n = clamp(int(ceil(texels / max(u_shadow_step_texels, 0.05))), 1,
+                  max(u_shadow_steps, 1));
+    float step_t = s0 / float(n);
+    for (int i = 0; i < n; ++i) {
+        float t = (float(i) + 0.5) * step_t;
+        if (s0 - t > relief_depth(hit.xy + t * lds) + SHADOW_TOL) {
             return 1.0;
         }
     }
