@@ -58,3 +58,21 @@ def test_minmax_mip_bounds_every_cell():
     assert levels[-1][0, 0, 0] == d.min() and levels[-1][0, 0, 1] == d.max()
     with pytest.raises(HeightmapSizeError):
         minmax_mip(np.zeros((24, 24)))
+
+
+def test_packed_minmax_mip_one_texel_per_node():
+    # The quad tracer's single RGBA chain: level 0 = the four corner depths of each cell,
+    # higher levels (min, max, min, max); the channel minimum is the node bound everywhere.
+    from terrascape.relief.minmax_mip import cell_corners, packed_minmax_mip
+
+    h = natural_field(16, seed=4)
+    levels = minmax_mip(h)
+    packed = packed_minmax_mip(h)
+    assert [p.shape for p in packed] == [(lv.shape[0], lv.shape[1], 4) for lv in levels]
+    d = 1.0 - h
+    c = cell_corners(h)
+    np.testing.assert_allclose(c[3, 5], [d[3, 5], d[3, 6], d[4, 5], d[4, 6]], rtol=1e-6)
+    np.testing.assert_allclose(c[15, 15], [d[15, 15], d[15, 0], d[0, 15], d[0, 0]], rtol=1e-6)
+    for p, lv in zip(packed, levels, strict=True):
+        np.testing.assert_array_equal(p.min(axis=-1), lv[..., 0])
+    np.testing.assert_array_equal(packed[2][..., 2:], levels[2])

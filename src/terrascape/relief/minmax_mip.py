@@ -56,4 +56,28 @@ def minmax_mip(heights) -> list[np.ndarray]:
     return levels
 
 
-__all__ = ["minmax_mip"]
+def cell_corners(heights) -> np.ndarray:
+    """float32 ``(n, n, 4)``: the depths of cell ``(i, j)``'s corner texels ``(i, j)``,
+    ``(i + 1, j)``, ``(i, j + 1)``, ``(i + 1, j + 1)`` (x = column first), wrapping — one
+    texel holds a whole bilinear cell."""
+    depth = heights_to_depth(heights)
+    right = np.roll(depth, -1, axis=1)
+    return np.stack([depth, right, np.roll(depth, -1, axis=0), np.roll(right, -1, axis=0)],
+                    axis=-1).astype(np.float32)
+
+
+def packed_minmax_mip(heights) -> list[np.ndarray]:
+    """The pyramid as one RGBA mip chain for a tracer that reads one texel per node.
+
+    ``levels[0]`` is :func:`cell_corners` (the exact cell test needs the corners, and their
+    minimum is the level-0 bound); ``levels[k]``, ``k >= 1``, is ``(min, max, min, max)``
+    of :func:`minmax_mip` level ``k``. The minimum of the four channels is the node's
+    minimum depth at every level, so the tracer's bound test does not branch on the level.
+    """
+    levels = minmax_mip(heights)
+    packed = [cell_corners(heights)]
+    packed += [np.ascontiguousarray(np.concatenate([lv, lv], axis=-1)) for lv in levels[1:]]
+    return packed
+
+
+__all__ = ["cell_corners", "minmax_mip", "packed_minmax_mip"]

@@ -244,7 +244,6 @@ class ReliefQuadRenderer:
             self._colour_tex.repeat_x = self._colour_tex.repeat_y = True
         self._cone_tex = None
         self._minmax_tex = None
-        self._cells_tex = None
         self._minmax_levels = 0
         self._colour_target = ctx.texture(self.size, 4, dtype="f4")
         self._depth_rb = ctx.depth_renderbuffer(self.size)
@@ -285,11 +284,13 @@ class ReliefQuadRenderer:
 
     def _ensure_minmax(self):
         if self._minmax_tex is None:
-            from terrascape.relief.minmax_mip import minmax_mip
+            from terrascape.relief.minmax_mip import packed_minmax_mip
 
-            levels = minmax_mip(self.heights)
+            # One RGBA chain (level 0 = cell corners): the tracer reads one texel per node
+            # (relief/common/heightfield.glsl, MINMAX_PACKED).
+            levels = packed_minmax_mip(self.heights)
             n = levels[0].shape[0]
-            tex = self.ctx.texture((n, n), 2, levels[0].tobytes(), dtype="f4")
+            tex = self.ctx.texture((n, n), 4, levels[0].tobytes(), dtype="f4")
             tex.build_mipmaps(0, len(levels) - 1)  # allocates the chain; overwritten below
             for k, lv in enumerate(levels[1:], start=1):
                 tex.write(np.ascontiguousarray(lv).tobytes(), level=k)
@@ -297,12 +298,6 @@ class ReliefQuadRenderer:
             tex.filter = (mgl.NEAREST_MIPMAP_NEAREST, mgl.NEAREST)
             self._minmax_tex = tex
             self._minmax_levels = len(levels)
-            d = 1.0 - self.heights
-            right = np.roll(d, -1, axis=1)
-            corners = np.stack([d, right, np.roll(d, -1, axis=0), np.roll(right, -1, axis=0)],
-                               axis=-1).astype(np.float32)
-            self._cells_tex = self.ctx.texture((n, n), 4, corners.tobytes(), dtype="f4")
-            self._cells_tex.filter = (mgl.NEAREST, mgl.NEAREST)
         return self._minmax_tex
 
     # --- rendering ------------------------------------------------------------------------
@@ -337,6 +332,8 @@ class ReliefQuadRenderer:
         from terrascape.render.shaders import set_uniforms
 
         settings = settings or ReliefSettings()
+        if technique == "minmax":
+            defines = {**(defines or {}), "MINMAX_PACKED": True}
         program, used = load_relief_program(self.ctx, technique, defines=defines)
         self.last_technique = used
         if abs(quad.depth - self._depth_for_normals) > 1e-12:
@@ -374,7 +371,6 @@ class ReliefQuadRenderer:
             units["u_cone"] = self._ensure_cone()
         if used == "minmax":
             units["u_minmax"] = self._ensure_minmax()
-            units["u_cells"] = self._cells_tex
             set_uniforms(program, u_minmax_levels=self._minmax_levels)
         if self._colour_tex is not None:
             units["u_colour"] = self._colour_tex
@@ -389,7 +385,6 @@ class ReliefQuadRenderer:
 
     def release(self) -> None:
         for obj in (self._relief_tex, self._colour_tex, self._cone_tex, self._minmax_tex,
-                    self._cells_tex,
                     self._colour_target, self._depth_rb, self.fbo, self._vbo,
                     *self._vaos.values()):
             if obj is not None:

@@ -44,7 +44,9 @@ uniform float u_shadow_step_texels; // self-shadowing: step length in texels (0:
 uniform sampler2D u_cone;          // NEAREST: R = apex depth, G = cone ratio (UV / depth)
 #endif
 #if TECHNIQUE == TECH_MINMAX
-uniform sampler2D u_minmax;        // level k: R = min depth, G = max depth of 2^k cells
+// Without MINMAX_PACKED: level k: R = min depth, G = max depth of 2^k cells; with it
+// (ReliefQuadRenderer), RGBA: level 0 = u_cells' corners, level k = (min, max, min, max).
+uniform sampler2D u_minmax;
 uniform sampler2D u_cells;         // cell (i, j): depths of texels (i,j), (i+1,j), (i,j+1), (i+1,j+1)
 uniform int u_minmax_levels;
 uniform int u_max_iterations;
@@ -289,99 +291,103 @@ vec3 trace_cone(vec2 uv0, vec2 ds) {
 #endif
 
 #if TECHNIQUE == TECH_MINMAX
-// Smallest root t in [0, t_max] of q.x t^2 + q.y t + q.z = 0 where the function crosses from
-// negative to non-negative; -1 if none.
-float first_root(vec3 q, float t_max) {
+// Smallest u in [0, u_max] where g(u) = q.x u^2 + q.y u + q.z crosses from negative to
+// non-negative; -1 if none. With g(0) = q.z < 0 that root is (-q.y + sqrt(disc)) / (2 q.x)
+// whatever the sign of q.x (convex: the one positive root; concave: the nearer of two),
+// written as 2 q.z / (-q.y - sqrt(disc)): one division, no cancellation for q.x -> 0 (it
+// tends to -q.z / q.y) and a negative or infinite value when there is no crossing ahead.
+float first_root(vec3 q, float u_max) {
     if (q.z >= 0.0) {
         return 0.0;
     }
-    float best = -1.0;
-    if (abs(q.x) < 1e-12) {
-        if (q.y > 0.0) {
-            best = -q.z / q.y;
-        }
-    } else {
-        float disc = q.y * q.y - 4.0 * q.x * q.z;
-        if (disc >= 0.0) {
-            float sq = sqrt(disc);
-            float qq = -0.5 * (q.y + (q.y >= 0.0 ? sq : -sq));
-            float r1 = qq / q.x;
-            float r2 = abs(qq) > 1e-30 ? q.z / qq : r1;
-            float lo_r = min(r1, r2);
-            float hi_r = max(r1, r2);
-            best = lo_r >= 0.0 ? lo_r : hi_r;
-        }
+    float disc = q.y * q.y - 4.0 * q.x * q.z;
+    if (disc < 0.0) {
+        return -1.0;
     }
-    return (best >= 0.0 && best <= t_max) ? best : -1.0;
+    float u = 2.0 * q.z / (-q.y - sqrt(disc));
+    return (u >= 0.0 && u <= u_max) ? u : -1.0;
 }
 
 // Exact hierarchical tracer over the min/max mip (Tevs et al. 2008): skip every node whose
 // shallowest point the ray does not reach; in a bilinear cell solve the quadratic exactly.
 // Ray: p(t) = p0 + t * d (texel-centre units), depth s(t) = s0 + sgn * t, t in [0, t_end].
 // Returns the first t where s(t) >= surface depth, or -1.
+//
+// Cost on a CPU rasteriser is ALU per visited node, so the walk keeps the node as an integer
+// index: leaving a node through its x or y face is node ± 1 on that axis (no floor of a
+// recomputed point), its parent is node >> 1, the exit distance uses a precomputed 1/d, and
+// only a descent (or a free fall inside a node) locates the point again. Level 0 reads the
+// cell's four corner depths (u_cells) instead of its min, so a cell costs one fetch.
+// The walk starts at level MINMAX_START (not at the level spanning the whole ray, whose
+// nodes hold the field's shallowest point and are always descended) and climbs one level
+// when it leaves its parent node (Tevs 2008's ascend rule).
+#ifndef MINMAX_START
+#define MINMAX_START 3
+#endif
 float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end) {
     ivec2 size = textureSize(u_relief, 0);
-    // Start no higher than the level whose nodes cover the whole ray: fewer descents.
     float span = length(d) * t_end + 2.0;
     int top = min(u_minmax_levels - 1, int(ceil(log2(span))));
-    int level = top;
+    int level = min(top, MINMAX_START);
     vec2 dir = vec2(d.x >= 0.0 ? 1.0 : -1.0, d.y >= 0.0 ? 1.0 : -1.0);
-    vec2 dd = dir * max(abs(d), vec2(1e-7));
+    vec2 inv_d = 1.0 / (dir * max(abs(d), vec2(1e-7)));
+    vec2 ahead = step(0.0, dir);
+    ivec2 idir = ivec2(dir);
+    vec2 nudge = dir * 1e-3;  // a point on a node border belongs to the node ahead
+    ivec2 node = ivec2(floor(p0 + nudge)) >> level;
     float t = 0.0;
     for (int it = 0; it < u_max_iterations; ++it) {
-        if (t >= t_end) {
-            return -1.0;
-        }
-        vec2 p = p0 + t * d;
-        float cells = float(1 << level);
-        // Nudge along the ray so a point on a node border belongs to the node ahead.
-        vec2 node = floor((p + dir * 1e-3) / cells);
-        ivec2 nsize = max(size >> level, ivec2(1));
-        ivec2 inode = ivec2(node);
         g_fetches += 1;
-        // Power-of-two sizes: & wraps negative indices too (two's complement). A level-0
-        // node is one bilinear cell: its four corner depths give the bound directly.
-        vec4 c4 = vec4(0.0);
-        float node_min;
-        if (level == 0) {
-            c4 = texelFetch(u_cells, inode & (size - 1), 0);
-            node_min = min(min(c4.r, c4.g), min(c4.b, c4.a));
-        } else {
-            node_min = texelFetch(u_minmax, inode & (nsize - 1), level).r;
-        }
-        vec2 bound = (node + step(0.0, dir)) * cells;
-        vec2 tb = (bound - p0) / dd;
+        float cells = float(1 << level);
+        vec2 tb = ((vec2(node) + ahead) * cells - p0) * inv_d;
         float t_exit = min(min(tb.x, tb.y), t_end);
-        float s_now = s0 + sgn * t;
-        float s_deepest = sgn > 0.0 ? s0 + sgn * t_exit : s_now;
-        bool skip = s_deepest < node_min;
-        if (!skip) {
-            if (sgn > 0.0 && s_now < node_min) {
-                t = (node_min - s0) / sgn;  // free fall to the node's highest point
+        // Power-of-two sizes: & wraps negative indices too (two's complement).
+        ivec2 wrapped = node & ((size >> level) - 1);
+#ifdef MINMAX_PACKED
+        // One RGBA mip chain: level 0 = the cell's corners, level k = (min, max, min, max).
+        vec4 c4 = texelFetch(u_minmax, wrapped, level);
+#else
+        vec4 c4 = level == 0 ? texelFetch(u_cells, wrapped, 0)
+                             : texelFetch(u_minmax, wrapped, level).rrrr;
+#endif
+        float node_min = min(min(c4.r, c4.g), min(c4.b, c4.a));
+        // Deepest point of the segment: its exit going down (view), its start going up.
+        float s_deep = s0 + sgn * (sgn > 0.0 ? t_exit : t);
+        if (s_deep >= node_min) {
+            if (sgn > 0.0) {
+                t = max(t, node_min - s0);  // free fall to the node's highest point
             }
             if (level > 0) {
                 level -= 1;
+                ivec2 child = ivec2(floor(p0 + t * d + nudge)) >> level;
+                node = clamp(child, node * 2, node * 2 + 1);
                 continue;
             }
             // Level 0: the bilinear cell with corners at texel centres node, node + 1.
-            float d00 = c4.r, d10 = c4.g, d01 = c4.b, d11 = c4.a;
-            vec2 f = p0 + t * d - node;           // local coordinates at the segment start
-            float a1 = d10 - d00, a2 = d01 - d00, a3 = d00 - d10 - d01 + d11;
+            float a1 = c4.g - c4.r, a2 = c4.b - c4.r, a3 = c4.r - c4.g - c4.b + c4.a;
+            vec2 f = p0 + t * d - vec2(node);     // local coordinates at the segment start
             // g(u) = s(t + u) - B(f + u d) as a quadratic in u.
             vec3 q = vec3(
                 -a3 * d.x * d.y,
                 sgn - (a1 * d.x + a2 * d.y + a3 * (f.x * d.y + f.y * d.x)),
-                (s0 + sgn * t) - (d00 + a1 * f.x + a2 * f.y + a3 * f.x * f.y));
+                (s0 + sgn * t) - (c4.r + a1 * f.x + a2 * f.y + a3 * f.x * f.y));
             float u = first_root(q, t_exit - t);
             if (u >= 0.0) {
                 return t + u;
             }
         }
-        // Leave the node; climb only when the ray also leaves the parent node.
+        if (t_exit >= t_end) {
+            return -1.0;
+        }
+        // Leave the node through the face the ray crosses first; climb one level when the
+        // next node has another parent.
         t = t_exit;
-        vec2 next = floor((p0 + t * d + dir * 1e-3) / cells);
-        if (level < top && any(notEqual(ivec2(next) >> 1, inode >> 1))) {
+        ivec2 next = node + (tb.x < tb.y ? ivec2(idir.x, 0) : ivec2(0, idir.y));
+        if (level < top && any(notEqual(next >> 1, node >> 1))) {
             level += 1;
+            node = next >> 1;
+        } else {
+            node = next;
         }
     }
     return t;  // iteration budget exhausted: best estimate so far
