@@ -56,6 +56,14 @@ def build_relief_texture(hm: Heightmap, params: Mapping[str, Any]) -> TextureDat
     return TextureData(data, repeat=True, mipmaps=True)
 
 
+def build_relief_height(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
+    """The height (A) channel of :func:`build_relief_texture` alone, one channel, same values
+    and mipmaps: the terrain program's ray march reads only heights, and on llvmpipe a
+    one-channel float texel costs a fraction of the RGBA one."""
+    data = relief_texture_data(_relief_heights(params), depth=float(params["depth"]), bits=16)
+    return TextureData(np.ascontiguousarray(data[..., 3]), repeat=True, mipmaps=True)
+
+
 def build_cone_map(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
     """Cone map of the same relief field (apex depth, cone ratio), sampled NEAREST
     (Dummer 2006 cone step mapping; :func:`terrascape.relief.cone_map.footprint_cone_map`)."""
@@ -86,6 +94,15 @@ RELIEF_DEFAULTS: dict[str, Any] = {
     "relief_size": 256,
     "relief_tint": 0.5,
     "ks": 0.15,
+    # Screen-space LOD of the terrain relief march (relief/terrain.glsl): linear steps of
+    # lod_step texels of the sampled mip level, binary steps down to lod_precision pixels,
+    # one parallax step (parallax: none) below lod_min_span pixels; the full counts where
+    # the texture is magnified. lod_nearest_mip: march the nearest mip level only.
+    "relief_lod": False,
+    "lod_step": 1.0,
+    "lod_precision": 0.25,
+    "lod_min_span": 0.5,
+    "lod_nearest_mip": False,
 }
 
 _SLOTS = (
@@ -94,6 +111,9 @@ _SLOTS = (
     TextureSlot("u_relief", build_relief_texture,
                 depends=("relief_field", "relief_size", "seed", "depth"),
                 description="tiled RGBA normal + height (16-bit) of the relief field"),
+    TextureSlot("u_relief_height", build_relief_height,
+                depends=("relief_field", "relief_size", "seed", "depth"),
+                description="the height channel of u_relief alone (the march's texture)"),
 )
 
 def build_minmax_pyramid(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
@@ -164,4 +184,23 @@ def register_relief_techniques(*, replace: bool = True) -> list[str]:
 
 register_relief_techniques()
 
-__all__ = ["RELIEF_DEFAULTS", "build_relief_texture", "register_relief_techniques"]
+
+def relief_variant(name: str, label: str | None = None, **defines: Any) -> Technique:
+    """An unregistered copy of the relief technique ``name`` with extra or replaced
+    ``#define``s, for benchmarks and tests (pass it to ``TerrainRenderer.render``):
+    ``TECHNIQUE=0`` maps the relief texture without displacement (the same textures,
+    normal mapping and lighting: the like-for-like "texture mapping" of seed 000 §2.7);
+    ``TERRAIN_OUTPUT_FETCHES=1`` draws each fragment's height fetches (R, count / 255) and
+    mip level (G, level / 16, 0 where magnified) instead of its colour."""
+    import dataclasses
+
+    from terrascape.render.techniques import get_technique
+
+    base = get_technique(name)
+    merged = {**base.defines, **defines}
+    tag = label or name + "".join(f"+{k}={v}" for k, v in sorted(defines.items()))
+    return dataclasses.replace(base, name=tag, defines=merged)
+
+
+__all__ = ["RELIEF_DEFAULTS", "build_relief_height", "build_relief_texture",
+           "register_relief_techniques", "relief_variant"]

@@ -15,6 +15,128 @@
 uniform sampler2D u_color_tex;   // colour texture, one texel per vertex (region_texture)
 uniform int u_self_shadow;       // R7 on/off
 uniform float u_relief_tint;     // how much the relief height darkens the albedo (0..1)
+// The A channel of u_relief alone (R32F: the same values and mip chain, so the same
+// surface): the march reads only heights, and a one-channel texel is a quarter of the
+// memory and filtering work of the RGBA32F one on llvmpipe.
+uniform sampler2D u_relief_height;
+// Screen-space level of detail of the relief march (terrain_relief_counts).
+uniform int u_relief_lod;        // 0: fixed counts (relief 16+8), 1: counts from the view
+uniform float u_lod_step;        // linear step length in texels of the sampled mip level
+uniform float u_lod_precision;   // binary search stops once the bracket is below this (px)
+uniform float u_lod_min_span;    // whole displacement below this (px): one parallax step
+uniform int u_lod_nearest_mip;   // 1: the LOD march reads the nearest mip level only
+
+float g_march_lod = 0.0;         // level of detail of the march's height fetches
+
+float terrain_depth(vec2 uv) {
+    g_fetches += 1;
+    return 1.0 - textureLod(u_relief_height, uv, g_march_lod).r;
+}
+
+// Parallax mapping Tn = Tv + h'·V.xy/V.z (seed 000 §2.3), the formula of trace_parallax
+// with V.xy/V.z = -ds/u_depth written out: no normalisation, the ratio does not need it.
+vec3 terrain_parallax(vec2 uv0, vec2 ds) {
+    float hs = (1.0 - terrain_depth(uv0)) * u_parallax_scale + u_parallax_bias;
+    float inv_depth = 1.0 / max(u_depth, 1e-6);
+    return vec3(uv0 - hs * inv_depth * ds, -hs * inv_depth);
+}
+
+// Parallax with the LOD fallback: where the largest shift |h'|·|V.xy/V.z| spans less than
+// u_lod_min_span pixels of the sampled mip level, the unshifted texture (no height fetch).
+vec3 terrain_parallax_trace(vec2 uv0, vec2 ds) {
+    g_march_lod = g_lod;
+    if (u_relief_lod != 0 && g_lod > 0.0) {
+        float reach = max(abs(u_parallax_bias), abs(u_parallax_scale + u_parallax_bias));
+        float span = reach / max(u_depth, 1e-6)
+            * length(ds * vec2(textureSize(u_relief_height, 0))) * exp2(-g_lod);
+        if (span < u_lod_min_span) {
+            return vec3(uv0, 0.0);
+        }
+    }
+    return terrain_parallax(uv0, ds);
+}
+
+// Relief mapping: n linear steps from depth 0 to 1, then k binary steps on the bracket
+// (Policarpo et al. 2005, seed 000 §2.4.6–2.4.7): the samples and the result of
+// linear_bracket + trace_relief in relief/common/heightfield.glsl, read from
+// u_relief_height. Both searches run in one loop of one fetch per iteration: llvmpipe runs a
+// loop until its last SIMD lane leaves it, so one loop costs max(linear + binary) over the
+// lanes instead of max(linear) + max(binary), and pays the loop's mask bookkeeping once.
+// first = 1 skips the sample at s = 0, which only finds texels of height exactly 1 (the
+// bracket [0, 1/n] then refines to them within the binary search's precision).
+vec3 terrain_relief(vec2 uv0, vec2 ds, int n, int k, int first) {
+    float step_s = 1.0 / float(n);
+    float lo = 0.0;
+    float hi = 1.0;
+    float s = float(first) * step_s;
+    int left = -1;  // binary steps still to take; -1 while the linear search runs
+    for (int i = first; i <= n + k + 1; ++i) {
+        // s >= 1 is always under the surface (depth <= 1), whatever the rounding of i/n.
+        bool inside = s >= 1.0 || s >= terrain_depth(uv0 + s * ds);
+        if (inside) {
+            hi = s;
+        } else {
+            lo = s;
+        }
+        if (left < 0) {
+            if (inside) {
+                // First sample under the surface; at s = 0 the ray enters at the top.
+                left = s > 0.0 ? k : 0;
+            }
+        } else {
+            left -= 1;
+        }
+        if (left == 0) {
+            break;
+        }
+        s = left < 0 ? min(float(i + 1) * step_s, 1.0) : 0.5 * (lo + hi);
+    }
+    s = 0.5 * (lo + hi);
+    return vec3(uv0 + s * ds, s);
+}
+
+// Step counts of the relief search. Without LOD: the fixed (or angle-adaptive) linear count
+// and u_binary_steps. With LOD — Tatarchuk 2006 picks the POM sample count and a fallback by
+// the sampled mip level; here the counts follow the ray's length on screen:
+//   span = texels of the *sampled* mip level that the ray crosses from depth 0 to 1, about
+//          pixels (level g_lod has 2^g_lod level-0 texels per pixel along the footprint's
+//          long axis, the direction in which the view foreshortens the parallax shift);
+//   linear steps of u_lod_step such texels, never more than without LOD: a finer step
+//          would resolve detail the mip level no longer holds;
+//   binary steps until the bracket is below u_lod_precision pixels;
+//   where the texture is magnified (g_lod <= 0) the full counts, so near views are the
+//   unchanged relief 16+8.
+// Returns (n, k); n = 0 means that the whole displacement is below u_lod_min_span pixels, so
+// that one parallax step is right to within that much.
+ivec2 terrain_relief_counts(vec2 ds) {
+    int n_full = relief_linear_count(ds);
+    if (u_relief_lod == 0 || g_lod <= 0.0) {
+        return ivec2(n_full, u_binary_steps);
+    }
+    float span = length(ds * vec2(textureSize(u_relief_height, 0))) * exp2(-g_lod);
+    if (span < u_lod_min_span) {
+        return ivec2(0, 0);
+    }
+    int n = clamp(int(ceil(span / max(u_lod_step, 0.05))), 1, n_full);
+    float bracket = span / float(n);
+    int k = int(ceil(log2(max(bracket / max(u_lod_precision, 1e-3), 1.0))));
+    return ivec2(n, clamp(k, 0, u_binary_steps));
+}
+
+vec3 terrain_relief_trace(vec2 uv0, vec2 ds) {
+    bool lod = u_relief_lod != 0 && g_lod > 0.0;
+    // Optionally march the nearest mip level (GL's *_MIPMAP_NEAREST rule) instead of the
+    // trilinear blend: one level's bilinear fetch instead of two, on a slightly different
+    // surface (the shading fetch at the hit stays trilinear).
+    g_march_lod = lod && u_lod_nearest_mip != 0 ? round(g_lod) : g_lod;
+    ivec2 nk = terrain_relief_counts(ds);
+    if (nk.x == 0) {
+        // Whole displacement below u_lod_min_span pixels: the hit at the entry texel's depth.
+        float s = terrain_depth(uv0);
+        return vec3(uv0 + s * ds, s);
+    }
+    return terrain_relief(uv0, ds, nk.x, nk.y, lod ? 1 : 0);
+}
 
 void main() {
     relief_begin(v_uv);
@@ -35,6 +157,10 @@ void main() {
     vec2 ds = dir.xy / max(dir.z, 0.125 * length(dir.xy) + 1e-6);
 #if TECHNIQUE == TECH_BY_DISTANCE
     vec3 hit = relief_trace_by_distance(v_uv, ds, distance(v_world, u_camera_pos));
+#elif TECHNIQUE == TECH_RELIEF
+    vec3 hit = terrain_relief_trace(v_uv, ds);
+#elif TECHNIQUE == TECH_PARALLAX
+    vec3 hit = terrain_parallax_trace(v_uv, ds);
 #else
     vec3 hit = relief_trace(v_uv, ds);
 #endif
@@ -59,5 +185,11 @@ void main() {
         color = mix(albedo * u_ka * u_ambient_color, phong(albedo, Nw, L, view_dir()), lit);
     }
     f_color = finish(color);
+#ifdef TERRAIN_OUTPUT_FETCHES
+    // Benchmark output: height fetches of this fragment (R) and its mip level / 16 (G; 0
+    // only where the texture is magnified, at least one step where it is minified).
+    float level = g_lod > 0.0 ? clamp(g_lod / 16.0, 1.0 / 255.0, 1.0) : 0.0;
+    f_color = vec4(float(g_fetches) / 255.0, level, 1.0, 1.0);
+#endif
 }
 #endif
