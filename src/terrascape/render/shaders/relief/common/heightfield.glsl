@@ -319,10 +319,9 @@ float first_root(vec3 q, float u_max) {
 // only a descent (or a free fall inside a node) locates the point again. Level 0 reads the
 // cell's four corner depths (u_cells) instead of its min, so a cell costs one fetch.
 // The walk starts at level MINMAX_START (not at the level spanning the whole ray, whose
-// nodes hold the field's shallowest point and are always descended) and climbs one level
-// when it leaves its parent node (Tevs 2008's ascend rule).
+// nodes hold the field's shallowest point and are always descended).
 #ifndef MINMAX_START
-#define MINMAX_START 3
+#define MINMAX_START 4
 #endif
 float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end) {
     ivec2 size = textureSize(u_relief, 0);
@@ -343,7 +342,7 @@ float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end) {
         float t_exit = min(min(tb.x, tb.y), t_end);
         // Power-of-two sizes: & wraps negative indices too (two's complement).
         ivec2 wrapped = node & ((size >> level) - 1);
-#ifdef MINMAX_PACKED
+#if defined MINMAX_PACKED
         // One RGBA mip chain: level 0 = the cell's corners, level k = (min, max, min, max).
         vec4 c4 = texelFetch(u_minmax, wrapped, level);
 #else
@@ -379,11 +378,13 @@ float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end) {
         if (t_exit >= t_end) {
             return -1.0;
         }
-        // Leave the node through the face the ray crosses first; climb one level when the
-        // next node has another parent.
+        // Leave the node through the face the ray crosses first. Climb one level only when
+        // the next node also has another grandparent: climbing at every parent border (Tevs
+        // 2008), or several levels at once, re-descends more often than it skips on these
+        // fields (more visited nodes, measured at 30–80°).
         t = t_exit;
         ivec2 next = node + (tb.x < tb.y ? ivec2(idir.x, 0) : ivec2(0, idir.y));
-        if (level < top && any(notEqual(next >> 1, node >> 1))) {
+        if (level < top && any(notEqual(next >> 2, node >> 2))) {
             level += 1;
             node = next >> 1;
         } else {
