@@ -7,7 +7,7 @@ import pytest
 
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
-from terrascape.mesh import grid_triangles, terrain_mesh
+from terrascape.mesh import banded_grid_triangles, grid_triangles, terrain_mesh
 
 
 def test_positions_and_uvs(rng):
@@ -84,3 +84,51 @@ def test_bad_arguments():
         terrain_mesh(np.zeros((3, 3)))
     with pytest.raises(InvalidParameterError, match="2\\*\\*k"):
         terrain_mesh(hm).chunks(10)
+
+
+def _vsplit_shaded(indices, segment=1024, slots=256):
+    """Vertices a 1024-index-segment, 256-slot direct-mapped vertex cache shades (the model
+    of Mesa's draw module vertex splitter, draw_pt_vsplit.c: hash = index % 256, cache
+    cleared per segment)."""
+    shaded = 0
+    for s in range(0, len(indices), segment):
+        cache = np.full(slots, -1, dtype=np.int64)
+        for v in indices[s : s + segment]:
+            if cache[v % slots] != v:
+                cache[v % slots] = v
+                shaded += 1
+    return shaded
+
+
+@pytest.mark.parametrize(
+    ("rows", "cols", "band"), [(2, 2, 8), (9, 17, 8), (33, 20, 5), (65, 65, 8)]
+)
+def test_banded_triangles_are_the_grid_triangles_reordered(rows, cols, band):
+    banded = banded_grid_triangles(rows, cols, band)
+    plain = grid_triangles(rows, cols)
+    assert banded.dtype == np.uint32 and banded.shape == plain.shape
+    # same triangles with the same vertex order (winding and diagonal), only the order differs
+    as_set = lambda t: {tuple(x) for x in t.tolist()}  # noqa: E731
+    assert as_set(banded) == as_set(plain)
+    assert len(as_set(banded)) == len(banded)
+
+
+def test_banded_order_shades_each_vertex_about_once():
+    # The renderer's 129² chunks: ~0.59 shaded vertices per triangle (0.5 is the floor for
+    # a grid); the grid order of a 1025-wide map re-shades 2 per triangle in the same cache.
+    banded = banded_grid_triangles(129, 129).reshape(-1)
+    assert _vsplit_shaded(banded) / (len(banded) // 3) < 0.62
+    wide = grid_triangles(1025, 1025, n_rows=9, n_cols=129).reshape(-1)
+    assert _vsplit_shaded(wide) / (len(wide) // 3) > 1.9
+
+
+def test_chunk_local_indices_address_the_chunk_vertices(rng):
+    hm = Heightmap(rng.random((40, 37)).astype(np.float32))
+    mesh = terrain_mesh(hm)
+    pos = mesh.positions.reshape(mesh.rows, mesh.cols, 3)
+    for c in mesh.chunks(17):
+        local = pos[c.rows_slice, c.cols_slice].reshape(-1, 3)
+        tri_local = local[c.local_indices().reshape(-1, 3)]
+        tri_grid = mesh.positions[c.indices().reshape(-1, 3)]
+        key = lambda t: sorted(map(tuple, t.reshape(-1, 9).tolist()))  # noqa: E731
+        assert key(tri_local) == key(tri_grid)

@@ -6,17 +6,21 @@ from terrascape.mesh.tangent_space import (
     tangent_frames,
 )
 from terrascape.mesh.terrain_mesh import (
+    DEFAULT_BAND,
     DEFAULT_CHUNK,
     MeshChunk,
     TerrainMesh,
+    banded_grid_triangles,
     grid_triangles,
     terrain_mesh,
 )
 
 __all__ = [
+    "DEFAULT_BAND",
     "DEFAULT_CHUNK",
     "MeshChunk",
     "TerrainMesh",
+    "banded_grid_triangles",
     "grid_triangles",
     "heightfield_tangent_frames",
     "orthonormalize_frame",

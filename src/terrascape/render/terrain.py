@@ -2,11 +2,16 @@
 it with a registered technique (seed 000 §2.6.4: mesh with tangents, shader constants set per
 frame, sky box; seed 001 §4.2: terrain drawn as tiles).
 
-* The vertex buffers (position, normal, tangent+w; 40 bytes per vertex) are uploaded once.
 * The full-resolution mesh is drawn as chunks of ``chunk_size`` vertices per side, each with
-  its own index buffer and bounding box culled against the view frustum.
+  its own bounding box culled against the view frustum. Their vertices (position, normal,
+  tangent+w; 40 bytes per vertex) are uploaded once, chunk after chunk, and each chunk's
+  triangles are indexed in the band order of
+  :func:`~terrascape.mesh.terrain_mesh.banded_grid_triangles`, which shades each vertex
+  about once in a small vertex cache (llvmpipe's front end, the bottleneck of a full
+  1025² frame, re-shaded 2 vertices per triangle with grid-order indices).
 * :meth:`TerrainRenderer.set_indices` replaces them with an index list of grid vertices
-  ``row·cols + col`` (a LOD algorithm's per-frame triangulation); ``None`` goes back.
+  ``row·cols + col`` (a LOD algorithm's per-frame triangulation); ``None`` goes back. The
+  grid-order vertex buffers it indexes are uploaded on its first call.
 * Textures are built on demand from the technique's :class:`~terrascape.render.techniques.
   TextureSlot` builders (or set explicitly with :meth:`set_texture`) and cached.
 """
@@ -26,7 +31,7 @@ from terrascape.camera import Camera
 from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.lighting.sun import sun_direction
-from terrascape.mesh import DEFAULT_CHUNK, terrain_mesh
+from terrascape.mesh import terrain_mesh
 from terrascape.render.context import current, describe_context
 from terrascape.render.shaders import load_program, set_uniforms
 from terrascape.render.techniques import (
@@ -45,6 +50,9 @@ _SAMPLER_TYPES = frozenset(
 # of different types share unit 0 (a draw-time GL_INVALID_OPERATION that drops the draw).
 _SPARE_UNIT = 16
 _FALLBACK = "plain"
+# Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
+# (129 ≢ 0, ±1 mod 256, llvmpipe's vertex-cache hash) with few draw calls (64 at 1025²).
+RENDER_CHUNK = 129
 
 
 class TechniqueFallbackWarning(UserWarning):
@@ -189,7 +197,7 @@ class TerrainRenderer:
     exaggeration
         Vertical scale baked into the vertex buffer (> 0).
     chunk_size
-        Vertices per chunk side (2**k + 1) for the full-resolution index buffers.
+        Vertices per chunk side (2**k + 1) of the full-resolution mesh.
     """
 
     @_current
@@ -199,7 +207,7 @@ class TerrainRenderer:
         heightmap: Heightmap,
         *,
         exaggeration: float = 1.0,
-        chunk_size: int = DEFAULT_CHUNK,
+        chunk_size: int = RENDER_CHUNK,
     ) -> None:
         if not isinstance(heightmap, Heightmap):
             raise InvalidParameterError(
@@ -210,13 +218,9 @@ class TerrainRenderer:
         self.exaggeration = check_positive(exaggeration, "exaggeration")
         self.limits = describe_context(ctx)
         self.mesh = mesh = terrain_mesh(heightmap, exaggeration=self.exaggeration)
-        self._vbos = [
-            ctx.buffer(mesh.positions.tobytes()),
-            ctx.buffer(mesh.normals.tobytes()),
-            ctx.buffer(mesh.tangents.tobytes()),
-        ]
         self.chunks = mesh.chunks(chunk_size)
-        self._chunk_ibos = [ctx.buffer(c.indices().tobytes()) for c in self.chunks]
+        self._chunk_vbos, self._chunk_ibos = self._upload_chunks()
+        self._grid_vbos: list[Any] | None = None  # for set_indices, uploaded on first use
         self._bbox = [(np.array(c.bbox_min), np.array(c.bbox_max)) for c in self.chunks]
         self._custom_ibo = None
         self._custom_count = 0
@@ -233,6 +237,35 @@ class TerrainRenderer:
         self.last_technique: str | None = None  # what the last frame really drew (R11)
 
     # --- geometry ------------------------------------------------------------------------
+    def _upload_chunks(self):
+        """Per chunk: its own vertex buffers (borders duplicated) and an index buffer in band
+        order, 16-bit where the chunk has at most 65,536 vertices (llvmpipe then also skips a
+        per-draw pass over 32-bit indices: 6 % of a full 1025² frame's front-end work)."""
+        mesh = self.mesh
+        grids = [
+            a.reshape(mesh.rows, mesh.cols, a.shape[-1])
+            for a in (mesh.positions, mesh.normals, mesh.tangents)
+        ]
+        vbos, ibos = [], []
+        for c in self.chunks:
+            vbos.append([
+                self.ctx.buffer(np.ascontiguousarray(g[c.rows_slice, c.cols_slice]).tobytes())
+                for g in grids
+            ])
+            idx = c.local_indices()
+            small = c.rows * c.cols <= 1 << 16
+            ibos.append((self.ctx.buffer(idx.astype(np.uint16 if small else np.uint32)
+                                         .tobytes()), 2 if small else 4))
+        return vbos, ibos
+
+    def _grid_buffers(self) -> list[Any]:
+        if self._grid_vbos is None:
+            m = self.mesh
+            self._grid_vbos = [
+                self.ctx.buffer(a.tobytes()) for a in (m.positions, m.normals, m.tangents)
+            ]
+        return self._grid_vbos
+
     @_current
     def set_indices(self, indices: np.ndarray | None) -> None:
         """Draw these triangles (grid-vertex indices ``row·cols + col``) instead of the full
@@ -271,14 +304,17 @@ class TerrainRenderer:
         key = (program.glo, which)
         vao = self._vaos.get(key)
         if vao is None:
-            ibo = self._custom_ibo if which == "custom" else self._chunk_ibos[which]
+            if which == "custom":
+                (ibo, index_size), vbos = (self._custom_ibo, 4), self._grid_buffers()
+            else:
+                (ibo, index_size), vbos = self._chunk_ibos[which], self._chunk_vbos[which]
             content = [
-                (self._vbos[0], "3f", "in_position"),
-                (self._vbos[1], "3f", "in_normal"),
-                (self._vbos[2], "4f", "in_tangent"),
+                (vbos[0], "3f", "in_position"),
+                (vbos[1], "3f", "in_normal"),
+                (vbos[2], "4f", "in_tangent"),
             ]
             # Programs may not use every attribute (e.g. the wireframe pass): skip_errors.
-            vao = self.ctx.vertex_array(program, content, ibo, 4, skip_errors=True)
+            vao = self.ctx.vertex_array(program, content, ibo, index_size, skip_errors=True)
             self._vaos[key] = vao
         return vao
 
@@ -586,8 +622,11 @@ class TerrainRenderer:
         for vao in self._vaos.values():
             vao.release()
         self._vaos.clear()
-        for buf in [*self._vbos, *self._chunk_ibos]:
+        chunk_bufs = [b for vbos in self._chunk_vbos for b in vbos]
+        chunk_bufs += [ibo for ibo, _ in self._chunk_ibos]
+        for buf in [*chunk_bufs, *(self._grid_vbos or [])]:
             buf.release()
+        self._grid_vbos = None
         if self._custom_ibo is not None:
             self._custom_ibo.release()
         for tex, _ in self._textures.values():
@@ -617,6 +656,7 @@ def check_output_size(ctx, size: Any) -> tuple[int, int]:
 
 
 __all__ = [
+    "RENDER_CHUNK",
     "TechniqueFallbackWarning",
     "TerrainRenderer",
     "as_texture_data",
