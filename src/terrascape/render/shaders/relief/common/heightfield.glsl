@@ -357,9 +357,12 @@ float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end) {
                 t = max(t, node_min - s0);  // free fall to the node's highest point
             }
             if (level > 0) {
-                level -= 1;
+                // Down two levels at once: the intermediate node's test costs a visit and
+                // rarely skips what its four children would not (fewer visits at 30–80°).
+                int down = min(level, 2);
+                level -= down;
                 ivec2 child = ivec2(floor(p0 + t * d + nudge)) >> level;
-                node = clamp(child, node * 2, node * 2 + 1);
+                node = clamp(child, node << down, (node << down) + ((1 << down) - 1));
                 continue;
             }
             // Level 0: the bilinear cell with corners at texel centres node, node + 1.
