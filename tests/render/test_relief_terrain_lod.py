@@ -55,8 +55,8 @@ def test_height_texture_is_the_alpha_channel_of_the_relief_texture():
 def test_lod_equals_full_relief_where_the_texture_is_magnified(scene):
     # Close, oblique view: most relief texels cover several pixels (mip level <= 0).
     cam = Camera.look_at((4.0, 6.0, 4.0), (12.0, 0.0, 12.0), aspect=1.6, fov_y=50)
-    full = _draw(scene, cam, "relief", uv_scale=2.0)
-    lod = _draw(scene, cam, "relief", uv_scale=2.0, relief_lod=True)
+    full = _draw(scene, cam, "relief", uv_scale=2.0, relief_lod=False)
+    lod = _draw(scene, cam, "relief", uv_scale=2.0)  # the default
     _, level, terrain = _fetches(scene, cam, uv_scale=2.0)
     magnified = terrain & (level == 0.0)
     assert magnified.mean() > 0.3
@@ -69,10 +69,10 @@ def test_lod_stays_close_to_full_relief_where_minified_with_fewer_fetches(scene)
                         aspect=1.6)
     # Relief texels of mip level ~3.6, rays of a few pixels: the LOD march does run.
     params = {"uv_scale": 8.0, "relief_field": "city", "depth": 0.2}
-    full = _draw(scene, cam, "relief", **params).astype(int)
-    lod = _draw(scene, cam, "relief", relief_lod=True, **params).astype(int)
-    n_full, level, terrain = _fetches(scene, cam, **params)
-    n_lod, _, _ = _fetches(scene, cam, relief_lod=True, **params)
+    full = _draw(scene, cam, "relief", relief_lod=False, **params).astype(int)
+    lod = _draw(scene, cam, "relief", **params).astype(int)  # the default
+    n_full, level, terrain = _fetches(scene, cam, relief_lod=False, **params)
+    n_lod, _, _ = _fetches(scene, cam, **params)
     assert terrain.mean() > 0.2 and np.median(level[terrain]) > 2.0  # minified
     diff = np.abs(full - lod)[..., :3].max(axis=-1)[terrain]
     assert diff.mean() < 1.5 and np.percentile(diff, 99) <= 6, (diff.mean(), diff.max())
@@ -93,11 +93,11 @@ def test_parallax_lod_skips_only_sub_pixel_shifts(scene):
                         aspect=1.6)
     # Shifts of a few pixels: the LOD keeps parallax as it is.
     wide = {"uv_scale": 4.0, "parallax_scale": 0.08, "parallax_bias": -0.08}
-    assert np.array_equal(_draw(scene, cam, "parallax", **wide),
-                          _draw(scene, cam, "parallax", relief_lod=True, **wide))
+    assert np.array_equal(_draw(scene, cam, "parallax", relief_lod=False, **wide),
+                          _draw(scene, cam, "parallax", **wide))
     # A shift far below a pixel: LOD draws the unshifted texture (no height fetch).
     tiny = {"uv_scale": 64.0, "parallax_scale": 1e-5, "parallax_bias": -1e-5, "depth": 0.08}
-    lod = _draw(scene, cam, "parallax", relief_lod=True, **tiny).astype(int)
+    lod = _draw(scene, cam, "parallax", **tiny).astype(int)
     from terrascape.render.relief_techniques import relief_variant
 
     flat = _draw(scene, cam, relief_variant("parallax", TECHNIQUE=0), **tiny).astype(int)

@@ -24,7 +24,7 @@ uniform int u_relief_lod;        // 0: fixed counts (relief 16+8), 1: counts fro
 uniform float u_lod_step;        // linear step length in texels of the sampled mip level
 uniform float u_lod_precision;   // binary search stops once the bracket is below this (px)
 uniform float u_lod_min_span;    // whole displacement below this (px): one parallax step
-uniform int u_lod_nearest_mip;   // 1: the LOD march reads the nearest mip level only
+uniform float u_lod_nearest_from; // LOD march from this mip level on: nearest level only
 
 float g_march_lod = 0.0;         // level of detail of the march's height fetches
 
@@ -62,17 +62,20 @@ vec3 terrain_parallax_trace(vec2 uv0, vec2 ds) {
 // u_relief_height. Both searches run in one loop of one fetch per iteration: llvmpipe runs a
 // loop until its last SIMD lane leaves it, so one loop costs max(linear + binary) over the
 // lanes instead of max(linear) + max(binary), and pays the loop's mask bookkeeping once.
+// The bottom (s = 1) is never fetched: depth <= 1, so it is always under the surface.
 // first = 1 skips the sample at s = 0, which only finds texels of height exactly 1 (the
 // bracket [0, 1/n] then refines to them within the binary search's precision).
 vec3 terrain_relief(vec2 uv0, vec2 ds, int n, int k, int first) {
     float step_s = 1.0 / float(n);
     float lo = 0.0;
     float hi = 1.0;
-    float s = float(first) * step_s;
     int left = -1;  // binary steps still to take; -1 while the linear search runs
-    for (int i = first; i <= n + k + 1; ++i) {
-        // s >= 1 is always under the surface (depth <= 1), whatever the rounding of i/n.
-        bool inside = s >= 1.0 || s >= terrain_depth(uv0 + s * ds);
+    if (first >= n) {
+        left = k;  // no linear sample above the bottom: the bracket is [0, 1]
+    }
+    float s = left < 0 ? float(first) * step_s : 0.5;
+    for (int i = first; i <= n + k && left != 0; ++i) {
+        bool inside = s >= terrain_depth(uv0 + s * ds);
         if (inside) {
             hi = s;
         } else {
@@ -82,14 +85,13 @@ vec3 terrain_relief(vec2 uv0, vec2 ds, int n, int k, int first) {
             if (inside) {
                 // First sample under the surface; at s = 0 the ray enters at the top.
                 left = s > 0.0 ? k : 0;
+            } else if (i + 1 >= n) {
+                left = k;  // the next linear sample would be the bottom: bracket [s, 1]
             }
         } else {
             left -= 1;
         }
-        if (left == 0) {
-            break;
-        }
-        s = left < 0 ? min(float(i + 1) * step_s, 1.0) : 0.5 * (lo + hi);
+        s = left < 0 ? float(i + 1) * step_s : 0.5 * (lo + hi);
     }
     s = 0.5 * (lo + hi);
     return vec3(uv0 + s * ds, s);
@@ -125,10 +127,12 @@ ivec2 terrain_relief_counts(vec2 ds) {
 
 vec3 terrain_relief_trace(vec2 uv0, vec2 ds) {
     bool lod = u_relief_lod != 0 && g_lod > 0.0;
-    // Optionally march the nearest mip level (GL's *_MIPMAP_NEAREST rule) instead of the
-    // trilinear blend: one level's bilinear fetch instead of two, on a slightly different
-    // surface (the shading fetch at the hit stays trilinear).
-    g_march_lod = lod && u_lod_nearest_mip != 0 ? round(g_lod) : g_lod;
+    // Far enough (mip level >= u_lod_nearest_from; < 0: never) the march reads the nearest
+    // mip level (GL's *_MIPMAP_NEAREST rule) instead of the trilinear blend: one level's
+    // bilinear fetch instead of two, on a slightly different surface where texels are a
+    // fraction of a pixel (the shading fetch at the hit stays trilinear).
+    bool nearest = lod && u_lod_nearest_from >= 0.0 && g_lod >= u_lod_nearest_from;
+    g_march_lod = nearest ? round(g_lod) : g_lod;
     ivec2 nk = terrain_relief_counts(ds);
     if (nk.x == 0) {
         // Whole displacement below u_lod_min_span pixels: the hit at the entry texel's depth.
