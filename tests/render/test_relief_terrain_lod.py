@@ -91,10 +91,16 @@ def test_parallax_lod_skips_only_sub_pixel_shifts(scene):
     hm = scene[3]
     cam = frame_terrain(hm.extent, (hm.min, hm.max), azimuth=210.0, elevation=35.0,
                         aspect=1.6)
-    # Shifts of a few pixels: the LOD keeps parallax as it is.
+    # Shifts of a few pixels: the LOD keeps parallax as it is (trilinear height fetch) ...
     wide = {"uv_scale": 4.0, "parallax_scale": 0.08, "parallax_bias": -0.08}
-    assert np.array_equal(_draw(scene, cam, "parallax", relief_lod=False, **wide),
-                          _draw(scene, cam, "parallax", **wide))
+    full = _draw(scene, cam, "parallax", relief_lod=False, **wide)
+    assert np.array_equal(full, _draw(scene, cam, "parallax", lod_nearest_from=-1.0, **wide))
+    # ... and with the default nearest mip far away, within a few levels.
+    _, level, terrain = _fetches(scene, cam, **wide)
+    assert (level[terrain] >= 3.0).mean() > 0.2
+    diff = np.abs(full.astype(int) - _draw(scene, cam, "parallax", **wide))[..., :3]
+    diff = diff.max(axis=-1)[terrain]
+    assert diff.mean() < 1.0 and (diff > 4).mean() < 0.01, (diff.mean(), (diff > 4).mean())
     # A shift far below a pixel: LOD draws the unshifted texture (no height fetch).
     tiny = {"uv_scale": 64.0, "parallax_scale": 1e-5, "parallax_bias": -1e-5, "depth": 0.08}
     lod = _draw(scene, cam, "parallax", **tiny).astype(int)

@@ -43,8 +43,18 @@ vec3 terrain_parallax(vec2 uv0, vec2 ds) {
 
 // Parallax with the LOD fallback: where the largest shift |h'|·|V.xy/V.z| spans less than
 // u_lod_min_span pixels of the sampled mip level, the unshifted texture (no height fetch).
+// The height fetches' level of detail: g_lod, or with LOD from mip level
+// u_lod_nearest_from on (< 0: never) the nearest mip level (GL's *_MIPMAP_NEAREST rule): one
+// level's bilinear fetch instead of two, on a slightly different surface where texels are a
+// fraction of a pixel. The shading fetch at the hit stays trilinear.
+float terrain_march_lod() {
+    bool nearest = u_relief_lod != 0 && u_lod_nearest_from >= 0.0 && g_lod > 0.0
+        && g_lod >= u_lod_nearest_from;
+    return nearest ? round(g_lod) : g_lod;
+}
+
 vec3 terrain_parallax_trace(vec2 uv0, vec2 ds) {
-    g_march_lod = g_lod;
+    g_march_lod = terrain_march_lod();
     if (u_relief_lod != 0 && g_lod > 0.0) {
         float reach = max(abs(u_parallax_bias), abs(u_parallax_scale + u_parallax_bias));
         float span = reach / max(u_depth, 1e-6)
@@ -127,12 +137,7 @@ ivec2 terrain_relief_counts(vec2 ds) {
 
 vec3 terrain_relief_trace(vec2 uv0, vec2 ds) {
     bool lod = u_relief_lod != 0 && g_lod > 0.0;
-    // Far enough (mip level >= u_lod_nearest_from; < 0: never) the march reads the nearest
-    // mip level (GL's *_MIPMAP_NEAREST rule) instead of the trilinear blend: one level's
-    // bilinear fetch instead of two, on a slightly different surface where texels are a
-    // fraction of a pixel (the shading fetch at the hit stays trilinear).
-    bool nearest = lod && u_lod_nearest_from >= 0.0 && g_lod >= u_lod_nearest_from;
-    g_march_lod = nearest ? round(g_lod) : g_lod;
+    g_march_lod = terrain_march_lod();
     ivec2 nk = terrain_relief_counts(ds);
     if (nk.x == 0) {
         // Whole displacement below u_lod_min_span pixels: the hit at the entry texel's depth.
