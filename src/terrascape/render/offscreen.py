@@ -85,6 +85,7 @@ class OffscreenRenderer:
         size=(1280, 720),
         exaggeration=1.0,
         chunk_size: int | None = None,
+        small_triangle_cull: bool | None = None,
     ) -> None:
         from terrascape.render.terrain import TerrainRenderer, check_output_size
 
@@ -95,7 +96,8 @@ class OffscreenRenderer:
         self.ctx = ctx
         self.size = check_output_size(ctx, size)
         kwargs = {} if chunk_size is None else {"chunk_size": chunk_size}
-        self.terrain = TerrainRenderer(ctx, heightmap, exaggeration=exaggeration, **kwargs)
+        self.terrain = TerrainRenderer(ctx, heightmap, exaggeration=exaggeration,
+                                       small_triangle_cull=small_triangle_cull, **kwargs)
         w, h = self.size
         self._color = ctx.renderbuffer((w, h), 4, samples=0)
         self._depth = ctx.depth_renderbuffer((w, h), samples=0)

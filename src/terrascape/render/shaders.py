@@ -190,8 +190,25 @@ def _cache_key(name: str, defines: Mapping | None) -> tuple:
     return (name, items)
 
 
-def load_program(ctx, name: str, defines: Mapping | None = None):
-    """Compile and link program ``name`` on ``ctx``; cached per (ctx, name, defines).
+def _geometry_source(name: str, geometry: str, defines: Mapping | None):
+    """Geometry stage from a shared file: the program file is expanded first with
+    ``GEOMETRY_SHADER`` defined, so its sections drop out and only its file-level lines
+    (e.g. ``#define TERRAIN_TANGENTS``) apply, then the geometry file."""
+    files: list[Path] = []
+    done: set[Path] = set()
+    body = _expand(program_path(name), [], done, files)
+    body += _expand(_resolve(geometry, None), [], done, files)
+    header = [GLSL_VERSION, f"#define {STAGES['geometry']}", *_define_lines(defines)]
+    return "\n".join(header + body) + "\n", files
+
+
+def load_program(ctx, name: str, defines: Mapping | None = None, *, geometry: str | None = None):
+    """Compile and link program ``name`` on ``ctx``; cached per (ctx, name, defines,
+    geometry).
+
+    ``geometry`` names a shader file (under ``render/shaders``) compiled as the geometry
+    stage in place of the program's own: one stage shared by many programs, such as the
+    terrain renderer's small-triangle cull (``common/terrain_geometry.glsl``).
 
     Raises
     ------
@@ -202,7 +219,7 @@ def load_program(ctx, name: str, defines: Mapping | None = None):
         with ``#line`` source numbers mapped to file names.
     """
     per_ctx = _CACHE.setdefault(ctx, {})
-    key = _cache_key(name, defines)
+    key = (*_cache_key(name, defines), geometry)
     if key in per_ctx:
         return per_ctx[key]
     stages = _stages_of(name)
@@ -211,17 +228,27 @@ def load_program(ctx, name: str, defines: Mapping | None = None):
             f"program {name!r} must have VERTEX_SHADER and FRAGMENT_SHADER sections, "
             f"found {sorted(stages)}"
         )
-    sources, legend = {}, {}
+    if geometry is not None:
+        stages.discard("geometry")
+    sources, legend, geo_legend = {}, {}, ""
     for stage in stages:
         src, files = _source_and_files(name, stage, defines)
         sources[f"{stage}_shader"] = src
         legend.update({i: _rel(p) for i, p in enumerate(files)})
+    if geometry is not None:
+        src, files = _geometry_source(name, geometry, defines)
+        sources["geometry_shader"] = src
+        # the geometry stage numbers its files on its own
+        geo_legend = "; geometry stage: " + ", ".join(
+            f"{i} = {_rel(p)}" for i, p in enumerate(files)
+        )
     try:
         program = ctx.program(**sources)
     except Exception as exc:  # moderngl.Error carries the driver log
         files = ", ".join(f"{i} = {f}" for i, f in sorted(legend.items()))
         raise ShaderCompileError(
-            f"shader program {name!r} failed to compile/link (source numbers: {files}):\n{exc}"
+            f"shader program {name!r} failed to compile/link (source numbers: {files}"
+            f"{geo_legend}):\n{exc}"
         ) from None
     per_ctx[key] = program
     return program

@@ -53,6 +53,12 @@ _FALLBACK = "plain"
 # Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
 # (129 ≢ 0, ±1 mod 256, llvmpipe's vertex-cache hash) with few draw calls (64 at 1025²).
 RENDER_CHUNK = 129
+# Small-triangle culling (common/terrain_geometry.glsl) on chunks whose cells project to at
+# most this many pixels at the chunk's nearest point: there most triangles hold no pixel
+# centre; on larger triangles the geometry stage would cost more than it saves.
+CULL_CELL_PX = 1.0
+_CULL_STAGE = "common/terrain_geometry.glsl"
+_SOFTWARE_RASTERISERS = ("llvmpipe", "softpipe", "swrast", "swiftshader")
 
 
 class TechniqueFallbackWarning(UserWarning):
@@ -198,6 +204,11 @@ class TerrainRenderer:
         Vertical scale baked into the vertex buffer (> 0).
     chunk_size
         Vertices per chunk side (2**k + 1) of the full-resolution mesh.
+    small_triangle_cull
+        Drop, in a geometry stage, full-resolution triangles that hold no pixel centre
+        (they draw nothing) on chunks whose cells are sub-pixel. ``None`` (default): on for
+        software rasterisers (llvmpipe), where triangle setup is the cost of a far view;
+        off on GPUs, which cull such triangles in hardware.
     """
 
     @_current
@@ -208,6 +219,7 @@ class TerrainRenderer:
         *,
         exaggeration: float = 1.0,
         chunk_size: int = RENDER_CHUNK,
+        small_triangle_cull: bool | None = None,
     ) -> None:
         if not isinstance(heightmap, Heightmap):
             raise InvalidParameterError(
@@ -217,6 +229,10 @@ class TerrainRenderer:
         self.heightmap = heightmap
         self.exaggeration = check_positive(exaggeration, "exaggeration")
         self.limits = describe_context(ctx)
+        if small_triangle_cull is None:
+            renderer = str(self.limits.get("renderer", "")).lower()
+            small_triangle_cull = any(name in renderer for name in _SOFTWARE_RASTERISERS)
+        self.small_triangle_cull = bool(small_triangle_cull)
         self.mesh = mesh = terrain_mesh(heightmap, exaggeration=self.exaggeration)
         self.chunks = mesh.chunks(chunk_size)
         self._chunk_vbos, self._chunk_ibos = self._upload_chunks()
@@ -527,25 +543,21 @@ class TerrainRenderer:
         ctx.viewport = (0, 0, *fbo.size)
         horizon = uniforms["u_fog_color"]
         fbo.clear(*horizon, 1.0, depth=1.0)
-        set_uniforms(program, **uniforms)
         for unit, name in enumerate(samplers):
             self._textures[name][0].use(location=unit)
-            set_uniforms(program, **{name: unit})
-            if f"{name}_levels" in program:
-                set_uniforms(program, **{f"{name}_levels": self._mip_levels.get(name, 1)})
-        spare = _SPARE_UNIT
-        for name in program:
-            member = program[name]
-            if getattr(member, "gl_type", None) in _SAMPLER_TYPES and name not in samplers:
-                member.value = spare
-                spare += 1
+        cull_program = self._cull_program(tech, program)
+        for prog in (program, cull_program):
+            if prog is not None:
+                self._bind(prog, uniforms, samplers)
+        if cull_program is not None:
+            set_uniforms(cull_program, u_viewport_size=fbo.size)
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.front_face = "ccw"
         wire = bool(p["wireframe"])
         if wire:
             # Push the filled surface back so the overlay lines win the depth test.
             ctx.polygon_offset = (1.0, 1.0)
-        stats = self._draw_geometry(program, camera)
+        stats = self._draw_geometry(program, camera, cull_program, fbo.size[1])
         ctx.polygon_offset = (0.0, 0.0)
         if wire:
             wp = self._wire_prog or load_program(ctx, "debug/solid")
@@ -569,6 +581,38 @@ class TerrainRenderer:
         self.last_stats = stats
         return stats
 
+    def _bind(self, program, uniforms: Mapping[str, Any], samplers: list[str]) -> None:
+        """Frame uniforms and texture units of one program."""
+        set_uniforms(program, **uniforms)
+        for unit, name in enumerate(samplers):
+            set_uniforms(program, **{name: unit})
+            if f"{name}_levels" in program:
+                set_uniforms(program, **{f"{name}_levels": self._mip_levels.get(name, 1)})
+        spare = _SPARE_UNIT
+        for name in program:
+            member = program[name]
+            if getattr(member, "gl_type", None) in _SAMPLER_TYPES and name not in samplers:
+                member.value = spare
+                spare += 1
+
+    def _cull_program(self, tech: Technique, program):
+        """``program`` with the small-triangle cull stage, or None when culling is off or
+        this GL cannot build it (then culling stays off: the image is the same without)."""
+        if not self.small_triangle_cull or self._custom_count:
+            return None
+        defines = {**(tech.defines or {}), "SMALL_TRIANGLE_CULL": 1}
+        try:
+            return load_program(self.ctx, tech.program, defines, geometry=_CULL_STAGE)
+        except GLUnavailableError as exc:
+            self.small_triangle_cull = False
+            warnings.warn(
+                f"small-triangle culling is not available on this GL ({exc}); drawing "
+                "every triangle",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+            return None
+
     def _prepare(self, tech: Technique, p: Mapping[str, Any]):
         """Textures and compiled program of ``tech`` (raises GLUnavailableError if this GL
         cannot run it)."""
@@ -578,29 +622,39 @@ class TerrainRenderer:
         program = load_program(self.ctx, tech.program, tech.defines or None)
         return samplers, program
 
-    def _draw_geometry(self, program, camera: Camera) -> dict[str, int]:
+    def _draw_geometry(
+        self, program, camera: Camera, cull_program=None, viewport_height: int = 0
+    ) -> dict[str, int]:
         import moderngl
 
         if self._custom_count:
             if self._custom_count > 0:
                 self._vao(program, "custom").render(moderngl.TRIANGLES, vertices=self._custom_count)
-            return {"triangles": max(self._custom_count, 0) // 3, "chunks": 1, "chunks_culled": 0}
+            return {"triangles": max(self._custom_count, 0) // 3, "chunks": 1, "chunks_culled": 0,
+                    "chunks_small_cull": 0}
         planes = camera.frustum_planes()
-        tris = drawn = culled = 0
-        # Front to back, so the depth test rejects hidden fragments before shading them.
+        tris = drawn = culled = small = 0
         eye = camera.eye
-        order = sorted(range(len(self.chunks)), key=lambda k: float(
-            np.sum((np.clip(eye, *self._bbox[k]) - eye) ** 2)))
-        for i in order:
+        dist = [float(np.linalg.norm(np.clip(eye, *self._bbox[k]) - eye))
+                for k in range(len(self.chunks))]
+        # Projected size of one cell at a chunk's nearest point; cells further in are smaller.
+        cell_px = max(self.heightmap.spacing) * camera.pixels_per_radian(max(viewport_height, 1))
+        # Front to back, so the depth test rejects hidden fragments before shading them.
+        for i in sorted(range(len(self.chunks)), key=dist.__getitem__):
             chunk = self.chunks[i]
             lo, hi = self._bbox[i]
             if not _aabb_visible(planes, lo, hi):
                 culled += 1
                 continue
-            self._vao(program, i).render(moderngl.TRIANGLES)
+            prog = program
+            if cull_program is not None and cell_px <= CULL_CELL_PX * dist[i]:
+                prog = cull_program
+                small += 1
+            self._vao(prog, i).render(moderngl.TRIANGLES)
             tris += chunk.n_triangles
             drawn += 1
-        return {"triangles": tris, "chunks": drawn, "chunks_culled": culled}
+        return {"triangles": tris, "chunks": drawn, "chunks_culled": culled,
+                "chunks_small_cull": small}
 
     def _draw_sky(self, uniforms: Mapping[str, Any]) -> None:
         import moderngl
