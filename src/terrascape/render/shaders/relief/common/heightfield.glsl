@@ -318,16 +318,17 @@ float first_root(vec3 q, float u_max) {
 // recomputed point), its parent is node >> 1, the exit distance uses a precomputed 1/d, and
 // only a descent (or a free fall inside a node) locates the point again. Level 0 reads the
 // cell's four corner depths (u_cells) instead of its min, so a cell costs one fetch.
-// The walk starts at level MINMAX_START (not at the level spanning the whole ray, whose
-// nodes hold the field's shallowest point and are always descended).
+// The walk starts at level `start` (a view ray: MINMAX_START, not the level spanning the
+// whole ray, whose nodes hold the field's shallowest point and are always descended) and
+// climbs one level when the next node has another ancestor `climb` levels up.
 #ifndef MINMAX_START
 #define MINMAX_START 4
 #endif
-float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end) {
+float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end, int start, int climb) {
     ivec2 size = textureSize(u_relief, 0);
     float span = length(d) * t_end + 2.0;
     int top = min(u_minmax_levels - 1, int(ceil(log2(span))));
-    int level = min(top, MINMAX_START);
+    int level = min(top, start);
     vec2 dir = vec2(d.x >= 0.0 ? 1.0 : -1.0, d.y >= 0.0 ? 1.0 : -1.0);
     vec2 inv_d = 1.0 / (dir * max(abs(d), vec2(1e-7)));
     vec2 ahead = step(0.0, dir);
@@ -381,13 +382,13 @@ float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end) {
         if (t_exit >= t_end) {
             return -1.0;
         }
-        // Leave the node through the face the ray crosses first. Climb one level only when
-        // the next node also has another grandparent: climbing at every parent border (Tevs
-        // 2008), or several levels at once, re-descends more often than it skips on these
-        // fields (more visited nodes, measured at 30–80°).
+        // Leave the node through the face the ray crosses first. For a view ray climb one
+        // level only when the next node also has another grandparent (climb = 2): climbing
+        // at every parent border (Tevs 2008), or several levels at once, re-descends more
+        // often than it skips on these fields (more visited nodes, measured at 30–80°).
         t = t_exit;
         ivec2 next = node + (tb.x < tb.y ? ivec2(idir.x, 0) : ivec2(0, idir.y));
-        if (level < top && any(notEqual(next >> 2, node >> 2))) {
+        if (level < top && any(notEqual(next >> climb, node >> climb))) {
             level += 1;
             node = next >> 1;
         } else {
@@ -399,7 +400,7 @@ float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end) {
 
 vec3 trace_minmax(vec2 uv0, vec2 ds) {
     vec2 size = vec2(textureSize(u_relief, 0));
-    float t = minmax_march(uv0 * size - 0.5, ds * size, 0.0, 1.0, 1.0);
+    float t = minmax_march(uv0 * size - 0.5, ds * size, 0.0, 1.0, 1.0, MINMAX_START, 2);
     float s = t < 0.0 ? 1.0 : t;
     return vec3(uv0 + s * ds, s);
 }
@@ -417,7 +418,10 @@ float relief_shadow(vec3 hit, vec2 lds) {
     vec2 size = vec2(textureSize(u_relief, 0));
     float eps = 2e-3;
     vec2 p0 = (hit.xy + eps * lds) * size - 0.5;
-    float t = minmax_march(p0, lds * size, hit.z - eps, -1.0, hit.z - eps);
+    // The light ray starts on the surface, so the cell it starts in is always solved: walk
+    // up from level 0, climbing at every parent border (the ray rises away from the
+    // surface, so ever larger nodes lie below it).
+    float t = minmax_march(p0, lds * size, hit.z - eps, -1.0, hit.z - eps, 0, 1);
     return t >= 0.0 ? 1.0 : 0.0;
 #else
     // March from the hit toward the light (Policarpo 2005 traces the same segment from the
