@@ -214,6 +214,22 @@ def test_relief_shadow_march_matches_exact_shadow_at_its_own_hit(renderers, natu
         assert (mine & ~exact)[v].mean() <= 0.001
 
 
+@pytest.mark.parametrize("theta", [30, 70])
+def test_minmax_shadow_is_exact_on_the_city(renderers, city, theta):
+    # The exact hierarchical march toward the light (from level 0 up) agrees with
+    # shadow_exact up to knife-edge pixels, thin walls included.
+    from terrascape.render.relief_quad import ReliefSettings
+
+    cam = _camera(theta, azimuth=20)
+    light = (0.8, 0.35, 0.2)
+    ref = reference_image(city, TILED, cam, FB, FB, light_dir=light)
+    v = ref.valid
+    assert 0.05 < ref.shadow[v].mean() < 0.95
+    out = renderers["city"].render(TILED, cam, "minmax", output="shadow",
+                                   settings=ReliefSettings(shadows=True), light_dir=light)
+    assert ((out[..., 0] > 0.5) != ref.shadow)[v].mean() < 0.003
+
+
 def test_runtime_uniforms_change_the_result(renderers, city):
     from terrascape.render.relief_quad import ReliefSettings
 
@@ -276,3 +292,10 @@ def test_bad_technique_and_settings():
         technique_id("bogus")
     with pytest.raises(InvalidParameterError, match="linear_steps"):
         ReliefSettings(linear_steps=0)
+    with pytest.raises(InvalidParameterError, match="march"):
+        ReliefSettings(march="sphere")
+    with pytest.raises(InvalidParameterError, match="adaptive"):
+        ReliefSettings(adaptive=True, march="fixed")
+    assert ReliefSettings(adaptive=True).uniforms(0.1)["u_adaptive"] == 1
+    assert ReliefSettings(march="fixed").uniforms(0.1)["u_adaptive"] == 0
+    assert ReliefSettings().uniforms(0.1)["u_adaptive"] == 2

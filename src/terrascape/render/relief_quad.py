@@ -98,7 +98,10 @@ class ReliefSettings:
         if self.march not in MARCHES:
             raise InvalidParameterError(
                 f"march must be one of {', '.join(MARCHES)}, got {self.march!r}")
-        if self.adaptive:
+        if self.adaptive:  # the older spelling of march="angle"
+            if self.march == "fixed":
+                raise InvalidParameterError(
+                    "adaptive=True asks for angle-adaptive steps, march='fixed' for equal ones")
             object.__setattr__(self, "march", "angle")
         if not self.clearance_slope >= 0.0:
             raise InvalidParameterError(
