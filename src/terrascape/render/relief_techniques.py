@@ -5,8 +5,13 @@ a tiled RGBA normal+height texture (``u_relief``; seed 000 §2.3.1) planar-mappe
 terrain (``uv_scale`` repeats: tiled; ``uv_scale = 1``: stretched) and the terrain's colour
 texture. Parameters (uniforms ``u_<name>``) can change every frame: ``depth`` (UV units),
 ``linear_steps``, ``binary_steps``, ``adaptive``/``step_texels``/``max_steps``,
-``shadow_steps``, ``self_shadow``, ``parallax_scale``/``parallax_bias`` and the distance
-bands of ``relief_by_distance`` (R10).
+``shadow_steps``, ``self_shadow``, ``parallax_scale``/``parallax_bias``, the distance
+bands of ``relief_by_distance`` (R10) and the screen-space level of detail of ``relief``
+and ``parallax`` (``relief_lod``, on by default, with ``lod_step``, ``lod_precision``,
+``lod_min_span``, ``lod_nearest_from``): where the relief texture is minified the march
+takes as many steps as the ray is long in texels of the sampled mip level, with
+``linear_steps``/``binary_steps`` as the upper bounds; where it is magnified it is the
+fixed relief 16+8. Their march reads ``u_relief_height``, the height channel alone.
 
 Registered: ``parallax`` (R3), ``parallax_limited`` (R4), ``steep_parallax`` and ``pom``
 (R5), ``relief`` (R6, with R7 self-shadowing), ``interval`` (R8), ``relief_by_distance``
