@@ -358,9 +358,10 @@ float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end, int start,
                 t = max(t, node_min - s0);  // free fall to the node's highest point
             }
             if (level > 0) {
-                // Down two levels at once: the intermediate node's test costs a visit and
-                // rarely skips what its four children would not (fewer visits at 30–80°).
-                int down = min(level, 2);
+                // A view ray goes down two levels at once: the intermediate node's test costs
+                // a visit and rarely skips what its four children would not (fewer visits at
+                // 30–80°); a light ray, rising away from the surface, one.
+                int down = min(level, sgn > 0.0 ? 2 : 1);
                 level -= down;
                 ivec2 child = ivec2(floor(p0 + t * d + nudge)) >> level;
                 node = clamp(child, node << down, (node << down) + ((1 << down) - 1));
