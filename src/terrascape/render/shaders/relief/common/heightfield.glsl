@@ -36,9 +36,6 @@ uniform float u_min_step_texels;   // clearance steps: shortest step, in texels
 uniform int u_cone_steps;          // cone step mapping iterations
 uniform int u_shadow_steps;        // self-shadowing: most linear steps toward the light (R7)
 uniform float u_shadow_step_texels; // self-shadowing: step length in texels (0: u_shadow_steps)
-#ifndef SHADOW_TOL
-#define SHADOW_TOL 1e-3
-#endif
 
 #if TECHNIQUE == TECH_CONE
 uniform sampler2D u_cone;          // NEAREST: R = apex depth, G = cone ratio (UV / depth)
@@ -433,7 +430,9 @@ float relief_shadow(vec3 hit, vec2 lds) {
     // occluders). The reference (terrascape.relief.reference.shadow_exact) also starts on
     // the surface and calls a point shadowed when any point of its light ray is under it.
     // Steps are u_shadow_step_texels texels of the light ray's horizontal length (thin
-    // walls are one texel), at most u_shadow_steps of them; samples at step midpoints.
+    // walls are one texel), at most u_shadow_steps of them; samples at step midpoints. A
+    // sample counts as under the surface 1e-3 below it (1e-5 agrees as well with the
+    // reference; counting near misses above it as shadowed agrees far worse).
     float s0 = relief_depth(hit.xy);
     if (s0 <= 1e-4) {
         return 0.0;
@@ -444,7 +443,7 @@ float relief_shadow(vec3 hit, vec2 lds) {
     float step_t = s0 / float(n);
     for (int i = 0; i < n; ++i) {
         float t = (float(i) + 0.5) * step_t;
-        if (s0 - t > relief_depth(hit.xy + t * lds) + SHADOW_TOL) {
+        if (s0 - t > relief_depth(hit.xy + t * lds) + 1e-3) {
             return 1.0;
         }
     }
