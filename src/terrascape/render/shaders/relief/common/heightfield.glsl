@@ -288,21 +288,26 @@ vec3 trace_cone(vec2 uv0, vec2 ds) {
 #endif
 
 #if TECHNIQUE == TECH_MINMAX
-// Smallest u in [0, u_max] where g(u) = q.x u^2 + q.y u + q.z crosses from negative to
-// non-negative; -1 if none. With g(0) = q.z < 0 that root is (-q.y + sqrt(disc)) / (2 q.x)
-// whatever the sign of q.x (convex: the one positive root; concave: the nearer of two),
-// written as 2 q.z / (-q.y - sqrt(disc)): one division, no cancellation for q.x -> 0 (it
-// tends to -q.z / q.y) and a negative or infinite value when there is no crossing ahead.
-float first_root(vec3 q, float u_max) {
+// In a bilinear cell the ray's height above the surface, g(u) = s(t + u) − B(p(t + u)), is
+// the quadratic q.x u² + q.y u + q.z. cell_crossed: does g reach 0 in [0, u_max]? With
+// g(0) = q.z < 0: yes if g(u_max) >= 0; otherwise only a concave g whose vertex
+// −q.y / (2 q.x) lies inside with g(vertex) >= 0 (disc >= 0) does — no division, no root.
+bool cell_crossed(vec3 q, float u_max) {
+    float disc = q.y * q.y - 4.0 * q.x * q.z;
+    return q.z >= 0.0 || (q.x * u_max + q.y) * u_max + q.z >= 0.0
+        || (q.x < 0.0 && q.y > 0.0 && q.y < -2.0 * q.x * u_max && disc >= 0.0);
+}
+
+// The first crossing of a crossed cell: (−q.y + √disc) / (2 q.x) whatever the sign of q.x
+// (convex: the one positive root; concave: the nearer of two), written 2 q.z / (−q.y − √disc)
+// (one division, no cancellation as q.x → 0, where it tends to −q.z / q.y); clamped to the
+// cell against rounding.
+float cell_root(vec3 q, float u_max) {
     if (q.z >= 0.0) {
         return 0.0;
     }
-    float disc = q.y * q.y - 4.0 * q.x * q.z;
-    if (disc < 0.0) {
-        return -1.0;
-    }
-    float u = 2.0 * q.z / (-q.y - sqrt(disc));
-    return (u >= 0.0 && u <= u_max) ? u : -1.0;
+    float disc = max(q.y * q.y - 4.0 * q.x * q.z, 0.0);
+    return clamp(2.0 * q.z / (-q.y - sqrt(disc)), 0.0, u_max);
 }
 
 // Exact hierarchical tracer over the min/max mip (Tevs et al. 2008): skip every node whose
@@ -333,6 +338,9 @@ float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end, int start,
     vec2 nudge = dir * 1e-3;  // a point on a node border belongs to the node ahead
     ivec2 node = ivec2(floor(p0 + nudge)) >> level;
     float t = 0.0;
+    vec3 hit_q = vec3(0.0);
+    float hit_u = -1.0;
+    float hit_t = 0.0;
     for (int it = 0; it < u_max_iterations; ++it) {
         g_fetches += 1;
         float cells = float(1 << level);
@@ -367,14 +375,19 @@ float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end, int start,
             // Level 0: the bilinear cell with corners at texel centres node, node + 1.
             float a1 = c4.g - c4.r, a2 = c4.b - c4.r, a3 = c4.r - c4.g - c4.b + c4.a;
             vec2 f = p0 + t * d - vec2(node);     // local coordinates at the segment start
-            // g(u) = s(t + u) - B(f + u d) as a quadratic in u.
+            // g(u) = s(t + u) - B(f + u d) as a quadratic in u (see cell_crossed).
             vec3 q = vec3(
                 -a3 * d.x * d.y,
                 sgn - (a1 * d.x + a2 * d.y + a3 * (f.x * d.y + f.y * d.x)),
                 (s0 + sgn * t) - (c4.r + a1 * f.x + a2 * f.y + a3 * f.x * f.y));
-            float u = first_root(q, t_exit - t);
-            if (u >= 0.0) {
-                return t + u;
+            // Only test here; the root is paid once, after the loop, for the cell that
+            // holds the hit (in SIMD lanes: not for every lane's every cell).
+            float u_max = t_exit - t;
+            if (cell_crossed(q, u_max)) {
+                hit_q = q;
+                hit_u = u_max;
+                hit_t = t;
+                break;
             }
         }
         if (t_exit >= t_end) {
@@ -393,7 +406,10 @@ float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end, int start,
             node = next;
         }
     }
-    return t;  // iteration budget exhausted: best estimate so far
+    if (hit_u < 0.0) {
+        return t;  // iteration budget exhausted: best estimate so far
+    }
+    return hit_t + cell_root(hit_q, hit_u);
 }
 
 vec3 trace_minmax(vec2 uv0, vec2 ds) {
