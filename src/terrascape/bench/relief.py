@@ -258,9 +258,11 @@ def seed_table(ctx, *, size=(1280, 720), terrain=257, quick=False):
         ("natural 1280²", "natural", 1280 if not quick else 128, 1.0),
     ]
     d = RELIEF_DEFAULTS
-    lod = {k: d[k] for k in ("lod_step", "lod_precision", "lod_min_span", "lod_nearest_from")}
-    lod_label = (f"LOD relief ({d['lod_step']:g}-texel steps, {d['lod_precision']:g} px, "
-                 f"nearest mip from level {d['lod_nearest_from']:g})"
+    lod = {k: d[k] for k in ("lod_step", "lod_precision", "lod_secant", "lod_clearance",
+                             "lod_min_span", "lod_nearest_from")}
+    lod_label = (f"LOD relief ({d['lod_step']:g}-texel steps, {d['lod_precision']:g} px"
+                 + (" + secant" if d["lod_secant"] else "")
+                 + f", nearest mip from level {d['lod_nearest_from']:g})"
                  + (" = default relief" if d["relief_lod"] else ""))
     # (label, technique, its extra #defines, parameters). "texture mapping" is the row every
     # drop is measured against: the relief program with TECHNIQUE_PLAIN, i.e. the same
@@ -353,7 +355,9 @@ def seed_table(ctx, *, size=(1280, 720), terrain=257, quick=False):
         "on the terrain mesh (TerrainRenderer, planar-mapped 16-bit normal+height texture, "
         "relief depth 0.05 UV, no self-shadowing)",
         "LOD relief: linear steps of lod_step texels of the sampled mip level along the ray "
-        "(≤ 16), binary steps until the bracket is below lod_precision pixels (≤ 8), one "
+        "(≤ 16), binary steps until the bracket is below lod_precision pixels (≤ 8), then "
+        "the hit where the chord between the bracket's samples crosses the surface (secant, "
+        "as POM interpolates; relief 16+8 takes the bracket's middle), one "
         "parallax step where the whole ray spans < lod_min_span px, the full 16+8 where "
         "the texture is magnified (Tatarchuk 2006: POM sample count and fallback by mip "
         "level); from mip level lod_nearest_from on the march reads the nearest mip level "

@@ -101,13 +101,16 @@ RELIEF_DEFAULTS: dict[str, Any] = {
     "ks": 0.15,
     # Screen-space LOD of the terrain relief march (relief/terrain.glsl), on by default (its
     # image error against relief 16+8 is measured in bench relief's seed table): linear
-    # steps of lod_step texels of the sampled mip level, binary steps down to lod_precision
-    # pixels, one parallax step (parallax: none) where the whole ray spans less than
-    # lod_min_span pixels, the full counts where the texture is magnified; from mip level
-    # lod_nearest_from on (< 0: never) the march reads the nearest mip level only.
+    # steps of lod_step texels of the sampled mip level (longer by clearance for a surface
+    # slope lod_clearance > 0), binary steps down to lod_precision pixels and the secant
+    # hit (lod_secant), one parallax step (parallax: none) where the whole ray spans less
+    # than lod_min_span pixels, the full counts where the texture is magnified; from mip
+    # level lod_nearest_from on (< 0: never) the height fetches read the nearest mip level.
     "relief_lod": True,
     "lod_step": 1.0,
-    "lod_precision": 0.125,
+    "lod_precision": 0.25,
+    "lod_secant": True,
+    "lod_clearance": 0.0,
     "lod_min_span": 0.5,
     "lod_nearest_from": 3.0,
 }

@@ -25,6 +25,8 @@ uniform float u_lod_step;        // linear step length in texels of the sampled 
 uniform float u_lod_precision;   // binary search stops once the bracket is below this (px)
 uniform float u_lod_min_span;    // whole displacement below this (px): one parallax step
 uniform float u_lod_nearest_from; // LOD march from this mip level on: nearest level only
+uniform float u_lod_clearance;   // LOD: typical slope for clearance-scaled steps (0: equal)
+uniform int u_lod_secant;        // LOD: the hit where the bracket's chord crosses, not its middle
 
 float g_march_lod = 0.0;         // level of detail of the march's height fetches
 
@@ -66,85 +68,107 @@ vec3 terrain_parallax_trace(vec2 uv0, vec2 ds) {
     return terrain_parallax(uv0, ds);
 }
 
-// Relief mapping: n linear steps from depth 0 to 1, then k binary steps on the bracket
-// (Policarpo et al. 2005, seed 000 §2.4.6–2.4.7): the samples and the result of
-// linear_bracket + trace_relief in relief/common/heightfield.glsl, read from
-// u_relief_height. Both searches run in one loop of one fetch per iteration: llvmpipe runs a
-// loop until its last SIMD lane leaves it, so one loop costs max(linear + binary) over the
-// lanes instead of max(linear) + max(binary), and pays the loop's mask bookkeeping once.
-// The bottom (s = 1) is never fetched: depth <= 1, so it is always under the surface.
-// first = 1 skips the sample at s = 0, which only finds texels of height exactly 1 (the
-// bracket [0, 1/n] then refines to them within the binary search's precision).
-vec3 terrain_relief(vec2 uv0, vec2 ds, int n, int k, int first) {
+// Binary steps that shrink a bracket of `width` (in s) below the precision: k_scale is the
+// bracket length in precision units per unit of s (0: always k_max).
+int terrain_binary_count(float width, int k_max, float k_scale) {
+    if (k_scale <= 0.0) {
+        return k_max;
+    }
+    return clamp(int(ceil(log2(max(width * k_scale, 1.0)))), 0, k_max);
+}
+
+// Relief mapping: a linear search from depth 0 to 1 in steps of at least 1/n, then binary
+// steps on the bracket (Policarpo et al. 2005, seed 000 §2.4.6–2.4.7). With first = 0,
+// clearance = 0, k_scale = 0 and secant = false these are the samples and the result of
+// linear_bracket + trace_relief (relief/common/heightfield.glsl) with n linear and k binary
+// steps, read from u_relief_height.
+// * Both searches run in one loop of one fetch per iteration: llvmpipe runs a loop until its
+//   last SIMD lane leaves it, so one loop costs max(linear + binary) over the lanes instead
+//   of max(linear) + max(binary), and pays the loop's mask bookkeeping once.
+// * The bottom (s = 1) is never fetched: depth <= 1, so it is always under the surface.
+// * first = 1 skips the sample at s = 0, which only finds texels of height exactly 1 (the
+//   bracket [0, 1/n] then refines to them within the binary search's precision).
+// * clearance > 0: outside the surface by g = depth - s, the next step is
+//   max(1/n, g·clearance) — clearance = 1/(1 + G·L) for a surface of slope G (depth per
+//   texel) and a ray L texels long is the sphere-tracing bound (Hart 1996); see
+//   terrain_relief_trace.
+// * k_scale > 0: binary steps until the bracket is below 1/k_scale, at most k.
+// * secant: the hit where the chord between the bracket's two samples crosses the surface
+//   (POM's interpolation, Tatarchuk 2006) instead of the bracket's middle: on a smooth
+//   surface far closer for the same fetches, and never outside the bracket.
+vec3 terrain_relief(vec2 uv0, vec2 ds, int n, int k, int first, float clearance,
+                    float k_scale, bool secant) {
     float step_s = 1.0 / float(n);
     float lo = 0.0;
     float hi = 1.0;
-    int left = -1;  // binary steps still to take; -1 while the linear search runs
+    float f_lo = 1.0;   // s - depth at lo (< 0) and hi (>= 0); 1 and -1: not sampled
+    float f_hi = -1.0;
+    int left = -1;      // binary steps still to take; -1 while the linear search runs
+    float s = float(first) * step_s;
     if (first >= n) {
-        left = k;  // no linear sample above the bottom: the bracket is [0, 1]
+        left = terrain_binary_count(1.0, k, k_scale);  // bracket [0, 1]
+        s = 0.5;
     }
-    float s = left < 0 ? float(first) * step_s : 0.5;
     for (int i = first; i <= n + k && left != 0; ++i) {
-        bool inside = s >= terrain_depth(uv0 + s * ds);
+        float f = s - terrain_depth(uv0 + s * ds);
+        bool inside = f >= 0.0;
         if (inside) {
             hi = s;
+            f_hi = f;
         } else {
             lo = s;
+            f_lo = f;
         }
+        // Equal steps as float(i + 1) / n exactly, as linear_bracket computes them.
+        float next = clearance > 0.0 ? s + max(step_s, -f * clearance) : float(i + 1) * step_s;
         if (left < 0) {
             if (inside) {
                 // First sample under the surface; at s = 0 the ray enters at the top.
-                left = s > 0.0 ? k : 0;
-            } else if (i + 1 >= n) {
-                left = k;  // the next linear sample would be the bottom: bracket [s, 1]
+                left = s > 0.0 ? terrain_binary_count(hi - lo, k, k_scale) : 0;
+            } else if (next >= 1.0 - 1e-6) {
+                // The next linear sample would be the bottom: the bracket is [s, 1].
+                left = terrain_binary_count(1.0 - lo, k, k_scale);
             }
         } else {
             left -= 1;
         }
-        s = left < 0 ? float(i + 1) * step_s : 0.5 * (lo + hi);
+        s = left < 0 ? next : 0.5 * (lo + hi);
     }
     s = 0.5 * (lo + hi);
+    if (secant && f_lo < 0.0 && f_hi >= 0.0) {
+        s = lo + (hi - lo) * (-f_lo / (f_hi - f_lo));
+    }
     return vec3(uv0 + s * ds, s);
 }
 
-// Step counts of the relief search. Without LOD: the fixed (or angle-adaptive) linear count
+// Relief mapping on the terrain. Without LOD, or where the texture is magnified (g_lod <= 0,
+// so near views are the unchanged relief 16+8): the fixed (or angle-adaptive) linear count
 // and u_binary_steps. With LOD — Tatarchuk 2006 picks the POM sample count and a fallback by
 // the sampled mip level; here the counts follow the ray's length on screen:
 //   span = texels of the *sampled* mip level that the ray crosses from depth 0 to 1, about
 //          pixels (level g_lod has 2^g_lod level-0 texels per pixel along the footprint's
 //          long axis, the direction in which the view foreshortens the parallax shift);
 //   linear steps of u_lod_step such texels, never more than without LOD: a finer step
-//          would resolve detail the mip level no longer holds;
-//   binary steps until the bracket is below u_lod_precision pixels;
-//   where the texture is magnified (g_lod <= 0) the full counts, so near views are the
-//   unchanged relief 16+8.
-// Returns (n, k); n = 0 means that the whole displacement is below u_lod_min_span pixels, so
-// that one parallax step is right to within that much.
-ivec2 terrain_relief_counts(vec2 ds) {
+//          would resolve detail the mip level no longer holds; longer steps by clearance
+//          where u_lod_clearance (the slope G, depth per texel of the sampled level) > 0;
+//   binary steps until the bracket is below u_lod_precision pixels, then the secant hit
+//          (u_lod_secant);
+//   below u_lod_min_span pixels of span one parallax step, right to within that much.
+vec3 terrain_relief_trace(vec2 uv0, vec2 ds) {
+    g_march_lod = terrain_march_lod();
     int n_full = relief_linear_count(ds);
     if (u_relief_lod == 0 || g_lod <= 0.0) {
-        return ivec2(n_full, u_binary_steps);
+        return terrain_relief(uv0, ds, n_full, u_binary_steps, 0, 0.0, 0.0, false);
     }
     float span = length(ds * vec2(textureSize(u_relief_height, 0))) * exp2(-g_lod);
     if (span < u_lod_min_span) {
-        return ivec2(0, 0);
-    }
-    int n = clamp(int(ceil(span / max(u_lod_step, 0.05))), 1, n_full);
-    float bracket = span / float(n);
-    int k = int(ceil(log2(max(bracket / max(u_lod_precision, 1e-3), 1.0))));
-    return ivec2(n, clamp(k, 0, u_binary_steps));
-}
-
-vec3 terrain_relief_trace(vec2 uv0, vec2 ds) {
-    bool lod = u_relief_lod != 0 && g_lod > 0.0;
-    g_march_lod = terrain_march_lod();
-    ivec2 nk = terrain_relief_counts(ds);
-    if (nk.x == 0) {
-        // Whole displacement below u_lod_min_span pixels: the hit at the entry texel's depth.
-        float s = terrain_depth(uv0);
+        float s = terrain_depth(uv0);  // the hit at the entry texel's depth
         return vec3(uv0 + s * ds, s);
     }
-    return terrain_relief(uv0, ds, nk.x, nk.y, lod ? 1 : 0);
+    int n = clamp(int(ceil(span / max(u_lod_step, 0.05))), 1, n_full);
+    float clearance = u_lod_clearance > 0.0 ? 1.0 / (1.0 + u_lod_clearance * span) : 0.0;
+    return terrain_relief(uv0, ds, n, u_binary_steps, 1, clearance,
+                          span / max(u_lod_precision, 1e-3), u_lod_secant != 0);
 }
 
 void main() {
