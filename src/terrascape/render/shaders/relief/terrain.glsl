@@ -17,9 +17,9 @@ uniform int u_self_shadow;       // R7 on/off
 uniform float u_relief_tint;     // how much the relief height darkens the albedo (0..1)
 // The A channel of u_relief alone (R32F: the same values and mip chain, so the same
 // surface): the march reads only heights, and a one-channel texel is a quarter of the
-// memory and filtering work of the RGBA32F one on llvmpipe.
+// bytes and of the filtering arithmetic of the RGBA32F one on llvmpipe.
 uniform sampler2D u_relief_height;
-// Screen-space level of detail of the relief march (terrain_relief_counts).
+// Screen-space level of detail of the relief march (terrain_relief_trace).
 uniform int u_relief_lod;        // 0: fixed counts (relief 16+8), 1: counts from the view
 uniform float u_lod_step;        // linear step length in texels of the sampled mip level
 uniform float u_lod_precision;   // binary search stops once the bracket is below this (px)
@@ -43,8 +43,6 @@ vec3 terrain_parallax(vec2 uv0, vec2 ds) {
     return vec3(uv0 - hs * inv_depth * ds, -hs * inv_depth);
 }
 
-// Parallax with the LOD fallback: where the largest shift |h'|·|V.xy/V.z| spans less than
-// u_lod_min_span pixels of the sampled mip level, the unshifted texture (no height fetch).
 // The height fetches' level of detail: g_lod, or with LOD from mip level
 // u_lod_nearest_from on (< 0: never) the nearest mip level (GL's *_MIPMAP_NEAREST rule): one
 // level's bilinear fetch instead of two, on a slightly different surface where texels are a
@@ -55,6 +53,8 @@ float terrain_march_lod() {
     return nearest ? round(g_lod) : g_lod;
 }
 
+// Parallax with the LOD fallback: where the largest shift |h'|·|V.xy/V.z| spans less than
+// u_lod_min_span pixels of the sampled mip level, the unshifted texture (no height fetch).
 vec3 terrain_parallax_trace(vec2 uv0, vec2 ds) {
     g_march_lod = terrain_march_lod();
     if (u_relief_lod != 0 && g_lod > 0.0) {
