@@ -96,21 +96,6 @@ def test_every_shipped_program_compiles_and_links(gl_ctx):
 
 
 @pytest.mark.gl
-def test_every_terrain_technique_links_with_the_shared_cull_geometry_stage(gl_ctx):
-    from terrascape.render.techniques import get_technique, technique_names
-
-    for name in technique_names():
-        tech = get_technique(name)
-        defines = {**(tech.defines or {}), "SMALL_TRIANGLE_CULL": 1}
-        prog = load_program(gl_ctx, tech.program, defines, geometry="common/terrain_geometry.glsl")
-        assert "u_viewport_size" in prog, name
-        # cached separately from the program without the stage
-        assert prog is not load_program(gl_ctx, tech.program, tech.defines or None)
-        assert prog is load_program(
-            gl_ctx, tech.program, defines, geometry="common/terrain_geometry.glsl"
-        )
-
-@pytest.mark.gl
 def test_program_cache_per_defines(gl_ctx):
     a = load_program(gl_ctx, "debug/solid")
     assert load_program(gl_ctx, "debug/solid") is a

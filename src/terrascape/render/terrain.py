@@ -31,7 +31,7 @@ from terrascape.camera import Camera
 from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.lighting.sun import sun_direction
-from terrascape.mesh import terrain_mesh
+from terrascape.mesh import DEFAULT_BAND, terrain_mesh
 from terrascape.render.context import current, describe_context
 from terrascape.render.shaders import load_program, set_uniforms
 from terrascape.render.techniques import (
@@ -53,11 +53,11 @@ _FALLBACK = "plain"
 # Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
 # (129 ≢ 0, ±1 mod 256, llvmpipe's vertex-cache hash) with few draw calls (64 at 1025²).
 RENDER_CHUNK = 129
-# Small-triangle culling (common/terrain_geometry.glsl) on chunks whose cells project to at
-# most this many pixels at the chunk's nearest point: there most triangles hold no pixel
-# centre; on larger triangles the geometry stage would cost more than it saves.
+# Small-triangle culling (shaders/compute/small_triangle_cull.glsl) on chunks whose cells
+# project to at most this many pixels at the chunk's nearest point: there most triangles
+# hold no pixel centre; on larger triangles the pass would cost more than it saves.
 CULL_CELL_PX = 1.0
-_CULL_STAGE = "common/terrain_geometry.glsl"
+_CULL_PROGRAM = "compute/small_triangle_cull"
 _SOFTWARE_RASTERISERS = ("llvmpipe", "softpipe", "swrast", "swiftshader")
 
 
@@ -205,10 +205,11 @@ class TerrainRenderer:
     chunk_size
         Vertices per chunk side (2**k + 1) of the full-resolution mesh.
     small_triangle_cull
-        Drop, in a geometry stage, full-resolution triangles that hold no pixel centre
-        (they draw nothing) on chunks whose cells are sub-pixel. ``None`` (default): on for
-        software rasterisers (llvmpipe), where triangle setup is the cost of a far view;
-        off on GPUs, which cull such triangles in hardware.
+        Before drawing a full-resolution chunk whose cells are sub-pixel, let a compute pass
+        replace its triangles that hold no pixel centre (they draw nothing) by degenerate
+        ones. ``None`` (default): on for software rasterisers (llvmpipe) with OpenGL 4.3,
+        where triangle setup on one thread is the cost of a far view; off on GPUs, which
+        reject such triangles in hardware.
     """
 
     @_current
@@ -231,8 +232,11 @@ class TerrainRenderer:
         self.limits = describe_context(ctx)
         if small_triangle_cull is None:
             renderer = str(self.limits.get("renderer", "")).lower()
-            small_triangle_cull = any(name in renderer for name in _SOFTWARE_RASTERISERS)
+            small_triangle_cull = ctx.version_code >= 430 and any(
+                name in renderer for name in _SOFTWARE_RASTERISERS
+            )
         self.small_triangle_cull = bool(small_triangle_cull)
+        self._cull_ibos: dict[int, Any] = {}  # chunk -> index buffer the cull pass rewrites
         self.mesh = mesh = terrain_mesh(heightmap, exaggeration=self.exaggeration)
         self.chunks = mesh.chunks(chunk_size)
         self._chunk_vbos, self._chunk_ibos = self._upload_chunks()
@@ -316,14 +320,16 @@ class TerrainRenderer:
         if idx.size == 0:
             self._custom_count = -1  # explicit empty triangulation: draw nothing
 
-    def _vao(self, program, which):
-        key = (program.glo, which)
+    def _vao(self, program, which, *, culled: bool = False):
+        key = (program.glo, which, culled)
         vao = self._vaos.get(key)
         if vao is None:
             if which == "custom":
                 (ibo, index_size), vbos = (self._custom_ibo, 4), self._grid_buffers()
             else:
                 (ibo, index_size), vbos = self._chunk_ibos[which], self._chunk_vbos[which]
+                if culled:
+                    ibo = self._cull_ibos[which]
             content = [
                 (vbos[0], "3f", "in_position"),
                 (vbos[1], "3f", "in_normal"),
@@ -545,19 +551,14 @@ class TerrainRenderer:
         fbo.clear(*horizon, 1.0, depth=1.0)
         for unit, name in enumerate(samplers):
             self._textures[name][0].use(location=unit)
-        cull_program = self._cull_program(tech, program)
-        for prog in (program, cull_program):
-            if prog is not None:
-                self._bind(prog, uniforms, samplers)
-        if cull_program is not None:
-            set_uniforms(cull_program, u_viewport_size=fbo.size)
+        self._bind(program, uniforms, samplers)
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.front_face = "ccw"
         wire = bool(p["wireframe"])
         if wire:
             # Push the filled surface back so the overlay lines win the depth test.
             ctx.polygon_offset = (1.0, 1.0)
-        stats = self._draw_geometry(program, camera, cull_program, fbo.size[1])
+        stats = self._draw_geometry(program, camera, fbo.size, cull=self.small_triangle_cull)
         ctx.polygon_offset = (0.0, 0.0)
         if wire:
             wp = self._wire_prog or load_program(ctx, "debug/solid")
@@ -595,23 +596,44 @@ class TerrainRenderer:
                 member.value = spare
                 spare += 1
 
-    def _cull_program(self, tech: Technique, program):
-        """``program`` with the small-triangle cull stage, or None when culling is off or
-        this GL cannot build it (then culling stays off: the image is the same without)."""
-        if not self.small_triangle_cull or self._custom_count:
-            return None
-        defines = {**(tech.defines or {}), "SMALL_TRIANGLE_CULL": 1}
+    def _cull_pass(self):
+        """The compiled cull pass, or None when this GL cannot build it (culling then stays
+        off: the image is the same without it)."""
         try:
-            return load_program(self.ctx, tech.program, defines, geometry=_CULL_STAGE)
+            return load_program(self.ctx, _CULL_PROGRAM)
         except GLUnavailableError as exc:
             self.small_triangle_cull = False
             warnings.warn(
-                f"small-triangle culling is not available on this GL ({exc}); drawing "
-                "every triangle",
+                f"small-triangle culling is not available on this GL ({exc}); drawing every "
+                "triangle",
                 RuntimeWarning,
-                stacklevel=3,
+                stacklevel=4,
             )
             return None
+
+    def _cull_chunks(self, chunks: list[int], camera: Camera, viewport) -> list[int]:
+        """Rewrite the cull index buffers of ``chunks`` for this view; returns the chunks
+        done (chunks with 32-bit indices are left to the full index list)."""
+        import moderngl
+
+        chunks = [i for i in chunks if self._chunk_ibos[i][1] == 2]
+        cs = self._cull_pass() if chunks else None
+        if cs is None:
+            return []
+        set_uniforms(cs, u_view_proj=camera.view_projection(), u_viewport_size=viewport,
+                     u_band=DEFAULT_BAND)
+        for i in chunks:
+            chunk = self.chunks[i]
+            ibo = self._cull_ibos.get(i)
+            if ibo is None:
+                ibo = self._cull_ibos[i] = self.ctx.buffer(reserve=6 * chunk.n_triangles)
+            self._chunk_vbos[i][0].bind_to_storage_buffer(0)
+            ibo.bind_to_storage_buffer(1)
+            set_uniforms(cs, u_rows=chunk.rows, u_cols=chunk.cols)
+            cs.run(-(-chunk.n_triangles // 2 // 64))
+        # the draws read the rewritten index buffers
+        self.ctx.memory_barrier(moderngl.ELEMENT_ARRAY_BARRIER_BIT)
+        return chunks
 
     def _prepare(self, tech: Technique, p: Mapping[str, Any]):
         """Textures and compiled program of ``tech`` (raises GLUnavailableError if this GL
@@ -623,7 +645,7 @@ class TerrainRenderer:
         return samplers, program
 
     def _draw_geometry(
-        self, program, camera: Camera, cull_program=None, viewport_height: int = 0
+        self, program, camera: Camera, viewport=(1, 1), *, cull: bool = False
     ) -> dict[str, int]:
         import moderngl
 
@@ -633,28 +655,25 @@ class TerrainRenderer:
             return {"triangles": max(self._custom_count, 0) // 3, "chunks": 1, "chunks_culled": 0,
                     "chunks_small_cull": 0}
         planes = camera.frustum_planes()
-        tris = drawn = culled = small = 0
         eye = camera.eye
         dist = [float(np.linalg.norm(np.clip(eye, *self._bbox[k]) - eye))
                 for k in range(len(self.chunks))]
-        # Projected size of one cell at a chunk's nearest point; cells further in are smaller.
-        cell_px = max(self.heightmap.spacing) * camera.pixels_per_radian(max(viewport_height, 1))
         # Front to back, so the depth test rejects hidden fragments before shading them.
-        for i in sorted(range(len(self.chunks)), key=dist.__getitem__):
-            chunk = self.chunks[i]
-            lo, hi = self._bbox[i]
-            if not _aabb_visible(planes, lo, hi):
-                culled += 1
-                continue
-            prog = program
-            if cull_program is not None and cell_px <= CULL_CELL_PX * dist[i]:
-                prog = cull_program
-                small += 1
-            self._vao(prog, i).render(moderngl.TRIANGLES)
-            tris += chunk.n_triangles
-            drawn += 1
-        return {"triangles": tris, "chunks": drawn, "chunks_culled": culled,
-                "chunks_small_cull": small}
+        order = sorted(range(len(self.chunks)), key=dist.__getitem__)
+        visible = [i for i in order if _aabb_visible(planes, *self._bbox[i])]
+        small: set[int] = set()
+        if cull:
+            # Projected size of one cell at a chunk's nearest point; cells further in are
+            # smaller still.
+            cell = max(self.heightmap.spacing) * camera.pixels_per_radian(viewport[1])
+            small = set(self._cull_chunks(
+                [i for i in visible if cell <= CULL_CELL_PX * dist[i]], camera, viewport))
+        tris = 0
+        for i in visible:
+            self._vao(program, i, culled=i in small).render(moderngl.TRIANGLES)
+            tris += self.chunks[i].n_triangles
+        return {"triangles": tris, "chunks": len(visible),
+                "chunks_culled": len(order) - len(visible), "chunks_small_cull": len(small)}
 
     def _draw_sky(self, uniforms: Mapping[str, Any]) -> None:
         import moderngl
@@ -678,6 +697,8 @@ class TerrainRenderer:
         self._vaos.clear()
         chunk_bufs = [b for vbos in self._chunk_vbos for b in vbos]
         chunk_bufs += [ibo for ibo, _ in self._chunk_ibos]
+        chunk_bufs += list(self._cull_ibos.values())
+        self._cull_ibos.clear()
         for buf in [*chunk_bufs, *(self._grid_vbos or [])]:
             buf.release()
         self._grid_vbos = None

@@ -3,13 +3,6 @@
 // tangent frame (seed 000 §2.5) as tangent.xyz + handedness w, so B = w * cross(N, T).
 // Only techniques that define TERRAIN_TANGENTS (bump, relief family) read the tangent:
 // on llvmpipe vertex fetch and every varying cost triangle-setup time on 2M triangles.
-#ifdef SMALL_TRIANGLE_CULL
-// common/terrain_geometry.glsl sits between this stage and the fragment stage: it reads
-// these outputs as g_* and passes them on as the v_* the fragment stage declares.
-#define v_world g_world
-#define v_normal g_normal
-#define v_tangent g_tangent
-#endif
 in vec3 in_position;
 in vec3 in_normal;
 #ifdef TERRAIN_TANGENTS
