@@ -14,8 +14,6 @@ constants through a "shader constant callback" every frame). Here:
       ...
       #endif
 
-* a compute program (GL 4.3+) is a file with one ``#if defined COMPUTE_SHADER`` section,
-  compiled with ``#version 430 core`` by :func:`load_program` as well;
 * ``#include "common/lighting.glsl"`` is resolved relative to the shader root (then to the
   including file's folder), recursively; a file included twice in one program is pasted once
   (``#pragma once`` semantics), a cycle or a missing file is an error;
@@ -39,12 +37,10 @@ from terrascape.errors import FileFormatError, GLUnavailableError, InvalidParame
 
 SHADER_DIR = Path(__file__).resolve().parent / "shaders"
 GLSL_VERSION = "#version 330 core"
-COMPUTE_GLSL_VERSION = "#version 430 core"
 STAGES = {
     "vertex": "VERTEX_SHADER",
     "geometry": "GEOMETRY_SHADER",
     "fragment": "FRAGMENT_SHADER",
-    "compute": "COMPUTE_SHADER",
 }
 
 _INCLUDE_RE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
@@ -154,8 +150,7 @@ def _source_and_files(name: str, stage: str, defines: Mapping | None) -> tuple[s
         raise InvalidParameterError(f"stage must be one of {sorted(STAGES)}, got {stage!r}")
     files: list[Path] = []
     body = _expand(program_path(name), [], set(), files)
-    version = COMPUTE_GLSL_VERSION if stage == "compute" else GLSL_VERSION
-    header = [version, f"#define {STAGES[stage]}", *_define_lines(defines)]
+    header = [GLSL_VERSION, f"#define {STAGES[stage]}", *_define_lines(defines)]
     return "\n".join(header + body) + "\n", files
 
 
@@ -167,8 +162,7 @@ def load_source(name: str, stage: str, defines: Mapping | None = None) -> str:
     name
         Program path under ``render/shaders`` without ``.glsl`` (``"terrain/plain"``).
     stage
-        ``"vertex"``, ``"geometry"``, ``"fragment"`` or ``"compute"``; selects the
-        ``#if defined`` section.
+        ``"vertex"``, ``"geometry"`` or ``"fragment"``; selects the ``#if defined`` section.
     defines
         Extra ``#define NAME VALUE`` lines (``None`` value → bare ``#define NAME``).
 
@@ -197,9 +191,7 @@ def _cache_key(name: str, defines: Mapping | None) -> tuple:
 
 
 def load_program(ctx, name: str, defines: Mapping | None = None):
-    """Compile and link program ``name`` on ``ctx``; cached per (ctx, name, defines). A file
-    with only a ``COMPUTE_SHADER`` section gives a moderngl ``ComputeShader`` (GL 4.3+; on
-    an older context a :class:`~terrascape.errors.GLUnavailableError`).
+    """Compile and link program ``name`` on ``ctx``; cached per (ctx, name, defines).
 
     Raises
     ------
@@ -214,10 +206,6 @@ def load_program(ctx, name: str, defines: Mapping | None = None):
     if key in per_ctx:
         return per_ctx[key]
     stages = _stages_of(name)
-    if stages == {"compute"}:
-        program = _compile_compute(ctx, name, defines)
-        per_ctx[key] = program
-        return program
     if not {"vertex", "fragment"} <= stages:
         raise ShaderSourceError(
             f"program {name!r} must have VERTEX_SHADER and FRAGMENT_SHADER sections, "
@@ -237,22 +225,6 @@ def load_program(ctx, name: str, defines: Mapping | None = None):
         ) from None
     per_ctx[key] = program
     return program
-
-
-def _compile_compute(ctx, name: str, defines: Mapping | None):
-    if ctx.version_code < 430:
-        raise GLUnavailableError(
-            f"compute program {name!r} needs OpenGL 4.3, this context is "
-            f"{ctx.version_code // 100}.{ctx.version_code % 100 // 10}"
-        )
-    src, files = _source_and_files(name, "compute", defines)
-    try:
-        return ctx.compute_shader(src)
-    except Exception as exc:  # moderngl.Error carries the driver log
-        legend = ", ".join(f"{i} = {_rel(p)}" for i, p in enumerate(files))
-        raise ShaderCompileError(
-            f"compute program {name!r} failed to compile (source numbers: {legend}):\n{exc}"
-        ) from None
 
 
 def clear_cache(ctx=None) -> None:

@@ -32,6 +32,7 @@ from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.lighting.sun import sun_direction
 from terrascape.mesh import DEFAULT_BAND, terrain_mesh
+from terrascape.mesh.small_triangles import cull_small_triangles
 from terrascape.render.context import current, describe_context
 from terrascape.render.shaders import load_program, set_uniforms
 from terrascape.render.techniques import (
@@ -53,11 +54,10 @@ _FALLBACK = "plain"
 # Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
 # (129 ≢ 0, ±1 mod 256, llvmpipe's vertex-cache hash) with few draw calls (64 at 1025²).
 RENDER_CHUNK = 129
-# Small-triangle culling (shaders/compute/small_triangle_cull.glsl) on chunks whose cells
-# project to at most this many pixels at the chunk's nearest point: there most triangles
-# hold no pixel centre; on larger triangles the pass would cost more than it saves.
+# Small-triangle culling (terrascape.mesh.small_triangles) on chunks whose cells project to
+# at most this many pixels at the chunk's nearest point: there most triangles hold no pixel
+# centre; on larger triangles the test would cost more than it saves.
 CULL_CELL_PX = 1.0
-_CULL_PROGRAM = "compute/small_triangle_cull"
 _SOFTWARE_RASTERISERS = ("llvmpipe", "softpipe", "swrast", "swiftshader")
 
 
@@ -205,11 +205,12 @@ class TerrainRenderer:
     chunk_size
         Vertices per chunk side (2**k + 1) of the full-resolution mesh.
     small_triangle_cull
-        Before drawing a full-resolution chunk whose cells are sub-pixel, let a compute pass
-        replace its triangles that hold no pixel centre (they draw nothing) by degenerate
-        ones. ``None`` (default): on for software rasterisers (llvmpipe) with OpenGL 4.3,
-        where triangle setup on one thread is the cost of a far view; off on GPUs, which
-        reject such triangles in hardware.
+        Before drawing a full-resolution chunk whose cells are sub-pixel, leave out its
+        triangles that hold no pixel centre (they draw nothing;
+        :func:`~terrascape.mesh.small_triangles.cull_small_triangles`, on the CPU cores).
+        ``None`` (default): on for software rasterisers (llvmpipe), where triangle setup on
+        one thread is the cost of a far view; off on GPUs, which reject such triangles in
+        hardware.
     """
 
     @_current
@@ -232,11 +233,11 @@ class TerrainRenderer:
         self.limits = describe_context(ctx)
         if small_triangle_cull is None:
             renderer = str(self.limits.get("renderer", "")).lower()
-            small_triangle_cull = ctx.version_code >= 430 and any(
-                name in renderer for name in _SOFTWARE_RASTERISERS
-            )
+            small_triangle_cull = any(name in renderer for name in _SOFTWARE_RASTERISERS)
         self.small_triangle_cull = bool(small_triangle_cull)
-        self._cull_ibos: dict[int, Any] = {}  # chunk -> index buffer the cull pass rewrites
+        # chunk -> (vertex positions (rows, cols, 3), index scratch, index buffer of the kept
+        # triangles), made on the chunk's first culled frame
+        self._cull_state: dict[int, tuple[np.ndarray, np.ndarray, Any]] = {}
         self.mesh = mesh = terrain_mesh(heightmap, exaggeration=self.exaggeration)
         self.chunks = mesh.chunks(chunk_size)
         self._chunk_vbos, self._chunk_ibos = self._upload_chunks()
@@ -329,7 +330,7 @@ class TerrainRenderer:
             else:
                 (ibo, index_size), vbos = self._chunk_ibos[which], self._chunk_vbos[which]
                 if culled:
-                    ibo = self._cull_ibos[which]
+                    ibo = self._cull_state[which][2]
             content = [
                 (vbos[0], "3f", "in_position"),
                 (vbos[1], "3f", "in_normal"),
@@ -596,44 +597,28 @@ class TerrainRenderer:
                 member.value = spare
                 spare += 1
 
-    def _cull_pass(self):
-        """The compiled cull pass, or None when this GL cannot build it (culling then stays
-        off: the image is the same without it)."""
-        try:
-            return load_program(self.ctx, _CULL_PROGRAM)
-        except GLUnavailableError as exc:
-            self.small_triangle_cull = False
-            warnings.warn(
-                f"small-triangle culling is not available on this GL ({exc}); drawing every "
-                "triangle",
-                RuntimeWarning,
-                stacklevel=4,
-            )
-            return None
-
-    def _cull_chunks(self, chunks: list[int], camera: Camera, viewport) -> list[int]:
-        """Rewrite the cull index buffers of ``chunks`` for this view; returns the chunks
-        done (chunks with 32-bit indices are left to the full index list)."""
-        import moderngl
-
-        chunks = [i for i in chunks if self._chunk_ibos[i][1] == 2]
-        cs = self._cull_pass() if chunks else None
-        if cs is None:
-            return []
-        set_uniforms(cs, u_view_proj=camera.view_projection(), u_viewport_size=viewport,
-                     u_band=DEFAULT_BAND)
+    def _cull_chunks(self, chunks: list[int], camera: Camera, viewport) -> dict[int, int]:
+        """Upload, for each of ``chunks``, the index list of its triangles that can draw in
+        this view; returns chunk -> number of indices (16-bit chunks only)."""
+        vp = camera.view_projection()
+        grid = self.mesh.positions.reshape(self.mesh.rows, self.mesh.cols, 3)
+        counts = {}
         for i in chunks:
-            chunk = self.chunks[i]
-            ibo = self._cull_ibos.get(i)
-            if ibo is None:
-                ibo = self._cull_ibos[i] = self.ctx.buffer(reserve=6 * chunk.n_triangles)
-            self._chunk_vbos[i][0].bind_to_storage_buffer(0)
-            ibo.bind_to_storage_buffer(1)
-            set_uniforms(cs, u_rows=chunk.rows, u_cols=chunk.cols)
-            cs.run(-(-chunk.n_triangles // 2 // 64))
-        # the draws read the rewritten index buffers
-        self.ctx.memory_barrier(moderngl.ELEMENT_ARRAY_BARRIER_BIT)
-        return chunks
+            if self._chunk_ibos[i][1] != 2:
+                continue
+            state = self._cull_state.get(i)
+            if state is None:
+                c = self.chunks[i]
+                tile = np.ascontiguousarray(grid[c.rows_slice, c.cols_slice])
+                scratch = np.empty(3 * c.n_triangles, dtype=np.uint16)
+                state = (tile, scratch, self.ctx.buffer(reserve=scratch.nbytes))
+                self._cull_state[i] = state
+            tile, scratch, ibo = state
+            kept = cull_small_triangles(tile, vp, viewport, band=DEFAULT_BAND, out=scratch)
+            if kept.size:
+                ibo.write(kept.tobytes())
+            counts[i] = kept.size
+        return counts
 
     def _prepare(self, tech: Technique, p: Mapping[str, Any]):
         """Textures and compiled program of ``tech`` (raises GLUnavailableError if this GL
@@ -652,7 +637,8 @@ class TerrainRenderer:
         if self._custom_count:
             if self._custom_count > 0:
                 self._vao(program, "custom").render(moderngl.TRIANGLES, vertices=self._custom_count)
-            return {"triangles": max(self._custom_count, 0) // 3, "chunks": 1, "chunks_culled": 0,
+            n = max(self._custom_count, 0) // 3
+            return {"triangles": n, "triangles_drawn": n, "chunks": 1, "chunks_culled": 0,
                     "chunks_small_cull": 0}
         planes = camera.frustum_planes()
         eye = camera.eye
@@ -661,18 +647,25 @@ class TerrainRenderer:
         # Front to back, so the depth test rejects hidden fragments before shading them.
         order = sorted(range(len(self.chunks)), key=dist.__getitem__)
         visible = [i for i in order if _aabb_visible(planes, *self._bbox[i])]
-        small: set[int] = set()
+        small: dict[int, int] = {}
         if cull:
             # Projected size of one cell at a chunk's nearest point; cells further in are
             # smaller still.
             cell = max(self.heightmap.spacing) * camera.pixels_per_radian(viewport[1])
-            small = set(self._cull_chunks(
-                [i for i in visible if cell <= CULL_CELL_PX * dist[i]], camera, viewport))
-        tris = 0
+            small = self._cull_chunks(
+                [i for i in visible if cell <= CULL_CELL_PX * dist[i]], camera, viewport)
+        tris = drawn = 0
         for i in visible:
-            self._vao(program, i, culled=i in small).render(moderngl.TRIANGLES)
-            tris += self.chunks[i].n_triangles
-        return {"triangles": tris, "chunks": len(visible),
+            n = self.chunks[i].n_triangles
+            tris += n
+            if i in small:
+                n = small[i] // 3
+                if n:
+                    self._vao(program, i, culled=True).render(moderngl.TRIANGLES, vertices=3 * n)
+            else:
+                self._vao(program, i).render(moderngl.TRIANGLES)
+            drawn += n
+        return {"triangles": tris, "triangles_drawn": drawn, "chunks": len(visible),
                 "chunks_culled": len(order) - len(visible), "chunks_small_cull": len(small)}
 
     def _draw_sky(self, uniforms: Mapping[str, Any]) -> None:
@@ -697,8 +690,8 @@ class TerrainRenderer:
         self._vaos.clear()
         chunk_bufs = [b for vbos in self._chunk_vbos for b in vbos]
         chunk_bufs += [ibo for ibo, _ in self._chunk_ibos]
-        chunk_bufs += list(self._cull_ibos.values())
-        self._cull_ibos.clear()
+        chunk_bufs += [state[2] for state in self._cull_state.values()]
+        self._cull_state.clear()
         for buf in [*chunk_bufs, *(self._grid_vbos or [])]:
             buf.release()
         self._grid_vbos = None
