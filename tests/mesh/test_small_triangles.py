@@ -8,7 +8,11 @@ import pytest
 from terrascape.camera import Camera
 from terrascape.errors import InvalidParameterError
 from terrascape.mesh import banded_grid_triangles
-from terrascape.mesh.small_triangles import DEFAULT_MARGIN_PX, cull_small_triangles
+from terrascape.mesh.small_triangles import (
+    DEFAULT_MARGIN_PX,
+    MAX_CENTRE_TESTS,
+    cull_small_triangles,
+)
 
 
 def _tile(rng, rows=33, cols=41, spacing=1.0):
@@ -25,14 +29,39 @@ def _screen(tile, cam, size):
     return scr, w
 
 
-def _reference(tile, cam, size, margin):
-    """Per triangle of the band order: may it hold a pixel centre (box widened by margin)?"""
+def _covers(t, size, margin, max_tests):
+    """Does the screen triangle t (3, 2) contain a viewport pixel centre, widened by margin
+    px (True too when its box holds more than max_tests centres)?"""
+    lo = np.maximum(t.min(axis=0), 0.0)
+    hi = np.minimum(t.max(axis=0), np.asarray(size, dtype=np.float64))
+    k0 = np.ceil(lo - 0.5 - margin)
+    k1 = np.floor(hi - 0.5 + margin)
+    if (k0 > k1).any():
+        return False
+    if np.prod(k1 - k0 + 1) > max_tests:
+        return True
+    a, b, c = t
+    area2 = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
+    if area2 == 0:
+        return True
+    for ky in np.arange(k0[1], k1[1] + 1):
+        for kx in np.arange(k0[0], k1[0] + 1):
+            p = np.array([kx + 0.5, ky + 0.5])
+            dist = []
+            for u, v in ((a, b), (b, c), (c, a)):
+                e = v - u
+                dist.append(np.sign(area2) * (e[0] * (p[1] - u[1]) - e[1] * (p[0] - u[0]))
+                            / max(np.hypot(*e), 1e-300))
+            if min(dist) >= -margin:
+                return True
+    return False
+
+
+def _reference(tile, cam, size, margin, max_tests=MAX_CENTRE_TESTS):
+    """Per triangle of the band order: may it cover a pixel centre (widened by margin)?"""
     tris = banded_grid_triangles(tile.shape[0], tile.shape[1]).astype(np.int64)
     scr, w = _screen(tile, cam, size)
-    s = scr[tris]
-    lo = np.maximum(s.min(axis=1), 0.0)
-    hi = np.minimum(s.max(axis=1), np.asarray(size, dtype=np.float64))
-    holds = (np.ceil(lo - 0.5 - margin) <= np.floor(hi - 0.5 + margin)).all(axis=1)
+    holds = np.array([_covers(scr[t], size, margin, max_tests) for t in tris])
     behind = (w[tris] <= 0).any(axis=1)
     return tris, holds, behind
 
