@@ -358,3 +358,40 @@ def test_small_triangle_cull_is_on_by_default_on_software_rasterisers(gl_ctx):
         assert r.terrain.small_triangle_cull is software
     finally:
         r.release()
+
+
+@pytest.mark.parametrize("tech", ["regions", "splat", "relief", "bump"])
+def test_deferred_shading_draws_what_forward_shading_draws(gl_ctx, tech):
+    r = OffscreenRenderer(gl_ctx, _far_terrain(), size=(160, 90), small_triangle_cull=True,
+                          deferred_shading=True)
+    try:
+        cam = r.default_camera()
+        deferred = r.render(cam, tech)
+        stats = dict(r.terrain.last_stats)
+        r.terrain.deferred_shading = False
+        forward = r.render(cam, tech)
+    finally:
+        r.release()
+    from terrascape.render.techniques import get_technique
+
+    # only techniques with heavy per-pixel shading take the deferred path
+    assert stats.get("deferred", 0) == int(get_technique(tech).deferred)
+    diff = np.abs(deferred.astype(int) - forward.astype(int)).max(-1)
+    # The same surface attributes per pixel; only the texture level of detail differs: its
+    # derivatives come from neighbouring pixels here, from each tiny triangle's own plane
+    # in forward shading (this 257² map puts several triangles in every pixel).
+    assert diff.mean() < 1.0
+    assert np.percentile(diff, 99) <= 16
+    assert (diff > 16).mean() < 0.02
+    assert (diff == 0).mean() > 0.8
+
+
+def test_deferred_shading_is_for_far_views_only(gl_ctx):
+    r = OffscreenRenderer(gl_ctx, _far_terrain(side=65), size=(160, 90), deferred_shading=True,
+                          small_triangle_cull=True)
+    try:
+        cam = Camera.look_at((20, 40, 20), (32, 10, 32), fov_y=50, aspect=16 / 9)
+        r.render(cam, "regions")
+        assert "deferred" not in r.terrain.last_stats
+    finally:
+        r.release()

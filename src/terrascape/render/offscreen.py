@@ -86,6 +86,7 @@ class OffscreenRenderer:
         exaggeration=1.0,
         chunk_size: int | None = None,
         small_triangle_cull: bool | None = None,
+        deferred_shading: bool | None = None,
     ) -> None:
         from terrascape.render.terrain import TerrainRenderer, check_output_size
 
@@ -97,7 +98,8 @@ class OffscreenRenderer:
         self.size = check_output_size(ctx, size)
         kwargs = {} if chunk_size is None else {"chunk_size": chunk_size}
         self.terrain = TerrainRenderer(ctx, heightmap, exaggeration=exaggeration,
-                                       small_triangle_cull=small_triangle_cull, **kwargs)
+                                       small_triangle_cull=small_triangle_cull,
+                                       deferred_shading=deferred_shading, **kwargs)
         w, h = self.size
         self._color = ctx.renderbuffer((w, h), 4, samples=0)
         self._depth = ctx.depth_renderbuffer((w, h), samples=0)

@@ -186,6 +186,7 @@ def register_relief_techniques(*, replace: bool = True) -> list[str]:
                 defaults=RELIEF_DEFAULTS,
                 defines={"TECHNIQUE": TECHNIQUES[tech]},
                 description=text,
+                deferred=True,
             ),
             replace=replace,
         )

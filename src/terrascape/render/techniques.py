@@ -101,6 +101,10 @@ class Technique:
     defaults: Mapping[str, Any] = field(default_factory=dict)
     defines: Mapping[str, Any] = field(default_factory=dict)
     description: str = ""
+    # Per-pixel shading heavy enough (several texture layers, a ray march) that a frame of
+    # sub-pixel triangles on a software rasteriser is cheaper shaded once per pixel in a
+    # deferred pass (TerrainRenderer's deferred_shading) than triangle by triangle.
+    deferred: bool = False
 
     def parameters(self) -> dict[str, Any]:
         """All accepted parameters with defaults (common ones, then the technique's)."""
@@ -360,6 +364,7 @@ register_technique(
     Technique(
         "regions",
         "terrain/regions",
+        deferred=True,
         textures=(
             TextureSlot(
                 "u_materials",
@@ -405,6 +410,7 @@ register_technique(
     Technique(
         "splat",
         "terrain/splat",
+        deferred=True,
         textures=(
             TextureSlot(
                 "u_splat0",

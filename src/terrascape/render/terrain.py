@@ -50,6 +50,8 @@ _SAMPLER_TYPES = frozenset(
 # Samplers a technique does not feed get their own units from here up, so no two samplers
 # of different types share unit 0 (a draw-time GL_INVALID_OPERATION that drops the draw).
 _SPARE_UNIT = 16
+# Texture units of the geometry buffer in the deferred shading pass (below the spare units).
+_GBUFFER_UNIT = 12
 _FALLBACK = "plain"
 # Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
 # (129 ≢ 0, ±1 mod 256, llvmpipe's vertex-cache hash) with few draw calls (64 at 1025²).
@@ -211,6 +213,13 @@ class TerrainRenderer:
         ``None`` (default): on for software rasterisers (llvmpipe), where triangle setup on
         one thread is the cost of a far view; off on GPUs, which reject such triangles in
         hardware.
+    deferred_shading
+        For techniques marked ``deferred`` (heavy per-pixel shading: layer blending, relief
+        marches), when most visible chunks are sub-pixel (and culled as above): draw the
+        surface attributes into a geometry buffer first and run the technique's shading once
+        per pixel in a full-screen pass (common/terrain_fragment.glsl), instead of a SIMD
+        vector of lanes for each tiny triangle's pixel. ``None`` (default): as
+        ``small_triangle_cull``.
     """
 
     @_current
@@ -222,6 +231,7 @@ class TerrainRenderer:
         exaggeration: float = 1.0,
         chunk_size: int = RENDER_CHUNK,
         small_triangle_cull: bool | None = None,
+        deferred_shading: bool | None = None,
     ) -> None:
         if not isinstance(heightmap, Heightmap):
             raise InvalidParameterError(
@@ -235,6 +245,11 @@ class TerrainRenderer:
             renderer = str(self.limits.get("renderer", "")).lower()
             small_triangle_cull = any(name in renderer for name in _SOFTWARE_RASTERISERS)
         self.small_triangle_cull = bool(small_triangle_cull)
+        if deferred_shading is None:
+            deferred_shading = self.small_triangle_cull
+        self.deferred_shading = bool(deferred_shading)
+        self._gbuffer: tuple | None = None  # (size, fbo, textures) of the geometry buffer
+        self._fullscreen_vaos: dict[int, Any] = {}
         # chunk -> (vertex positions (rows, cols, 3), index scratch, index buffer of the kept
         # triangles), made on the chunk's first culled frame
         self._cull_state: dict[int, tuple[np.ndarray, np.ndarray, Any]] = {}
@@ -559,7 +574,14 @@ class TerrainRenderer:
         if wire:
             # Push the filled surface back so the overlay lines win the depth test.
             ctx.polygon_offset = (1.0, 1.0)
-        stats = self._draw_geometry(program, camera, fbo.size, cull=self.small_triangle_cull)
+        plan = self._chunk_plan(camera, fbo.size)
+        deferred = None
+        if tech.deferred and self._wants_deferred(plan):
+            deferred = self._deferred_program(tech)
+        if deferred is None:
+            stats = self._draw_geometry(program, camera, fbo.size, plan=plan)
+        else:
+            stats = self._draw_deferred(fbo, deferred, camera, uniforms, samplers, plan)
         ctx.polygon_offset = (0.0, 0.0)
         if wire:
             wp = self._wire_prog or load_program(ctx, "debug/solid")
@@ -571,7 +593,7 @@ class TerrainRenderer:
             )
             ctx.wireframe = True
             try:
-                self._draw_geometry(wp, camera)
+                self._draw_geometry(wp, camera, fbo.size, plan=None)
             finally:
                 ctx.wireframe = False
         ctx.disable(moderngl.CULL_FACE)
@@ -629,9 +651,30 @@ class TerrainRenderer:
         program = load_program(self.ctx, tech.program, tech.defines or None)
         return samplers, program
 
-    def _draw_geometry(
-        self, program, camera: Camera, viewport=(1, 1), *, cull: bool = False
-    ) -> dict[str, int]:
+    def _chunk_plan(self, camera: Camera, viewport) -> tuple[list[int], list[int]] | None:
+        """Visible chunks front to back, and those of them whose cells are sub-pixel (to be
+        culled for small triangles); None when a custom triangulation is drawn."""
+        if self._custom_count:
+            return None
+        planes = camera.frustum_planes()
+        eye = camera.eye
+        dist = [float(np.linalg.norm(np.clip(eye, *self._bbox[k]) - eye))
+                for k in range(len(self.chunks))]
+        # Front to back, so the depth test rejects hidden fragments before shading them.
+        order = sorted(range(len(self.chunks)), key=dist.__getitem__)
+        visible = [i for i in order if _aabb_visible(planes, *self._bbox[i])]
+        small = []
+        if self.small_triangle_cull:
+            # Projected size of one cell at a chunk's nearest point; cells further in are
+            # smaller still.
+            cell = max(self.heightmap.spacing) * camera.pixels_per_radian(viewport[1])
+            small = [i for i in visible if cell <= CULL_CELL_PX * dist[i]]
+        return visible, small
+
+    def _draw_geometry(self, program, camera: Camera, viewport=(1, 1), *, plan="auto",
+                       cull: bool = True) -> dict[str, int]:
+        """Draw the current triangulation with ``program``; ``plan`` from
+        :meth:`_chunk_plan` (``"auto"``: made here; None for a wireframe pass: no culling)."""
         import moderngl
 
         if self._custom_count:
@@ -640,33 +683,101 @@ class TerrainRenderer:
             n = max(self._custom_count, 0) // 3
             return {"triangles": n, "triangles_drawn": n, "chunks": 1, "chunks_culled": 0,
                     "chunks_small_cull": 0}
-        planes = camera.frustum_planes()
-        eye = camera.eye
-        dist = [float(np.linalg.norm(np.clip(eye, *self._bbox[k]) - eye))
-                for k in range(len(self.chunks))]
-        # Front to back, so the depth test rejects hidden fragments before shading them.
-        order = sorted(range(len(self.chunks)), key=dist.__getitem__)
-        visible = [i for i in order if _aabb_visible(planes, *self._bbox[i])]
-        small: dict[int, int] = {}
-        if cull:
-            # Projected size of one cell at a chunk's nearest point; cells further in are
-            # smaller still.
-            cell = max(self.heightmap.spacing) * camera.pixels_per_radian(viewport[1])
-            small = self._cull_chunks(
-                [i for i in visible if cell <= CULL_CELL_PX * dist[i]], camera, viewport)
+        if plan == "auto":
+            plan = self._chunk_plan(camera, viewport)
+        if plan is None:  # every frustum-visible chunk, whole
+            visible = self._chunk_plan(camera, viewport)[0]
+            small_counts: dict[int, int] = {}
+        else:
+            visible, small = plan
+            small_counts = self._cull_chunks(small, camera, viewport) if cull else {}
         tris = drawn = 0
         for i in visible:
             n = self.chunks[i].n_triangles
             tris += n
-            if i in small:
-                n = small[i] // 3
+            if i in small_counts:
+                n = small_counts[i] // 3
                 if n:
                     self._vao(program, i, culled=True).render(moderngl.TRIANGLES, vertices=3 * n)
             else:
                 self._vao(program, i).render(moderngl.TRIANGLES)
             drawn += n
         return {"triangles": tris, "triangles_drawn": drawn, "chunks": len(visible),
-                "chunks_culled": len(order) - len(visible), "chunks_small_cull": len(small)}
+                "chunks_culled": len(self.chunks) - len(visible),
+                "chunks_small_cull": len(small_counts)}
+
+    # --- deferred shading ---------------------------------------------------------------
+    def _wants_deferred(self, plan) -> bool:
+        if not self.deferred_shading or plan is None or not plan[0]:
+            return False
+        visible, small = plan
+        return 2 * len(small) >= len(visible)
+
+    def _deferred_program(self, tech: Technique):
+        """The technique's shading as a full-screen pass over the geometry buffer, or None
+        when this GL cannot build it (the frame is then drawn forward)."""
+        defines = {**(tech.defines or {}), "DEFERRED": 1}
+        try:
+            return load_program(self.ctx, tech.program, defines)
+        except GLUnavailableError:
+            return None
+
+    def _gbuffer_for(self, size):
+        import moderngl
+
+        if self._gbuffer is not None and self._gbuffer[0] == tuple(size):
+            return self._gbuffer
+        self._release_gbuffer()
+        ctx = self.ctx
+        # float32 attributes: the shading pass sees the values forward shading interpolates
+        colours = [ctx.texture(size, 4, dtype="f4") for _ in range(3)]
+        depth = ctx.depth_texture(size)
+        for tex in [*colours, depth]:
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        fbo = ctx.framebuffer(color_attachments=colours, depth_attachment=depth)
+        self._gbuffer = (tuple(size), fbo, [*colours, depth])
+        return self._gbuffer
+
+    def _release_gbuffer(self) -> None:
+        if self._gbuffer is not None:
+            _, fbo, textures = self._gbuffer
+            fbo.release()
+            for tex in textures:
+                tex.release()
+            self._gbuffer = None
+
+    def _draw_deferred(self, fbo, shading, camera, uniforms, samplers, plan) -> dict[str, int]:
+        import moderngl
+
+        ctx = self.ctx
+        tangents = "u_gbuffer_tangent" in shading
+        geometry = load_program(ctx, "terrain/gbuffer",
+                                {"TERRAIN_TANGENTS": 1} if tangents else None)
+        _, gbuf, (world, normal, tangent, depth) = self._gbuffer_for(fbo.size)
+        # --- PASS 1: surface attributes of the nearest terrain per pixel
+        gbuf.use()
+        gbuf.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        set_uniforms(geometry, u_view_proj=uniforms["u_view_proj"])
+        stats = self._draw_geometry(geometry, camera, fbo.size, plan=plan)
+        # --- PASS 2: the technique's shading, once per pixel, into the target
+        fbo.use()
+        for unit, name in enumerate(samplers):
+            self._textures[name][0].use(location=unit)
+        self._bind(shading, uniforms, samplers)
+        units = {"u_gbuffer_world": world, "u_gbuffer_normal": normal,
+                 "u_gbuffer_depth": depth, "u_gbuffer_tangent": tangent}
+        for unit, (name, tex) in enumerate(units.items(), start=_GBUFFER_UNIT):
+            if name in shading:
+                tex.use(location=unit)
+                shading[name].value = unit
+        ctx.disable(moderngl.CULL_FACE)
+        vao = self._fullscreen_vaos.get(shading.glo)
+        if vao is None:
+            vao = self._fullscreen_vaos[shading.glo] = ctx.vertex_array(shading, [])
+        vao.render(moderngl.TRIANGLES, vertices=3)
+        ctx.enable(moderngl.CULL_FACE)
+        stats["deferred"] = 1
+        return stats
 
     def _draw_sky(self, uniforms: Mapping[str, Any]) -> None:
         import moderngl
@@ -702,6 +813,10 @@ class TerrainRenderer:
         self._textures.clear()
         if self._sky_vao is not None:
             self._sky_vao.release()
+        for vao in self._fullscreen_vaos.values():
+            vao.release()
+        self._fullscreen_vaos.clear()
+        self._release_gbuffer()
 
 
 def check_output_size(ctx, size: Any) -> tuple[int, int]:

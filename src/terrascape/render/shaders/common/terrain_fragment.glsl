@@ -2,10 +2,44 @@
 #include "common/lighting.glsl"
 #include "common/fog.glsl"
 
+#ifdef DEFERRED
+// Deferred shading (terrascape.render.terrain: full-resolution frames of sub-pixel
+// triangles on a software rasteriser). A first pass (terrain/gbuffer.glsl) stores each
+// pixel's interpolated surface attributes; this pass runs the technique's shading once per
+// pixel from them. A CPU rasteriser shades a tiny triangle's covered pixel with a whole
+// SIMD vector of lanes; shading full-screen runs every lane on a pixel of its own.
+uniform sampler2D u_gbuffer_world;    // xyz world position, w = 1 where terrain was drawn
+uniform sampler2D u_gbuffer_normal;   // xyz interpolated vertex normal
+uniform sampler2D u_gbuffer_depth;    // the geometry pass's depth
+vec3 v_world;
+vec3 v_normal;
+#ifdef TERRAIN_TANGENTS
+uniform sampler2D u_gbuffer_tangent;  // interpolated tangent.xyz + handedness w
+vec4 v_tangent;
+#endif
+void technique_main();
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    vec4 world = texelFetch(u_gbuffer_world, p, 0);
+    v_world = world.xyz;
+    v_normal = texelFetch(u_gbuffer_normal, p, 0).xyz;
+#ifdef TERRAIN_TANGENTS
+    v_tangent = texelFetch(u_gbuffer_tangent, p, 0);
+#endif
+    // Shade every lane (derivatives of the technique need neighbours), then keep terrain.
+    technique_main();
+    if (world.w == 0.0) {
+        discard;
+    }
+    gl_FragDepth = texelFetch(u_gbuffer_depth, p, 0).r;
+}
+#define main technique_main
+#else
 in vec3 v_world;
 in vec3 v_normal;
 #ifdef TERRAIN_TANGENTS
 in vec4 v_tangent;
+#endif
 #endif
 
 uniform vec2 u_extent;     // world size (x, z) of the terrain

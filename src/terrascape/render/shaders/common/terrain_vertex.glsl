@@ -1,4 +1,12 @@
 // Vertex stage shared by every terrain technique.
+#ifdef DEFERRED
+// Deferred shading pass (see common/terrain_fragment.glsl): one full-screen triangle; the
+// surface attributes come from the geometry buffer, not from vertices.
+void main() {
+    vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2)) * 2.0 - 1.0;
+    gl_Position = vec4(p, 0.0, 1.0);
+}
+#else
 // Attributes come from terrascape.mesh.terrain_mesh: world position, unit normal and the
 // tangent frame (seed 000 §2.5) as tangent.xyz + handedness w, so B = w * cross(N, T).
 // Only techniques that define TERRAIN_TANGENTS (bump, relief family) read the tangent:
@@ -23,3 +31,4 @@ void main() {
 #endif
     gl_Position = u_view_proj * vec4(in_position, 1.0);
 }
+#endif
