@@ -35,12 +35,11 @@ MAX_CENTRE_TESTS = 4
 
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _edge_ok(ax, ay, bx, by, px, py, sign, margin):
-    # signed distance of P from edge A->B, in pixels, on the triangle's inner side
+    # P on the triangle's inner side of edge A->B, or within margin px of the edge line:
+    # cross >= -margin·|AB|, tested without the square root
     ex, ey = bx - ax, by - ay
-    length = np.sqrt(ex * ex + ey * ey)
-    if length == 0.0:
-        return True
-    return sign * (ex * (py - ay) - ey * (px - ax)) >= -margin * length
+    cross = sign * (ex * (py - ay) - ey * (px - ax))
+    return cross >= 0.0 or cross * cross <= margin * margin * (ex * ex + ey * ey)
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
