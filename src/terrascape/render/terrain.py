@@ -759,25 +759,47 @@ class TerrainRenderer:
         gbuf.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         set_uniforms(geometry, u_view_proj=uniforms["u_view_proj"])
         stats = self._draw_geometry(geometry, camera, fbo.size, plan=plan)
-        # --- PASS 2: the technique's shading, once per pixel, into the target
+        # --- PASS 2: the geometry pass's depth into the target (colour masked off)
         fbo.use()
+        ctx.disable(moderngl.CULL_FACE)
+        copy = load_program(ctx, "terrain/gbuffer_depth")
+        depth.use(location=_GBUFFER_UNIT)
+        copy["u_gbuffer_depth"].value = _GBUFFER_UNIT
+        ctx.depth_func = "1"
+        fbo.color_mask = (False, False, False, False)
+        try:
+            self._fullscreen(copy)
+        finally:
+            fbo.color_mask = (True, True, True, True)
+        # --- PASS 3: the technique's shading, once per terrain pixel: drawn at depth 1 with
+        # GL_GREATER and no depth writes, so sky pixels fail the early depth test
         for unit, name in enumerate(samplers):
             self._textures[name][0].use(location=unit)
         self._bind(shading, uniforms, samplers)
         units = {"u_gbuffer_world": world, "u_gbuffer_normal": normal,
-                 "u_gbuffer_depth": depth, "u_gbuffer_tangent": tangent}
+                 "u_gbuffer_tangent": tangent}
         for unit, (name, tex) in enumerate(units.items(), start=_GBUFFER_UNIT):
             if name in shading:
                 tex.use(location=unit)
                 shading[name].value = unit
-        ctx.disable(moderngl.CULL_FACE)
-        vao = self._fullscreen_vaos.get(shading.glo)
-        if vao is None:
-            vao = self._fullscreen_vaos[shading.glo] = ctx.vertex_array(shading, [])
-        vao.render(moderngl.TRIANGLES, vertices=3)
+        ctx.depth_func = ">"
+        fbo.depth_mask = False
+        try:
+            self._fullscreen(shading)
+        finally:
+            fbo.depth_mask = True
+            ctx.depth_func = "<"
         ctx.enable(moderngl.CULL_FACE)
         stats["deferred"] = 1
         return stats
+
+    def _fullscreen(self, program) -> None:
+        import moderngl
+
+        vao = self._fullscreen_vaos.get(program.glo)
+        if vao is None:
+            vao = self._fullscreen_vaos[program.glo] = self.ctx.vertex_array(program, [])
+        vao.render(moderngl.TRIANGLES, vertices=3)
 
     def _draw_sky(self, uniforms: Mapping[str, Any]) -> None:
         import moderngl

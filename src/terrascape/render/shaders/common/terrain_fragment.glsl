@@ -8,9 +8,8 @@
 // pixel's interpolated surface attributes; this pass runs the technique's shading once per
 // pixel from them. A CPU rasteriser shades a tiny triangle's covered pixel with a whole
 // SIMD vector of lanes; shading full-screen runs every lane on a pixel of its own.
-uniform sampler2D u_gbuffer_world;    // xyz world position, w = 1 where terrain was drawn
+uniform sampler2D u_gbuffer_world;    // xyz world position (w = 1 where terrain was drawn)
 uniform sampler2D u_gbuffer_normal;   // xyz interpolated vertex normal
-uniform sampler2D u_gbuffer_depth;    // the geometry pass's depth
 vec3 v_world;
 vec3 v_normal;
 #ifdef TERRAIN_TANGENTS
@@ -20,18 +19,15 @@ vec4 v_tangent;
 void technique_main();
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
-    vec4 world = texelFetch(u_gbuffer_world, p, 0);
-    v_world = world.xyz;
+    v_world = texelFetch(u_gbuffer_world, p, 0).xyz;
     v_normal = texelFetch(u_gbuffer_normal, p, 0).xyz;
 #ifdef TERRAIN_TANGENTS
     v_tangent = texelFetch(u_gbuffer_tangent, p, 0);
 #endif
-    // Shade every lane (derivatives of the technique need neighbours), then keep terrain.
+    // Pixels without terrain were rejected by the depth test (the renderer copies the
+    // geometry pass's depth first and draws this pass at depth 1 with GL_GREATER), so the
+    // early depth test skips whole blocks of sky before any shading.
     technique_main();
-    if (world.w == 0.0) {
-        discard;
-    }
-    gl_FragDepth = texelFetch(u_gbuffer_depth, p, 0).r;
 }
 #define main technique_main
 #else

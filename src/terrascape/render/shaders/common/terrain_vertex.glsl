@@ -4,7 +4,7 @@
 // surface attributes come from the geometry buffer, not from vertices.
 void main() {
     vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2)) * 2.0 - 1.0;
-    gl_Position = vec4(p, 0.0, 1.0);
+    gl_Position = vec4(p, 1.0, 1.0);  // depth 1: drawn where the terrain depth is nearer
 }
 #else
 // Attributes come from terrascape.mesh.terrain_mesh: world position, unit normal and the
