@@ -386,12 +386,24 @@ def test_deferred_shading_draws_what_forward_shading_draws(gl_ctx, tech):
     assert (diff == 0).mean() > 0.8
 
 
-def test_deferred_shading_is_for_far_views_only(gl_ctx):
+def test_deferred_shading_follows_the_technique_and_the_switch(gl_ctx):
     r = OffscreenRenderer(gl_ctx, _far_terrain(side=65), size=(160, 90), deferred_shading=True,
                           small_triangle_cull=True)
     try:
         cam = Camera.look_at((20, 40, 20), (32, 10, 32), fov_y=50, aspect=16 / 9)
-        r.render(cam, "regions")
+        close = r.render(cam, "regions")  # close views too: one shading per pixel
+        assert r.terrain.last_stats["deferred"] == 1
+        r.render(cam, "plain")  # a cheap technique is shaded forward
         assert "deferred" not in r.terrain.last_stats
+        r.terrain.set_indices(r.terrain.mesh.triangles)  # LOD triangulations as well
+        assert np.array_equal(r.render(cam, "regions"), close)
+        assert r.terrain.last_stats["deferred"] == 1
+        r.terrain.deferred_shading = False
+        forward = r.render(cam, "regions")
+        assert "deferred" not in r.terrain.last_stats
+        # the same shading; texture LOD from neighbouring pixels instead of each small far
+        # triangle's own plane: a level or two off over the far distance, nothing visible
+        diff = np.abs(forward.astype(int) - close.astype(int)).max(-1)
+        assert diff.mean() < 1.5 and (diff > 16).mean() < 0.02 and (diff == 0).mean() > 0.6
     finally:
         r.release()

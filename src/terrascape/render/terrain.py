@@ -215,11 +215,12 @@ class TerrainRenderer:
         hardware.
     deferred_shading
         For techniques marked ``deferred`` (heavy per-pixel shading: layer blending, relief
-        marches), when most visible chunks are sub-pixel (and culled as above): draw the
-        surface attributes into a geometry buffer first and run the technique's shading once
-        per pixel in a full-screen pass (common/terrain_fragment.glsl), instead of a SIMD
-        vector of lanes for each tiny triangle's pixel. ``None`` (default): as
-        ``small_triangle_cull``.
+        marches): draw the surface attributes into a geometry buffer first and run the
+        technique's shading once per terrain pixel in a full-screen pass
+        (common/terrain_fragment.glsl). A CPU rasteriser shades pixels in SIMD vectors per
+        triangle, so small triangles waste most lanes and hidden surfaces are shaded too;
+        shaded full-screen, every lane is a visible pixel. ``None`` (default): on for
+        software rasterisers (as ``small_triangle_cull``), off on GPUs.
     """
 
     @_current
@@ -708,10 +709,8 @@ class TerrainRenderer:
 
     # --- deferred shading ---------------------------------------------------------------
     def _wants_deferred(self, plan) -> bool:
-        if not self.deferred_shading or plan is None or not plan[0]:
-            return False
-        visible, small = plan
-        return 2 * len(small) >= len(visible)
+        # Anything to draw: a custom triangulation (plan None) or visible chunks.
+        return self.deferred_shading and (plan is None or bool(plan[0]))
 
     def _deferred_program(self, tech: Technique):
         """The technique's shading as a full-screen pass over the geometry buffer, or None

@@ -19,7 +19,19 @@ vec4 v_tangent;
 void technique_main();
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
-    v_world = texelFetch(u_gbuffer_world, p, 0).xyz;
+    vec4 world = texelFetch(u_gbuffer_world, p, 0);
+    // A lane without terrain (shaded only as a neighbour for derivatives, its colour is
+    // rejected by the depth test) takes a terrain pixel of its 2×2 quad, so the technique's
+    // derivatives at the terrain's edge stay those of the surface instead of a jump to 0.
+    for (int k = 1; k <= 3 && world.w == 0.0; ++k) {
+        ivec2 q = p ^ ivec2(k & 1, k >> 1);
+        vec4 other = texelFetch(u_gbuffer_world, q, 0);
+        if (other.w != 0.0) {
+            p = q;
+            world = other;
+        }
+    }
+    v_world = world.xyz;
     v_normal = texelFetch(u_gbuffer_normal, p, 0).xyz;
 #ifdef TERRAIN_TANGENTS
     v_tangent = texelFetch(u_gbuffer_tangent, p, 0);
