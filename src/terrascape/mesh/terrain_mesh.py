@@ -57,7 +57,12 @@ def grid_triangles(
         return np.zeros((0, 3), dtype=np.uint32)
     r = np.arange(row0, row0 + n_rows - 1, dtype=np.int64)[:, None]
     c = np.arange(col0, col0 + n_cols - 1, dtype=np.int64)[None, :]
-    i00 = (r * stride + c).ravel()
+    return _cell_triangles((r * stride + c).ravel(), stride)
+
+
+def _cell_triangles(i00: np.ndarray, stride: int) -> np.ndarray:
+    """The two triangles ``(i00, i10, i01)``, ``(i01, i10, i11)`` of each cell whose first
+    vertex is ``i00`` (rows ``stride`` apart), as ``(2·cells, 3)`` uint32."""
     i01 = i00 + 1
     i10 = i00 + stride
     i11 = i10 + 1
@@ -91,14 +96,7 @@ def banded_grid_triangles(n_rows: int, n_cols: int, band: int = DEFAULT_BAND) ->
     for r0 in range(0, n_rows - 1, band):
         rows = np.arange(r0, min(r0 + band, n_rows - 1), dtype=np.int64)
         # column-major inside the band: all quads of column c, then column c + 1
-        i00 = (rows[None, :] * n_cols + cols[:, None]).ravel()
-        i01 = i00 + 1
-        i10 = i00 + n_cols
-        i11 = i10 + 1
-        tris = np.empty((i00.size, 2, 3), dtype=np.uint32)
-        tris[:, 0, 0], tris[:, 0, 1], tris[:, 0, 2] = i00, i10, i01
-        tris[:, 1, 0], tris[:, 1, 1], tris[:, 1, 2] = i01, i10, i11
-        parts.append(tris.reshape(-1, 3))
+        parts.append(_cell_triangles((rows[None, :] * n_cols + cols[:, None]).ravel(), n_cols))
     return np.concatenate(parts)
 
 
