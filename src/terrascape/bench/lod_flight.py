@@ -345,8 +345,10 @@ def _size_table(ctx, sizes, frames, viewport, target=TARGET, full_res_max=FULL_R
         "(bisection), then fixed for the flight, so its count drifts with the view",
         "upload = TerrainRenderer.set_indices (uint32 index list written into one dynamic "
         "buffer, reallocated at 1.5× the size when too small)",
-        "full resolution: no LOD, the renderer's 257² chunks with their own AABB frustum "
-        "culling; triangles = those of the chunks drawn",
+        "full resolution: no LOD, the renderer's 129² chunks with their own AABB frustum "
+        "culling and, where their cells are sub-pixel, small-triangle culling; triangles = "
+        "those of the chunks drawn",
+        "on a software rasteriser 'regions' is shaded deferred (once per pixel) in every row",
         "terrain px % = share of the last frame's pixels covered by terrain (vs a sky-only "
         "frame): every row must show the same view",
         *setup_notes,
