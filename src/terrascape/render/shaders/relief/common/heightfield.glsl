@@ -200,10 +200,9 @@ vec2 relief_linear_search(vec2 uv0, vec2 ds) {
     return vec2(1.0 - step_s, 1.0);
 }
 
-vec3 trace_relief(vec2 uv0, vec2 ds) {
-    vec2 b = relief_linear_search(uv0, ds);
-    float lo = b.x;
-    float hi = b.y;
+// u_binary_steps halvings of the bracket [lo, hi] (lo outside, hi inside); the hit is the
+// final bracket's middle (§2.4.7).
+vec3 binary_refine(vec2 uv0, vec2 ds, float lo, float hi) {
     for (int i = 0; i < u_binary_steps; ++i) {
         float mid = 0.5 * (lo + hi);
         if (mid >= relief_depth(uv0 + mid * ds)) {
@@ -214,6 +213,11 @@ vec3 trace_relief(vec2 uv0, vec2 ds) {
     }
     float s = 0.5 * (lo + hi);
     return vec3(uv0 + s * ds, s);
+}
+
+vec3 trace_relief(vec2 uv0, vec2 ds) {
+    vec2 b = relief_linear_search(uv0, ds);
+    return binary_refine(uv0, ds, b.x, b.y);
 }
 
 // Interval mapping: the same bracket refined by secant (regula falsi) steps (Risser 2006,
@@ -273,17 +277,7 @@ vec3 trace_cone(vec2 uv0, vec2 ds) {
     if (!inside) {
         return vec3(uv0 + s * ds, s);
     }
-    float lo = s_prev, hi = s;
-    for (int i = 0; i < u_binary_steps; ++i) {
-        float mid = 0.5 * (lo + hi);
-        if (mid >= relief_depth(uv0 + mid * ds)) {
-            hi = mid;
-        } else {
-            lo = mid;
-        }
-    }
-    s = 0.5 * (lo + hi);
-    return vec3(uv0 + s * ds, s);
+    return binary_refine(uv0, ds, s_prev, s);
 }
 #endif
 
