@@ -407,3 +407,21 @@ def test_deferred_shading_follows_the_technique_and_the_switch(gl_ctx):
         assert diff.mean() < 1.5 and (diff > 16).mean() < 0.02 and (diff == 0).mean() > 0.6
     finally:
         r.release()
+
+
+def test_small_triangle_cull_on_a_map_of_odd_size(gl_ctx, rng):
+    # 300×211 vertices: edge chunks of 44 and 83 rows/cols, bands cut short at the edges
+    from scipy.ndimage import gaussian_filter
+
+    h = gaussian_filter(rng.random((211, 300)), 3).astype(np.float32) * 40.0
+    r = OffscreenRenderer(gl_ctx, Heightmap(h), size=(120, 80), small_triangle_cull=True)
+    try:
+        cam = r.default_camera()
+        culled = r.render(cam, "plain")
+        stats = dict(r.terrain.last_stats)
+        r.terrain.small_triangle_cull = False
+        np.testing.assert_array_equal(culled, r.render(cam, "plain"))
+    finally:
+        r.release()
+    assert stats["chunks_small_cull"] > 0
+    assert stats["triangles_drawn"] < stats["triangles"]
