@@ -566,23 +566,22 @@ class TerrainRenderer:
         ctx.viewport = (0, 0, *fbo.size)
         horizon = uniforms["u_fog_color"]
         fbo.clear(*horizon, 1.0, depth=1.0)
+        plan = self._chunk_plan(camera, fbo.size)
+        # Heavy techniques on a software rasteriser: shaded once per pixel (deferred).
+        deferred = self._deferred_program(tech) if tech.deferred and self.deferred_shading else None
         for unit, name in enumerate(samplers):
             self._textures[name][0].use(location=unit)
-        self._bind(program, uniforms, samplers)
+        self._bind(deferred or program, uniforms, samplers)
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.front_face = "ccw"
         wire = bool(p["wireframe"])
         if wire:
             # Push the filled surface back so the overlay lines win the depth test.
             ctx.polygon_offset = (1.0, 1.0)
-        plan = self._chunk_plan(camera, fbo.size)
-        deferred = None
-        if tech.deferred and self._wants_deferred(plan):
-            deferred = self._deferred_program(tech)
         if deferred is None:
-            stats = self._draw_geometry(program, camera, fbo.size, plan=plan)
+            stats = self._draw_geometry(program, camera, fbo.size, plan)
         else:
-            stats = self._draw_deferred(fbo, deferred, camera, uniforms, samplers, plan)
+            stats = self._draw_deferred(fbo, deferred, camera, uniforms, plan)
         ctx.polygon_offset = (0.0, 0.0)
         if wire:
             wp = self._wire_prog or load_program(ctx, "debug/solid")
@@ -594,7 +593,8 @@ class TerrainRenderer:
             )
             ctx.wireframe = True
             try:
-                self._draw_geometry(wp, camera, fbo.size, plan=None)
+                # every visible chunk whole: lines of small triangles still draw pixels
+                self._draw_geometry(wp, camera, fbo.size, plan and (plan[0], []))
             finally:
                 ctx.wireframe = False
         ctx.disable(moderngl.CULL_FACE)
@@ -672,10 +672,9 @@ class TerrainRenderer:
             small = [i for i in visible if cell <= CULL_CELL_PX * dist[i]]
         return visible, small
 
-    def _draw_geometry(self, program, camera: Camera, viewport=(1, 1), *, plan="auto",
-                       cull: bool = True) -> dict[str, int]:
-        """Draw the current triangulation with ``program``; ``plan`` from
-        :meth:`_chunk_plan` (``"auto"``: made here; None for a wireframe pass: no culling)."""
+    def _draw_geometry(self, program, camera: Camera, viewport, plan) -> dict[str, int]:
+        """Draw the current triangulation with ``program``: the custom one, or the chunks of
+        ``plan`` (:meth:`_chunk_plan`), its sub-pixel ones culled for small triangles."""
         import moderngl
 
         if self._custom_count:
@@ -684,14 +683,8 @@ class TerrainRenderer:
             n = max(self._custom_count, 0) // 3
             return {"triangles": n, "triangles_drawn": n, "chunks": 1, "chunks_culled": 0,
                     "chunks_small_cull": 0}
-        if plan == "auto":
-            plan = self._chunk_plan(camera, viewport)
-        if plan is None:  # every frustum-visible chunk, whole
-            visible = self._chunk_plan(camera, viewport)[0]
-            small_counts: dict[int, int] = {}
-        else:
-            visible, small = plan
-            small_counts = self._cull_chunks(small, camera, viewport) if cull else {}
+        visible, small = plan
+        small_counts = self._cull_chunks(small, camera, viewport)
         tris = drawn = 0
         for i in visible:
             n = self.chunks[i].n_triangles
@@ -708,10 +701,6 @@ class TerrainRenderer:
                 "chunks_small_cull": len(small_counts)}
 
     # --- deferred shading ---------------------------------------------------------------
-    def _wants_deferred(self, plan) -> bool:
-        # Anything to draw: a custom triangulation (plan None) or visible chunks.
-        return self.deferred_shading and (plan is None or bool(plan[0]))
-
     def _deferred_program(self, tech: Technique):
         """The technique's shading as a full-screen pass over the geometry buffer, or None
         when this GL cannot build it (the frame is then drawn forward)."""
@@ -745,7 +734,8 @@ class TerrainRenderer:
                 tex.release()
             self._gbuffer = None
 
-    def _draw_deferred(self, fbo, shading, camera, uniforms, samplers, plan) -> dict[str, int]:
+    def _draw_deferred(self, fbo, shading, camera, uniforms, plan) -> dict[str, int]:
+        """Deferred frame; ``shading`` already holds the frame's uniforms and samplers."""
         import moderngl
 
         ctx = self.ctx
@@ -757,7 +747,7 @@ class TerrainRenderer:
         gbuf.use()
         gbuf.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         set_uniforms(geometry, u_view_proj=uniforms["u_view_proj"])
-        stats = self._draw_geometry(geometry, camera, fbo.size, plan=plan)
+        stats = self._draw_geometry(geometry, camera, fbo.size, plan)
         # --- PASS 2: the geometry pass's depth into the target (colour masked off)
         fbo.use()
         ctx.disable(moderngl.CULL_FACE)
@@ -772,9 +762,6 @@ class TerrainRenderer:
             fbo.color_mask = (True, True, True, True)
         # --- PASS 3: the technique's shading, once per terrain pixel: drawn at depth 1 with
         # GL_GREATER and no depth writes, so sky pixels fail the early depth test
-        for unit, name in enumerate(samplers):
-            self._textures[name][0].use(location=unit)
-        self._bind(shading, uniforms, samplers)
         units = {"u_gbuffer_world": world, "u_gbuffer_normal": normal,
                  "u_gbuffer_tangent": tangent}
         for unit, (name, tex) in enumerate(units.items(), start=_GBUFFER_UNIT):
