@@ -307,25 +307,28 @@ def test_camera_inside_terrain_is_fine(gl_ctx):
     assert img.shape == (16, 16, 4)
 
 
-
 def _far_terrain(rng_seed=3, side=257):
     from terrascape.generate import diamond_square
 
     return diamond_square(side, seed=rng_seed, roughness=0.6).normalised(0.0, 30.0)
 
 
+def _on_and_off(renderer, switch, cam, tech):
+    """(image, stats) with the renderer option ``switch`` on, then with it off."""
+    out = []
+    for value in (True, False):
+        setattr(renderer.terrain, switch, value)
+        out.append((renderer.render(cam, tech), dict(renderer.terrain.last_stats)))
+    return out
+
 
 @pytest.mark.parametrize("tech", ["plain", "bump"])
 def test_small_triangle_cull_draws_the_same_image_from_a_fraction_of_the_triangles(gl_ctx, tech):
     # 257² seen whole at 160×90: cells project to well under a pixel.
-    r = OffscreenRenderer(gl_ctx, _far_terrain(), size=(160, 90), small_triangle_cull=True)
+    r = OffscreenRenderer(gl_ctx, _far_terrain(), size=(160, 90))
     try:
-        cam = r.default_camera()
-        culled_img = r.render(cam, tech)
-        stats = dict(r.terrain.last_stats)
-        r.terrain.small_triangle_cull = False
-        full_img = r.render(cam, tech)
-        full_stats = dict(r.terrain.last_stats)
+        (culled_img, stats), (full_img, full_stats) = _on_and_off(
+            r, "small_triangle_cull", r.default_camera(), tech)
     finally:
         r.release()
     assert stats["chunks_small_cull"] == stats["chunks"] > 0
@@ -362,14 +365,10 @@ def test_small_triangle_cull_is_on_by_default_on_software_rasterisers(gl_ctx):
 
 @pytest.mark.parametrize("tech", ["regions", "splat", "relief", "bump"])
 def test_deferred_shading_draws_what_forward_shading_draws(gl_ctx, tech):
-    r = OffscreenRenderer(gl_ctx, _far_terrain(), size=(160, 90), small_triangle_cull=True,
-                          deferred_shading=True)
+    r = OffscreenRenderer(gl_ctx, _far_terrain(), size=(160, 90), small_triangle_cull=True)
     try:
-        cam = r.default_camera()
-        deferred = r.render(cam, tech)
-        stats = dict(r.terrain.last_stats)
-        r.terrain.deferred_shading = False
-        forward = r.render(cam, tech)
+        (deferred, stats), (forward, _) = _on_and_off(
+            r, "deferred_shading", r.default_camera(), tech)
     finally:
         r.release()
     from terrascape.render.techniques import get_technique
@@ -414,14 +413,12 @@ def test_small_triangle_cull_on_a_map_of_odd_size(gl_ctx, rng):
     from scipy.ndimage import gaussian_filter
 
     h = gaussian_filter(rng.random((211, 300)), 3).astype(np.float32) * 40.0
-    r = OffscreenRenderer(gl_ctx, Heightmap(h), size=(120, 80), small_triangle_cull=True)
+    r = OffscreenRenderer(gl_ctx, Heightmap(h), size=(120, 80))
     try:
-        cam = r.default_camera()
-        culled = r.render(cam, "plain")
-        stats = dict(r.terrain.last_stats)
-        r.terrain.small_triangle_cull = False
-        np.testing.assert_array_equal(culled, r.render(cam, "plain"))
+        (culled, stats), (full, _) = _on_and_off(r, "small_triangle_cull", r.default_camera(),
+                                                 "plain")
     finally:
         r.release()
+    np.testing.assert_array_equal(culled, full)
     assert stats["chunks_small_cull"] > 0
     assert stats["triangles_drawn"] < stats["triangles"]
