@@ -290,7 +290,7 @@ class ReliefQuadRenderer:
             from terrascape.relief.minmax_mip import packed_minmax_mip
 
             # One RGBA chain (level 0 = cell corners): the tracer reads one texel per node
-            # (relief/common/heightfield.glsl, MINMAX_PACKED).
+            # (relief/common/heightfield.glsl).
             levels = packed_minmax_mip(self.heights)
             n = levels[0].shape[0]
             tex = self.ctx.texture((n, n), 4, levels[0].tobytes(), dtype="f4")
@@ -335,8 +335,6 @@ class ReliefQuadRenderer:
         from terrascape.render.shaders import set_uniforms
 
         settings = settings or ReliefSettings()
-        if technique == "minmax":
-            defines = {**(defines or {}), "MINMAX_PACKED": True}
         program, used = load_relief_program(self.ctx, technique, defines=defines)
         self.last_technique = used
         if abs(quad.depth - self._depth_for_normals) > 1e-12:

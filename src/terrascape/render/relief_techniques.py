@@ -127,33 +127,23 @@ _SLOTS = (
 )
 
 def build_minmax_pyramid(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
-    """Min/max depth pyramid of the relief field (level k: R = min, G = max depth of its
-    2^k × 2^k cells), as an explicit NEAREST mip chain (maximum mipmaps / quadtree
-    displacement mapping; :func:`terrascape.relief.minmax_mip.minmax_mip`)."""
-    from terrascape.relief.minmax_mip import minmax_mip
+    """Min/max depth pyramid of the relief field as one explicit NEAREST RGBA mip chain
+    (maximum mipmaps / quadtree displacement mapping): level 0 holds each cell's four corner
+    depths, level k ``(min, max, min, max)`` of its 2^k × 2^k cells, so the exact tracer reads
+    one texel per node (:func:`terrascape.relief.minmax_mip.packed_minmax_mip`)."""
+    from terrascape.relief.minmax_mip import packed_minmax_mip
 
     levels = [np.ascontiguousarray(lv, dtype=np.float32) for lv in
-              minmax_mip(_relief_heights(params))]
+              packed_minmax_mip(_relief_heights(params))]
     return TextureData(levels[0], repeat=True, mipmaps=False, nearest=True,
                        levels=tuple(levels[1:]))
-
-
-def build_cell_corners(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
-    """Per cell (i, j) the depths of texels (i,j), (i+1,j), (i,j+1), (i+1,j+1) as RGBA, so
-    the exact tracer reads a bilinear cell with one fetch (wrapping like the tiled texture)."""
-    depth = 1.0 - np.asarray(_relief_heights(params), dtype=np.float64)
-    right = np.roll(depth, -1, axis=1)
-    corners = np.stack([depth, right, np.roll(depth, -1, axis=0), np.roll(right, -1, axis=0)],
-                       axis=-1).astype(np.float32)
-    return TextureData(corners, repeat=True, mipmaps=False, nearest=True)
 
 
 _MINMAX_SLOTS = (
     *_SLOTS,
     TextureSlot("u_minmax", build_minmax_pyramid, depends=("relief_field", "relief_size", "seed"),
-                description="min/max depth pyramid of the relief field (explicit mip chain)"),
-    TextureSlot("u_cells", build_cell_corners, depends=("relief_field", "relief_size", "seed"),
-                description="the four corner depths of every relief cell (RGBA32F)"),
+                description="min/max depth pyramid of the relief field (explicit RGBA mip "
+                            "chain, level 0 = cell corners)"),
 )
 
 _CONE_SLOTS = (

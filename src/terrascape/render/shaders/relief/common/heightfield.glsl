@@ -41,10 +41,9 @@ uniform float u_shadow_step_texels; // self-shadowing: step length in texels (0:
 uniform sampler2D u_cone;          // NEAREST: R = apex depth, G = cone ratio (UV / depth)
 #endif
 #if TECHNIQUE == TECH_MINMAX
-// Without MINMAX_PACKED: level k: R = min depth, G = max depth of 2^k cells; with it
-// (ReliefQuadRenderer), RGBA: level 0 = u_cells' corners, level k = (min, max, min, max).
+// One RGBA mip chain (terrascape.relief.minmax_mip.packed_minmax_mip): level 0 = cell (i, j)'s
+// corner depths (i,j), (i+1,j), (i,j+1), (i+1,j+1); level k = (min, max, min, max) of 2^k cells.
 uniform sampler2D u_minmax;
-uniform sampler2D u_cells;         // cell (i, j): depths of texels (i,j), (i+1,j), (i,j+1), (i+1,j+1)
 uniform int u_minmax_levels;
 uniform int u_max_iterations;
 #endif
@@ -313,7 +312,7 @@ float cell_root(vec3 q, float u_max) {
 // index: leaving a node through its x or y face is node ± 1 on that axis (no floor of a
 // recomputed point), its parent is node >> 1, the exit distance uses a precomputed 1/d, and
 // only a descent (or a free fall inside a node) locates the point again. Level 0 reads the
-// cell's four corner depths (u_cells) instead of its min, so a cell costs one fetch.
+// cell's four corner depths instead of its min, so a cell costs one fetch.
 // The walk starts at level `start` (a view ray: MINMAX_START, not the level spanning the
 // whole ray, whose nodes hold the field's shallowest point and are always descended) and
 // climbs one level when the next node has another ancestor `climb` levels up.
@@ -342,13 +341,7 @@ float minmax_march(vec2 p0, vec2 d, float s0, float sgn, float t_end, int start,
         float t_exit = min(min(tb.x, tb.y), t_end);
         // Power-of-two sizes: & wraps negative indices too (two's complement).
         ivec2 wrapped = node & ((size >> level) - 1);
-#if defined MINMAX_PACKED
-        // One RGBA mip chain: level 0 = the cell's corners, level k = (min, max, min, max).
         vec4 c4 = texelFetch(u_minmax, wrapped, level);
-#else
-        vec4 c4 = level == 0 ? texelFetch(u_cells, wrapped, 0)
-                             : texelFetch(u_minmax, wrapped, level).rrrr;
-#endif
         float node_min = min(min(c4.r, c4.g), min(c4.b, c4.a));
         // Deepest point of the segment: its exit going down (view), its start going up.
         float s_deep = s0 + sgn * (sgn > 0.0 ? t_exit : t);
