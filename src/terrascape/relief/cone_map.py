@@ -21,6 +21,7 @@ import numpy as np
 
 from terrascape._numba import CACHE, FASTMATH, njit, prange
 from terrascape._validate import check_positive
+from terrascape.relief.minmax_mip import corner_depths
 from terrascape.relief.reference import heights_to_depth
 
 
@@ -147,10 +148,7 @@ def footprint_cone_map(heights, *, c_max: float = 1.0) -> np.ndarray:
     """
     depth = heights_to_depth(heights)
     c_max = check_positive(c_max, "c_max")
-    right = np.roll(depth, -1, axis=1)
-    down = np.roll(depth, -1, axis=0)
-    diag = np.roll(right, -1, axis=0)
-    cell_min = np.minimum(np.minimum(depth, right), np.minimum(down, diag))
+    cell_min = corner_depths(depth).min(axis=-1)
     # The four cells overlapping texel i's footprint are k ∈ {i − 1, i} on each axis.
     apex = np.minimum(
         np.minimum(cell_min, np.roll(cell_min, 1, axis=1)),

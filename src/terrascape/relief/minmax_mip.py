@@ -18,6 +18,14 @@ from terrascape.errors import HeightmapSizeError
 from terrascape.relief.reference import heights_to_depth
 
 
+def corner_depths(depth: np.ndarray) -> np.ndarray:
+    """``(n, m, 4)``: the depths of cell ``(i, j)``'s corner texels ``(i, j)``, ``(i, j+1)``,
+    ``(i+1, j)``, ``(i+1, j+1)`` (x = column first), wrapping, in ``depth``'s dtype."""
+    right = np.roll(depth, -1, axis=1)
+    return np.stack([depth, right, np.roll(depth, -1, axis=0), np.roll(right, -1, axis=0)],
+                    axis=-1)
+
+
 def minmax_mip(heights) -> list[np.ndarray]:
     """Min/max depth pyramid of a square power-of-two height texture.
 
@@ -39,12 +47,8 @@ def minmax_mip(heights) -> list[np.ndarray]:
             f"the min/max mip tracer needs a square power-of-two texture (e.g. 256×256), "
             f"got {depth.shape[1]}×{depth.shape[0]}"
         )
-    # Corners of cell (i, j): texels (i, j), (i, j+1), (i+1, j), (i+1, j+1), wrapping.
-    right = np.roll(depth, -1, axis=1)
-    down = np.roll(depth, -1, axis=0)
-    diag = np.roll(right, -1, axis=0)
-    stack = np.stack([depth, right, down, diag])
-    level = np.stack([stack.min(axis=0), stack.max(axis=0)], axis=-1)
+    corners = corner_depths(depth)
+    level = np.stack([corners.min(axis=-1), corners.max(axis=-1)], axis=-1)
     levels = [level.astype(np.float32)]
     while level.shape[0] > 1:
         m = level.shape[0] // 2
@@ -60,10 +64,7 @@ def cell_corners(heights) -> np.ndarray:
     """float32 ``(n, n, 4)``: the depths of cell ``(i, j)``'s corner texels ``(i, j)``,
     ``(i + 1, j)``, ``(i, j + 1)``, ``(i + 1, j + 1)`` (x = column first), wrapping — one
     texel holds a whole bilinear cell."""
-    depth = heights_to_depth(heights)
-    right = np.roll(depth, -1, axis=1)
-    return np.stack([depth, right, np.roll(depth, -1, axis=0), np.roll(right, -1, axis=0)],
-                    axis=-1).astype(np.float32)
+    return corner_depths(heights_to_depth(heights)).astype(np.float32)
 
 
 def packed_minmax_mip(heights) -> list[np.ndarray]:
@@ -80,4 +81,4 @@ def packed_minmax_mip(heights) -> list[np.ndarray]:
     return packed
 
 
-__all__ = ["cell_corners", "minmax_mip", "packed_minmax_mip"]
+__all__ = ["cell_corners", "corner_depths", "minmax_mip", "packed_minmax_mip"]
