@@ -49,12 +49,14 @@ def run(quick: bool = False) -> list[BenchTable]:
                 setup_s = time.perf_counter() - t0
                 times = []
                 tris = 0
+                drawn = []
                 for cam in cams:
                     t1 = time.perf_counter()
                     r.render(cam, tech)  # includes fbo.read + flip, as render_to_array does
                     ctx.finish()
                     times.append(time.perf_counter() - t1)
                     tris = r.terrain.last_stats["triangles"]
+                    drawn.append(r.terrain.last_stats["triangles_drawn"])
                 ms = statistics.median(times) * 1e3
                 plain_ms = ms if tech == "plain" else plain_ms
                 rows.append(
@@ -63,6 +65,8 @@ def run(quick: bool = False) -> list[BenchTable]:
                         round(ms, 1),
                         round(1e3 / ms, 2),
                         tris,
+                        round(100.0 * min(drawn) / tris, 1),
+                        round(100.0 * max(drawn) / tris, 1),
                         round(tris / (ms / 1e3) / 1e6, 2),
                         round(ms / plain_ms, 2),
                         round(setup_s, 2),
@@ -77,6 +81,8 @@ def run(quick: bool = False) -> list[BenchTable]:
             "ms/frame (median)",
             "frames/s",
             "triangles",
+            "% drawn (min)",
+            "% drawn (max)",
             "Mtri/s",
             "× plain",
             "setup s",
@@ -87,6 +93,8 @@ def run(quick: bool = False) -> list[BenchTable]:
             "(setup = texture building + compile + first draw); ctx.finish() per frame; "
             "frame time includes reading the image back.",
             f"vertex buffer upload + mesh build: {upload_s:.2f} s.",
+            "% drawn: share of the mesh's triangles sent to GL over the path (the rest hold no "
+            "pixel centre; small-triangle culling).",
             "renderer defaults for this GL: small-triangle culling "
             f"{'on' if small_cull else 'off'} (sub-pixel chunks draw only triangles that "
             "can cover a pixel centre), deferred shading "
