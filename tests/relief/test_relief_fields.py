@@ -43,3 +43,22 @@ def test_field_sizes_are_validated():
         city_field(100)
     with pytest.raises(InvalidParameterError):
         natural_field(64, beta=0.5)
+
+
+def test_walls_are_told_apart_from_slopes():
+    from terrascape.relief.fields import WALL_STEP, has_walls, max_texel_step
+
+    assert has_walls(city_field(64, seed=1, block=16))
+    for size in (64, 256, 1280):
+        assert not has_walls(natural_field(size, seed=0))
+    ramp = np.tile(np.linspace(0.0, 1.0, 16, dtype=np.float32), (16, 1))
+    # The ramp's steps are 1/15, but tiled it jumps from 1 back to 0: a wall.
+    assert max_texel_step(ramp) == pytest.approx(1.0)
+    assert has_walls(ramp)
+    inner = ramp[:, :8] * 0 + np.float32(0.5)
+    inner[4, 4] = 0.5 + WALL_STEP  # one raised texel, the wrap pair flat
+    assert has_walls(inner) and not has_walls(inner, step=WALL_STEP + 0.01)
+    with pytest.raises(HeightmapSizeError):
+        max_texel_step(np.zeros(8))
+    with pytest.raises(InvalidParameterError):
+        has_walls(ramp, step=0.0)

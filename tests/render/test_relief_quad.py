@@ -186,6 +186,55 @@ def test_self_shadowing_against_exact(renderers, natural):
     assert not off[..., 0].any()
 
 
+def test_default_search_is_denser_on_a_field_with_walls(renderers, city):
+    # ReliefSettings(linear_steps=None): the clearance march takes at most 1/32 of the ray
+    # per step over the city (walls one or two texels thin), 1/16 elsewhere. Over the city it
+    # skips fewer walls than the 16-step march, and its self-shadowing (R7) stays within the
+    # issue's 10 % of the exact shadow at grazing angles, where the 16-step march is over.
+    from terrascape.render.relief_quad import ReliefSettings
+
+    assert renderers["city"].has_walls and not renderers["natural"].has_walls
+    light = (0.8, 0.35, 0.2)
+    for theta in (60, 80):
+        cam = _camera(theta)
+        ref = reference_image(city, TILED, cam, FB, FB, light_dir=light)
+        v = ref.valid
+        results = {}
+        for steps in (16, None):
+            st = ReliefSettings(linear_steps=steps, shadows=True)
+            hit = renderers["city"].render(TILED, cam, "relief", settings=st)
+            shadow = renderers["city"].render(TILED, cam, "relief", settings=st,
+                                              output="shadow", light_dir=light)
+            results[steps] = (((hit[..., 2] - ref.depth)[v] > 0.01).mean(),
+                              ((shadow[..., 0] > 0.5) != ref.shadow)[v].mean(),
+                              hit[..., 3][v].mean())
+        skip16, dis16, fetch16 = results[16]
+        skip, dis, fetch = results[None]
+        assert skip <= 0.7 * skip16
+        assert dis < dis16 and dis <= 0.10
+        assert fetch <= 1.7 * fetch16
+    assert dis16 > 0.10  # at 80°: the 16-step march misses the figure
+
+
+def test_linear_steps_default_resolution():
+    from terrascape.render.relief_quad import (
+        LINEAR_STEPS,
+        WALL_LINEAR_STEPS,
+        ReliefSettings,
+    )
+
+    st = ReliefSettings()
+    assert st.linear_steps is None
+    assert st.resolved_linear_steps(walls=False) == LINEAR_STEPS == 16
+    assert st.resolved_linear_steps(walls=True) == WALL_LINEAR_STEPS == 32
+    assert st.uniforms(0.1, walls=True)["u_linear_steps"] == 32
+    assert st.uniforms(0.1)["u_linear_steps"] == 16
+    # Only the clearance march is made denser; an explicit count always wins.
+    assert ReliefSettings(march="fixed").resolved_linear_steps(walls=True) == 16
+    assert ReliefSettings(adaptive=True).resolved_linear_steps(walls=True) == 16
+    assert ReliefSettings(linear_steps=20).resolved_linear_steps(walls=True) == 20
+
+
 @pytest.mark.parametrize(("field", "bound"), [("natural", 0.02), ("city", 0.06)])
 def test_relief_shadow_march_matches_exact_shadow_at_its_own_hit(renderers, natural, city,
                                                                  field, bound):

@@ -36,7 +36,8 @@ TECHNIQUES: list[tuple[str, str, dict]] = [
     ("POM 16", "pom", {"linear_steps": 16}),
     ("relief 16+8", "relief", RELIEF_16_8),
     # ReliefSettings() for "relief": the default mode (see ReliefSettings: march)
-    ("relief default: clearance steps Δs = gap/(1 + 0.025·L), 1.5 texels..1/16, + 4 binary",
+    ("relief default: clearance steps Δs = gap/(1 + 0.025·L), 1.5 texels..1/16 "
+     "(1/32 on a field with walls), + 4 binary",
      "relief", {}),
     ("relief adaptive (1 texel, 16..256)+8", "relief",
      {"adaptive": True, "step_texels": 1.0, "max_steps": 256, "binary_steps": 8}),
@@ -133,7 +134,7 @@ def _camera_from(cam, scale):
                           near=cam.near * scale, far=cam.far)
 
 
-def quality_tables(ctx, *, tex=256, fb=512, depth=0.1, angles=ANGLES, quick=False):
+def quality_tables(ctx, *, tex=256, fb=512, depth=0.1, angles=ANGLES, quick=False, rounds=5):
     from terrascape.relief.reference import reference_image
     from terrascape.render.relief_quad import ReliefQuadRenderer, ReliefSettings
 
@@ -179,7 +180,7 @@ def quality_tables(ctx, *, tex=256, fb=512, depth=0.1, angles=ANGLES, quick=Fals
                         dis = ((sh[..., 0] > 0.5) != ref.shadow)[ref.valid].mean() * 100
                         shadow_rows.append([fname, theta, label, float(dis)])
                         jobs[("shadow", label)] = job(r, cam, tech, sst, "shadow")
-                wall, cpu = _time_interleaved(jobs)
+                wall, cpu = _time_interleaved(jobs, rounds=rounds)
                 base = cpu["relief 16+8"]
                 for row in rows:
                     label = row[2]
@@ -198,12 +199,15 @@ def quality_tables(ctx, *, tex=256, fb=512, depth=0.1, angles=ANGLES, quick=Fals
         "angle = view direction from the quad normal at the screen centre; one texel ≈ one "
         "pixel there; tiled quad; errors over every pixel that sees the quad",
         "% skipped feature: hit deeper than the exact first hit by > 0.01 of the depth range",
+        "relief default: ReliefSettings(); the longest clearance step is 1/32 of the ray "
+        "on the city (it has walls: neighbouring texels ≥ 0.25 of the depth range apart, "
+        "terrascape.relief.fields.has_walls), 1/16 on the natural field",
         "fetches/px: texture fetches counted in the shader (min/max: one texelFetch per "
         "visited node; a level-0 node fetches its cell's 4 corner depths as one RGBA texel)",
         "pre-warp: one untiled tile seen from the same direction; UV error of the texel "
         "the pre-warped + bilinear texture shows (linear reconstruction blends UVs across "
         "occlusion edges); ms = CPU pre-warp of the tile",
-        "llvmpipe timings (CPU rasteriser, 2 shared cores): best of 3 interleaved rounds "
+        f"llvmpipe timings (CPU rasteriser, 2 shared cores): best of {rounds} interleaved rounds "
         "after a warm-up, every technique of a cell in the same rounds; ms/frame = wall "
         "time, CPU ms = process CPU time (both llvmpipe threads); × relief 16+8 is the CPU "
         "time ratio (less sensitive than wall time to other load on the cores)",

@@ -39,7 +39,10 @@ def relief_command(
                                 help="View angle from the quad normal, degrees [0, 85]."),
     depth: float = typer.Option(0.1, "--depth", help="Relief depth in UV units (> 0)."),
     size: str = typer.Option("512x512", "--size", help="Image size WxH in pixels."),
-    linear_steps: int = typer.Option(16, "--linear-steps", help="Linear search steps."),
+    linear_steps: int | None = typer.Option(
+        None, "--linear-steps",
+        help="Linear search steps (default 16; 32 for relief's clearance march on a field "
+             "with walls, e.g. the city)."),
     binary_steps: int = typer.Option(8, "--binary-steps",
                                      help="Binary (relief) / secant (interval) steps."),
     adaptive: bool = typer.Option(False, "--adaptive/--fixed",

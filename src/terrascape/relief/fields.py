@@ -135,4 +135,29 @@ def natural_field(size: int = 256, *, seed: int = 0, beta: float = 3.2) -> np.nd
     return h.astype(np.float32)
 
 
-__all__ = ["city_field", "natural_field"]
+# A height step of a quarter of the depth range between neighbouring texels is a wall, not a
+# slope: the smooth test field's largest step is 0.07 (256²) / 0.03 (1280²), the city's 1.
+WALL_STEP = 0.25
+
+
+def max_texel_step(heights) -> float:
+    """Largest height difference between 4-neighbouring texels, the field tiled (the wrap
+    pair counts: relief textures repeat)."""
+    h = np.asarray(heights, dtype=np.float32)
+    if h.ndim != 2 or min(h.shape) < 2:
+        raise HeightmapSizeError(f"heights must be a (rows, cols) array, got shape {h.shape}")
+    rows = np.abs(h - np.roll(h, 1, axis=0)).max()
+    cols = np.abs(h - np.roll(h, 1, axis=1)).max()
+    return float(max(rows, cols))
+
+
+def has_walls(heights, step: float = WALL_STEP) -> bool:
+    """Does the height field (heights in [0, 1]) have walls: neighbouring texels at least
+    ``step`` of the depth range apart? Relief mapping's linear search steps over walls one
+    or two texels thick (seed 000 §2.4.7), so its default search is denser on such fields
+    (:class:`terrascape.render.relief_quad.ReliefSettings`)."""
+    step = check_range(step, "wall step", 1e-6, 1.0)
+    return max_texel_step(heights) >= step
+
+
+__all__ = ["WALL_STEP", "city_field", "has_walls", "max_texel_step", "natural_field"]
