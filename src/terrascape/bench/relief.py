@@ -84,23 +84,56 @@ def _metrics(out, ref, tex):
     }
 
 
-def _time_interleaved(jobs: dict, rounds: int = 3) -> tuple[dict, dict]:
-    """Best wall and best process-CPU ms of each job over ``rounds`` interleaved rounds
-    (after one warm-up call each). Interleaving puts every job of a cell in the same
-    stretch of time; CPU time (both llvmpipe threads) depends much less than wall time on
-    how many of the 2 shared cores other work leaves free."""
+class RoundTimes:
+    """Wall and process-CPU ms of every job in every round of :func:`_time_interleaved`."""
+
+    def __init__(self, keys) -> None:
+        self.wall: dict = {k: [] for k in keys}
+        self.cpu: dict = {k: [] for k in keys}
+
+    def best_wall(self, key) -> float:
+        return min(self.wall[key])
+
+    def best_cpu(self, key) -> float:
+        return min(self.cpu[key])
+
+    def ratio(self, key, base) -> float:
+        """Median over rounds of CPU(key) / CPU(base), both from the same round.
+
+        The host's speed drifts by tens of % over seconds (other guests on the shared
+        cores); two jobs timed back to back see nearly the same speed, so their ratio in one
+        round is stable where each one's best time over the rounds is not (bests from
+        different rounds mix different speeds)."""
+        return float(np.median(np.asarray(self.cpu[key]) / np.asarray(self.cpu[base])))
+
+    def extra(self, key, without, base) -> float:
+        """Median over rounds of (CPU(key) − CPU(without)) / CPU(base): the cost that
+        ``key`` adds to ``without``, in units of ``base``, all from the same round."""
+        k, w, b = (np.asarray(self.cpu[x]) for x in (key, without, base))
+        return float(np.median((k - w) / b))
+
+
+def _time_interleaved(jobs: dict, rounds: int = 5, prepare: dict | None = None) -> RoundTimes:
+    """Wall and process-CPU ms of each job in each of ``rounds`` interleaved rounds (after
+    one warm-up call each). Interleaving puts every job of a cell in the same stretch of
+    time, and the order alternates (forward, backward) so a drift in host speed during a
+    round does not always favour the same jobs; CPU time (both llvmpipe threads) depends
+    much less than wall time on how many of the 2 shared cores other work leaves free.
+    ``prepare[key]``, if given, runs untimed before each timed call of ``jobs[key]``."""
     for job in jobs.values():
         job()
-    wall = dict.fromkeys(jobs, float("inf"))
-    cpu = dict.fromkeys(jobs, float("inf"))
-    for _ in range(rounds):
-        for key, job in jobs.items():
+    times = RoundTimes(jobs)
+    keys = list(jobs)
+    for r in range(rounds):
+        for key in keys if r % 2 == 0 else keys[::-1]:
+            if prepare is not None:
+                prepare[key]()
             w0, c0 = time.perf_counter(), time.process_time()
-            job()
+            jobs[key]()
             w1, c1 = time.perf_counter(), time.process_time()
-            wall[key] = min(wall[key], (w1 - w0) * 1000.0)
-            cpu[key] = min(cpu[key], (c1 - c0) * 1000.0)
-    return wall, cpu
+            times.wall[key].append((w1 - w0) * 1000.0)
+            times.cpu[key].append((c1 - c0) * 1000.0)
+    return times
 
 
 def _prewarp_row(heights, quad, cam, fb, tex):
@@ -114,7 +147,7 @@ def _prewarp_row(heights, quad, cam, fb, tex):
     ident = np.stack(np.meshgrid(centres, centres), -1)
     coeffs = prewarp_coefficients(single, cam1.eye)
     disp = 1.0 - heights
-    wall, cpu = _time_interleaved({"pw": lambda: prewarp(ident, disp, coeffs)})
+    times = _time_interleaved({"pw": lambda: prewarp(ident, disp, coeffs)})
     warped, _ = prewarp(ident, disp, coeffs)
     uv0, _, valid = quad_entry(single, cam1, fb, fb)
     img = sample_bilinear(warped, uv0)
@@ -123,7 +156,8 @@ def _prewarp_row(heights, quad, cam, fb, tex):
     d = np.abs(img - np.mod(ref.uv, 1.0))
     err = np.hypot(*np.minimum(d, 1 - d).transpose(2, 0, 1))[v] * tex
     return {"mean": float(err.mean()), "p95": float(np.percentile(err, 95)),
-            "off1": float((err > 1).mean() * 100), "ms": wall["pw"], "cpu": cpu["pw"]}
+            "off1": float((err > 1).mean() * 100), "ms": times.best_wall("pw"),
+            "cpu": times.best_cpu("pw")}
 
 
 def _camera_from(cam, scale):
@@ -180,19 +214,20 @@ def quality_tables(ctx, *, tex=256, fb=512, depth=0.1, angles=ANGLES, quick=Fals
                         dis = ((sh[..., 0] > 0.5) != ref.shadow)[ref.valid].mean() * 100
                         shadow_rows.append([fname, theta, label, float(dis)])
                         jobs[("shadow", label)] = job(r, cam, tech, sst, "shadow")
-                wall, cpu = _time_interleaved(jobs, rounds=rounds)
-                base = cpu["relief 16+8"]
+                times = _time_interleaved(jobs, rounds=rounds)
+                base = "relief 16+8"
                 for row in rows:
                     label = row[2]
-                    quality.rows.append([*row, wall[label], cpu[label], cpu[label] / base])
+                    quality.rows.append([*row, times.best_wall(label), times.best_cpu(label),
+                                         times.ratio(label, base)])
                 for row in shadow_rows:
                     key = ("shadow", row[2])
-                    shadow.rows.append([*row, wall[key], cpu[key],
-                                        (cpu[key] - cpu[row[2]]) / base])
+                    shadow.rows.append([*row, times.best_wall(key), times.best_cpu(key),
+                                        times.extra(key, row[2], base)])
                 pw = _prewarp_row(heights, quad, cam, min(fb, 256), tex)
                 quality.rows.append([fname, theta, "pre-warp (R9, CPU, one tile)", pw["mean"],
                                      pw["p95"], pw["off1"], "", "", pw["ms"], pw["cpu"],
-                                     pw["cpu"] / base])
+                                     pw["cpu"] / times.best_cpu(base)])
         finally:
             r.release()
     quality.notes += [
@@ -207,10 +242,11 @@ def quality_tables(ctx, *, tex=256, fb=512, depth=0.1, angles=ANGLES, quick=Fals
         "pre-warp: one untiled tile seen from the same direction; UV error of the texel "
         "the pre-warped + bilinear texture shows (linear reconstruction blends UVs across "
         "occlusion edges); ms = CPU pre-warp of the tile",
-        f"llvmpipe timings (CPU rasteriser, 2 shared cores): best of {rounds} interleaved rounds "
-        "after a warm-up, every technique of a cell in the same rounds; ms/frame = wall "
-        "time, CPU ms = process CPU time (both llvmpipe threads); × relief 16+8 is the CPU "
-        "time ratio (less sensitive than wall time to other load on the cores)",
+        f"llvmpipe timings (CPU rasteriser, 2 shared cores): {rounds} interleaved rounds "
+        "after a warm-up, every technique of a cell in each round, order reversed every "
+        "other round; ms/frame = best wall time, CPU ms = best process CPU time (both "
+        "llvmpipe threads); × relief 16+8 = median over the rounds of the CPU time ratio "
+        "within a round (the host's speed drifts between rounds, much less within one)",
     ]
     shadow.notes += [
         "relief (default mode): from the surface point at the hit's uv toward the light in "
@@ -218,7 +254,10 @@ def quality_tables(ctx, *, tex=256, fb=512, depth=0.1, angles=ANGLES, quick=Fals
         "toward the light",
         "both are measured at their own view hit: where the view ray missed a thin wall, the "
         "shadow of the wrong point is compared with the exact one",
-        "shadow cost = (CPU time with shadow − without) / relief 16+8 CPU time, same rounds",
+        "shadow cost = median over the rounds of (CPU time with shadow − without) / relief "
+        "16+8 CPU time, all three from the same round",
+        "the relief default's view march is 1/32 of the ray per step at most on the city "
+        "(a field with walls), 1/16 on the natural field (ReliefSettings)",
     ]
     if quick:
         quality.notes.append("--quick: small sizes, one angle")
@@ -310,7 +349,7 @@ def seed_table(ctx, *, size=(1280, 720), terrain=257, quick=False):
         ["texture", "technique", "ms/frame", "CPU ms/frame", "× texture frame rate",
          "% drop vs texture", "% drop vs region colour", "seed % drop (config 2)",
          "height fetches/px", "err vs 16+8 mean", "err p99", "% px > 4 levels"])
-    rounds = 2 if quick else 5
+    rounds = 3 if quick else 15
     try:
         for label, field, tex, uv_scale in cases:
             shared = {"uv_scale": uv_scale, "ks": d["ks"]}
@@ -324,15 +363,11 @@ def seed_table(ctx, *, size=(1280, 720), terrain=257, quick=False):
                 renderer.render(fbo, cam, t, p)
                 ctx.finish()
 
-            wall = {job[0]: float("inf") for job in jobs}
-            cpu = dict(wall)
-            for _ in range(rounds):  # interleaved, so load from elsewhere hits every row
-                for name, tech, _, p, _ in jobs:
-                    frame(tech, p)
-                    t0, c0 = time.perf_counter(), time.process_time()
-                    frame(tech, p)
-                    wall[name] = min(wall[name], time.perf_counter() - t0)
-                    cpu[name] = min(cpu[name], time.process_time() - c0)
+            # Each timed frame follows an untimed one of the same row (its textures and
+            # program bound, its caches warm): _time_interleaved's rounds of such pairs.
+            calls = {name: (lambda t=tech, p=p: frame(t, p)) for name, tech, _, p, _ in jobs}
+            pairs = {name: (lambda c=c: (c(), c())) for name, c in calls.items()}
+            times = _time_interleaved(pairs, rounds=rounds, prepare=calls)
             images, fetches, mask = {}, {}, None
             for name, tech, defs, p, base_name in jobs:
                 frame(tech, p)
@@ -350,16 +385,16 @@ def seed_table(ctx, *, size=(1280, 720), terrain=257, quick=False):
             seed_drop = {"texture mapping": 0.0,
                          "parallax": (1 - s["parallax"] / s["parallax_tex"]) * 100,
                          "relief 16+8": (1 - s["relief"] / s["texture"]) * 100}
-            # Ratios from CPU time: each row's best wall time may come from a different
-            # round, and the rounds differ in how many of the 2 cores other work left free.
-            base, region = cpu["texture mapping"], cpu["texture mapping (region colour only)"]
+            # Ratios from CPU time within a round (RoundTimes.ratio): the rounds differ in
+            # how fast the shared host runs, two rows timed back to back much less.
+            base, region = "texture mapping", "texture mapping (region colour only)"
             ref = images["relief 16+8"]
             for name, *_ in jobs:
-                t = cpu[name]
                 # FPS drop = 1 − t_texture / t_technique.
+                speed = times.ratio(base, name)
                 table.rows.append([
-                    label, name, wall[name] * 1000.0, t * 1000.0, base / t,
-                    (1.0 - base / t) * 100.0, (1.0 - region / t) * 100.0,
+                    label, name, times.best_wall(name) / 2.0, times.best_cpu(name) / 2.0,
+                    speed, (1.0 - speed) * 100.0, (1.0 - times.ratio(region, name)) * 100.0,
                     seed_drop.get(name, "-"), fetches.get(name, 0.0),
                     *_terrain_pixels(images[name], ref, mask)])
     finally:
@@ -368,11 +403,12 @@ def seed_table(ctx, *, size=(1280, 720), terrain=257, quick=False):
     table.notes += [
         "drop = 1 − FPS_technique / FPS_texture = 1 − t_texture / t_technique, as the seed's "
         "tables (its averages: parallax 14.06 %, relief 69.75 %), with t the process CPU "
-        "time of a frame (both llvmpipe threads), best of "
-        f"{rounds} interleaved rounds: on a shared machine the wall time (ms/frame, best of "
-        "the same rounds) depends on how many cores other work left free in that round, the "
-        "CPU time much less; on an idle machine both threads run and the ratios are those "
-        "of the frame rates",
+        f"time of a frame (both llvmpipe threads); {rounds} interleaved rounds, each row's "
+        "two timed frames after an untimed one of its own, order reversed every other round; "
+        "× texture frame rate = median over the rounds of t_texture / t_technique within a "
+        "round (the shared host's speed drifts between rounds, much less between two rows "
+        "timed back to back); ms/frame and CPU ms = best of the rounds; on an idle machine "
+        "both threads run and the ratios are those of the frame rates",
         "'texture mapping' (the baseline) maps the row's relief texture without displacement: "
         "the relief program with the same textures (normal + height tint, region colour), "
         "normal-mapped Phong with the same constants (ks = "
