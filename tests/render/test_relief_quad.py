@@ -214,6 +214,12 @@ def test_default_search_is_denser_on_a_field_with_walls(renderers, city):
         assert dis < dis16 and dis <= 0.10
         assert fetch <= 1.7 * fetch16
     assert dis16 > 0.10  # at 80°: the 16-step march misses the figure
+    # Steep parallax / POM / interval march equal steps: the default count stays 16 on walls.
+    for technique in ("pom", "interval"):
+        default = renderers["city"].render(TILED, cam, technique)
+        sixteen = renderers["city"].render(TILED, cam, technique,
+                                           settings=ReliefSettings(linear_steps=16))
+        assert np.array_equal(default, sixteen)
 
 
 def test_linear_steps_default_resolution():

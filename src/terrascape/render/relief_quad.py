@@ -387,7 +387,8 @@ class ReliefQuadRenderer:
             u_specular=(0.15, 0.15, 0.15),
             u_shininess=24.0,
             u_minmax_levels=self._minmax_levels or 1,
-            **settings.uniforms(quad.depth, walls=self.has_walls),
+            # Only relief mapping marches clearance steps (steep/POM/interval: equal ones).
+            **settings.uniforms(quad.depth, walls=self.has_walls and used == "relief"),
         )
         units = {"u_relief": self._relief_tex}
         if used == "cone":
