@@ -11,8 +11,15 @@ from terrascape.cli.app import bench_app
 def _make_command(name: str) -> None:
     def command(
         quick: bool = typer.Option(False, "--quick", help="Small sizes, same table layout."),
+        markdown: bool = typer.Option(
+            False, "--markdown", "-m",
+            help="Print Markdown tables (every column in full, for files and pipes)."),
     ) -> None:
-        print_tables(get_case(name)(quick=quick))
+        tables = get_case(name)(quick=quick)
+        if markdown:
+            typer.echo("\n".join(t.to_markdown() for t in tables))
+        else:
+            print_tables(tables)
 
     command.__doc__ = f"Run the {name!r} benchmark and print its tables."
     bench_app.command(name=name)(command)
