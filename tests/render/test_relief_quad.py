@@ -46,6 +46,18 @@ def renderers(gl_ctx, natural, city):
         r.release()
 
 
+LIGHT = (0.8, 0.35, 0.2)
+
+
+def _shadowed(renderer, cam, technique, settings=None, light=LIGHT):
+    """Where ``technique`` draws self-shadow (R7) on the quad, as a bool (H, W) mask."""
+    from terrascape.render.relief_quad import ReliefSettings
+
+    st = (settings or ReliefSettings()).with_(shadows=True)
+    out = renderer.render(TILED, cam, technique, settings=st, output="shadow", light_dir=light)
+    return out[..., 0] > 0.5
+
+
 def _errors(out, ref):
     v = ref.valid
     e = np.hypot(*(out[..., :2] - ref.uv).transpose(2, 0, 1)) * N
@@ -171,18 +183,15 @@ def test_self_shadowing_against_exact(renderers, natural):
     from terrascape.render.relief_quad import ReliefSettings
 
     cam = _camera(45)
-    light = (0.8, 0.35, 0.2)
-    ref = reference_image(natural, TILED, cam, FB, FB, light_dir=light)
+    ref = reference_image(natural, TILED, cam, FB, FB, light_dir=LIGHT)
     v = ref.valid
     assert 0.05 < ref.shadow[v].mean() < 0.95
-    exact = renderers["natural"].render(TILED, cam, "minmax", output="shadow",
-                                        settings=ReliefSettings(shadows=True), light_dir=light)
-    relief = renderers["natural"].render(TILED, cam, "relief", output="shadow",
-                                         settings=ReliefSettings(shadows=True), light_dir=light)
-    assert ((exact[..., 0] > 0.5) != ref.shadow)[v].mean() < 0.01
-    assert ((relief[..., 0] > 0.5) != ref.shadow)[v].mean() < 0.05
+    exact = _shadowed(renderers["natural"], cam, "minmax")
+    relief = _shadowed(renderers["natural"], cam, "relief")
+    assert (exact != ref.shadow)[v].mean() < 0.01
+    assert (relief != ref.shadow)[v].mean() < 0.05
     off = renderers["natural"].render(TILED, cam, "relief", output="shadow",
-                                      settings=ReliefSettings(shadows=False), light_dir=light)
+                                      settings=ReliefSettings(shadows=False), light_dir=LIGHT)
     assert not off[..., 0].any()
 
 
@@ -194,19 +203,17 @@ def test_default_search_is_denser_on_a_field_with_walls(renderers, city):
     from terrascape.render.relief_quad import ReliefSettings
 
     assert renderers["city"].has_walls and not renderers["natural"].has_walls
-    light = (0.8, 0.35, 0.2)
     for theta in (60, 80):
         cam = _camera(theta)
-        ref = reference_image(city, TILED, cam, FB, FB, light_dir=light)
+        ref = reference_image(city, TILED, cam, FB, FB, light_dir=LIGHT)
         v = ref.valid
         results = {}
         for steps in (16, None):
-            st = ReliefSettings(linear_steps=steps, shadows=True)
+            st = ReliefSettings(linear_steps=steps)
             hit = renderers["city"].render(TILED, cam, "relief", settings=st)
-            shadow = renderers["city"].render(TILED, cam, "relief", settings=st,
-                                              output="shadow", light_dir=light)
+            shadow = _shadowed(renderers["city"], cam, "relief", st)
             results[steps] = (((hit[..., 2] - ref.depth)[v] > 0.01).mean(),
-                              ((shadow[..., 0] > 0.5) != ref.shadow)[v].mean(),
+                              (shadow != ref.shadow)[v].mean(),
                               hit[..., 3][v].mean())
         skip16, dis16, fetch16 = results[16]
         skip, dis, fetch = results[None]
@@ -252,18 +259,16 @@ def test_relief_shadow_march_matches_exact_shadow_at_its_own_hit(renderers, natu
     from terrascape.render.relief_quad import ReliefSettings
 
     heights = {"natural": natural, "city": city}[field]
-    light = (0.8, 0.35, 0.2)
     st = ReliefSettings(shadows=True)
     for theta in (45, 70):
         cam = _camera(theta)
         v = quad_entry(TILED, cam, FB, FB)[2]
         hit = renderers[field].render(TILED, cam, "relief", settings=st)
-        mine = renderers[field].render(TILED, cam, "relief", settings=st, output="shadow",
-                                       light_dir=light)[..., 0] > 0.5
+        mine = _shadowed(renderers[field], cam, "relief", st)
         uv = np.where(v[..., None], hit[..., :2].astype(np.float64), np.nan)
         surface = 1.0 - sample_bilinear(heights, np.nan_to_num(uv), wrap=True)
         exact = shadow_exact(heights, uv, np.where(v, surface, np.nan),
-                             light_slope(TILED, cam.eye, light))
+                             light_slope(TILED, cam.eye, LIGHT))
         assert 0.03 < exact[v].mean() < 0.9
         assert (mine != exact)[v].mean() <= bound
         assert (mine & ~exact)[v].mean() <= 0.001
@@ -273,16 +278,11 @@ def test_relief_shadow_march_matches_exact_shadow_at_its_own_hit(renderers, natu
 def test_minmax_shadow_is_exact_on_the_city(renderers, city, theta):
     # The exact hierarchical march toward the light (from level 0 up) agrees with
     # shadow_exact up to knife-edge pixels, thin walls included.
-    from terrascape.render.relief_quad import ReliefSettings
-
     cam = _camera(theta, azimuth=20)
-    light = (0.8, 0.35, 0.2)
-    ref = reference_image(city, TILED, cam, FB, FB, light_dir=light)
+    ref = reference_image(city, TILED, cam, FB, FB, light_dir=LIGHT)
     v = ref.valid
     assert 0.05 < ref.shadow[v].mean() < 0.95
-    out = renderers["city"].render(TILED, cam, "minmax", output="shadow",
-                                   settings=ReliefSettings(shadows=True), light_dir=light)
-    assert ((out[..., 0] > 0.5) != ref.shadow)[v].mean() < 0.003
+    assert (_shadowed(renderers["city"], cam, "minmax") != ref.shadow)[v].mean() < 0.003
 
 
 def test_runtime_uniforms_change_the_result(renderers, city):
