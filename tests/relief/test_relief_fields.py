@@ -49,6 +49,11 @@ def test_walls_are_told_apart_from_slopes():
     from terrascape.relief.fields import WALL_STEP, has_walls, max_texel_step
 
     assert has_walls(city_field(64, seed=1, block=16))
+    # The bench fields (seed 0): the city's walls are full-height steps, the smooth field
+    # stays far below the wall step.
+    assert max_texel_step(city_field(256, seed=0)) == 1.0
+    assert max_texel_step(natural_field(256, seed=0)) < 0.08
+    assert max_texel_step(natural_field(1280, seed=0)) < 0.04
     for size in (64, 256, 1280):
         assert not has_walls(natural_field(size, seed=0))
     ramp = np.tile(np.linspace(0.0, 1.0, 16, dtype=np.float32), (16, 1))
