@@ -209,3 +209,40 @@ def test_lightmap_clamps_to_one_and_validates():
         lightmap(np.zeros((5, 5)), 0.0, 45.0, ambient=1.5)
     with pytest.raises(InvalidParameterError, match="method"):
         lightmap(np.zeros((5, 5)), 0.0, 45.0, method="magic")
+
+
+# --- the sweep split into blocks of ray lines (parallel) -----------------------------------
+@pytest.mark.parametrize("shape", [(97, 97), (65, 130), (130, 65)])
+@pytest.mark.parametrize("az", [0.0, 17.0, 45.0, 133.0, 200.0, 271.0, 333.0])
+def test_sweep_in_blocks_equals_one_sweep(terrain, shape, az):
+    """Any number of blocks (and so of threads) decides every sample as one serial sweep."""
+    from terrascape.lighting import shadows as sh
+
+    hm = Heightmap(terrain(shape[0], 3, cols=shape[1]))
+    for el in (6.0, 25.0):
+        transpose, da, db, rise = sh._sweep_geometry(hm, sh.sun_above_horizon(az, el))
+        results = []
+        for blocks in (1, 2, 3, 8, 40):
+            h, full, out = sh._oriented(hm, transpose)
+            sh._line_sweep_kernel(h, da, db, rise, sh._NEAR, out, blocks)
+            results.append(full)
+        for other in results[1:]:
+            np.testing.assert_array_equal(other, results[0])
+        # and the public function (its own block count) gives the same map
+        np.testing.assert_array_equal(shadow_mask(hm, az, el), results[0])
+
+
+def test_sweep_same_map_on_one_thread_and_two(terrain):
+    import numba
+
+    hm = Heightmap(terrain(257, 8))
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = shadow_mask(hm, 123.0, 12.0)
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        two = shadow_mask(hm, 123.0, 12.0)
+    finally:
+        numba.set_num_threads(before)
+    np.testing.assert_array_equal(one, two)
+    assert 0.02 < one.mean() < 0.9  # a real shadow map, not an empty one

@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numba
 import numpy as np
 
 from terrascape._numba import CACHE, FASTMATH, njit, prange
@@ -178,9 +179,22 @@ def shadow_mask_reference(
 # --------------------------------------------------------------------------------------------
 # Fast exact: line sweep of shadow heights
 # --------------------------------------------------------------------------------------------
+@njit(cache=CACHE)
+def _ray_line_span(n0, n1, e):
+    """Index range of the ray lines that touch the grid: ``(j_lo, nj)``.
+
+    Ray line ``j`` crosses grid line ``a`` at ``p_j(a) = j + a·e``; it touches the grid when
+    that lies in ``[0, n1 - 1]`` for some ``a`` (two lines of margin on each side).
+    """
+    span = (n0 - 1) * e
+    j_lo = math.floor(min(0.0, -span)) - 2
+    j_hi = math.ceil(max(0.0, -span)) + n1 + 2
+    return j_lo, j_hi - j_lo + 1
+
+
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _line_sweep_kernel(h, da, db, rise, near, out):
-    """Shadow heights along parallel light rays spaced one sample apart; O(near) per sample.
+def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi):
+    """Sweep the ray lines ``lo … hi`` (indices from ``j_lo``) and shade their samples.
 
     Ray line ``j`` crosses grid line ``a`` at ``p_j(a) = j + a·e`` with ``e = da·db``. Grid
     lines are processed from the side facing the light; ``sl[j]`` holds the shadow height of
@@ -193,17 +207,18 @@ def _line_sweep_kernel(h, da, db, rise, near, out):
     that it lies between two ray lines and takes the linear interpolation of their shadow
     heights ``near`` lines upstream, kept in a ring buffer. That single lerp across one
     sample is the only approximation.
+
+    Ray lines never exchange state, so the sweep splits into blocks of lines. A sample
+    belongs to the block holding the left one of the two lines it interpolates (``i0``);
+    the block also carries line ``hi + 1``, its right neighbour's first line, so every
+    sample is decided from the same values as in one sweep over all lines.
     """
     n0, n1 = h.shape
     e = da * db
     neg_inf = -np.inf
-    # Ray lines that touch the grid for some a: j + a·e in [0, n1 - 1].
-    span = (n0 - 1) * e
-    j_lo = math.floor(min(0.0, -span)) - 2
-    j_hi = math.ceil(max(0.0, -span)) + n1 + 2
-    nj = j_hi - j_lo + 1
-    sl = np.full(nj, neg_inf, dtype=np.float64)
-    ring = np.full((near, nj), neg_inf, dtype=np.float64)
+    width = hi - lo + 2  # lines lo … hi + 1
+    sl = np.full(width, neg_inf, dtype=np.float64)
+    ring = np.full((near, width), neg_inf, dtype=np.float64)
     a = n0 - 1 if da > 0 else 0
     for t in range(n0):
         base = a * e
@@ -211,7 +226,12 @@ def _line_sweep_kernel(h, da, db, rise, near, out):
         fr = base - fl
         far = ring[t % near]  # shadow heights of the ray lines at grid line a + near·da
         have_far = t >= near
-        for b in range(n1):
+        # Samples of this block: i0 = b - fl - 1 - j_lo (or b - fl - j_lo on a grid line
+        # that the ray lines cross at samples) in lo … hi.
+        shift = fl + j_lo + (1 if fr != 0.0 else 0)
+        b_first = max(0, lo + shift)
+        b_last = min(n1 - 1, hi + shift)
+        for b in range(b_first, b_last + 1):
             hv = float(h[a, b])
             # The decision is h < max(near part, far part): test the cheap far part first and
             # stop the near walk at the first occluder.
@@ -219,9 +239,9 @@ def _line_sweep_kernel(h, da, db, rise, near, out):
             # --- the far part of the ray: interpolate between the two ray lines around it
             if have_far and 0.0 <= b + near * db <= n1 - 1:
                 if fr == 0.0:
-                    sf = far[b - fl - j_lo]
+                    sf = far[b - fl - j_lo - lo]
                 else:
-                    i0 = b - fl - 1 - j_lo
+                    i0 = b - fl - 1 - j_lo - lo
                     s0 = far[i0]
                     s1 = far[i0 + 1]
                     # A ray line that has just entered the map has no occluder yet (-inf);
@@ -254,12 +274,12 @@ def _line_sweep_kernel(h, da, db, rise, near, out):
                         break
             out[a, b] = shadowed
         # Remember this line's ray-line state for the samples `near` lines downstream.
-        for jj in range(nj):
+        for jj in range(width):
             far[jj] = sl[jj]
         # Advance every ray line one step away from the light: take in this grid line's
         # terrain crossing, then let the ray climb `rise`.
-        for jj in range(nj):
-            p0 = jj + j_lo + fl  # left sample of ray line jj on grid line a
+        for jj in range(width):
+            p0 = jj + lo + j_lo + fl  # left sample of ray line jj on grid line a
             tv = neg_inf
             if fr == 0.0:
                 if 0 <= p0 <= n1 - 1:
@@ -277,13 +297,39 @@ def _line_sweep_kernel(h, da, db, rise, near, out):
         a -= da
 
 
+@njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
+def _line_sweep_kernel(h, da, db, rise, near, out, blocks):
+    """The shadow-height sweep over ``blocks`` independent blocks of ray lines, in parallel.
+
+    Each sample is written by exactly one block and decided from the same values whatever
+    the number of blocks or threads: the result is identical to one serial sweep.
+    """
+    n0, n1 = h.shape
+    j_lo, nj = _ray_line_span(n0, n1, da * db)
+    size = (nj + blocks - 1) // blocks
+    for k in prange(blocks):
+        lo = k * size
+        hi = min(nj - 1, lo + size - 1)
+        if lo <= hi:
+            _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi)
+
+
+def _sweep_blocks(n_cols: int) -> int:
+    """How many blocks of ray lines the sweep splits into.
+
+    A few per thread, so a thread that finishes early takes another; each block carries one
+    extra ray line and a ring buffer of ``_NEAR`` lines, so blocks stay at least 64 lines wide.
+    """
+    return max(1, min(4 * numba.get_num_threads(), n_cols // 64))
+
+
 def _fast_mask_for_light(hm: Heightmap, light: np.ndarray) -> np.ndarray:
     geo = _sweep_geometry(hm, light)
     if geo is None:
         return np.zeros(hm.shape, dtype=np.bool_)
     transpose, da, db, rise = geo
     h, full, out = _oriented(hm, transpose)
-    _line_sweep_kernel(h, da, db, rise, _NEAR, out)
+    _line_sweep_kernel(h, da, db, rise, _NEAR, out, _sweep_blocks(h.shape[1]))
     return full
 
 
