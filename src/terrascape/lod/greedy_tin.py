@@ -1,0 +1,585 @@
+"""Static terrain mesh by greedy insertion into a Delaunay triangulation (Garland–Heckbert).
+
+Start from the two triangles of the grid's corners. Every triangle knows its *candidate*:
+the grid sample it covers whose height is farthest from the triangle's plane, found by
+rasterising the triangle over every sample it covers. A priority queue keeps the triangles
+by that error; the worst candidate is inserted (splitting its triangle in three, or the two
+triangles of an edge it lies on in four), the Delaunay condition is restored by edge flips,
+and only the triangles that changed are rasterised again. Refinement stops when the largest
+error left is at most ``max_error``: since every sample is covered by a triangle that was
+rasterised, the bound holds on every sample of the grid.
+
+Compared with the right-triangulated network of :mod:`terrascape.lod.rtin`, vertices go
+anywhere on the grid, not only at bintree midpoints, so the same error takes fewer
+triangles; the mesh is not a bintree (it cannot be refined per view or stitched to tiles
+by level) and it is built sequentially. It meshes any rectangular grid.
+
+References
+----------
+.. [1] Garland, M., Heckbert, P. S. (1995). Fast Polygonal Approximation of Terrains and
+   Height Fields. Technical report CMU-CS-95-181, Carnegie Mellon University.
+.. [2] Guibas, L., Stolfi, J. (1985). Primitives for the manipulation of general
+   subdivisions and the computation of Voronoi diagrams. ACM TOG 4(2) — the in-circle test
+   and edge flips.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from terrascape._numba import CACHE, FASTMATH, njit
+from terrascape._validate import check_int, check_positive
+from terrascape.errors import InvalidParameterError
+from terrascape.heightmap import Heightmap
+
+__all__ = ["greedy_tin"]
+
+# state slots of the resumable kernel
+_N_POINTS, _N_EDGES, _Q_LEN, _N_PENDING, _STATUS = range(5)
+_DONE, _FULL = 0, 1
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+def _orient(ax, ay, bx, by, cx, cy):
+    return (bx - cx) * (ay - cy) - (by - cy) * (ax - cx)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _in_circle(ax, ay, bx, by, cx, cy, px, py):
+    dx = ax - px
+    dy = ay - py
+    ex = bx - px
+    ey = by - py
+    fx = cx - px
+    fy = cy - py
+    ap = dx * dx + dy * dy
+    bp = ex * ex + ey * ey
+    cp = fx * fx + fy * fy
+    return dx * (ey * cp - bp * fy) - dy * (ex * cp - bp * fx) + ap * (ex * fy - ey * fx) < 0
+
+
+# --- priority queue of triangles by error (max-heap) ---------------------------------------
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _q_swap(queue, qerr, qidx, i, j):
+    ti = queue[i]
+    tj = queue[j]
+    queue[i] = tj
+    queue[j] = ti
+    qidx[ti] = j
+    qidx[tj] = i
+    e = qerr[i]
+    qerr[i] = qerr[j]
+    qerr[j] = e
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _q_up(queue, qerr, qidx, j):
+    while j > 0:
+        i = (j - 1) >> 1
+        if i == j or not qerr[j] > qerr[i]:
+            break
+        _q_swap(queue, qerr, qidx, i, j)
+        j = i
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _q_down(queue, qerr, qidx, i0, n):
+    i = i0
+    while True:
+        j1 = 2 * i + 1
+        if j1 >= n or j1 < 0:
+            break
+        j2 = j1 + 1
+        j = j1
+        if j2 < n and qerr[j2] > qerr[j1]:
+            j = j2
+        if not qerr[j] > qerr[i]:
+            break
+        _q_swap(queue, qerr, qidx, i, j)
+        i = j
+    return i > i0
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _q_push(queue, qerr, qidx, state, t, error):
+    i = state[_Q_LEN]
+    qidx[t] = i
+    queue[i] = t
+    qerr[i] = error
+    state[_Q_LEN] = i + 1
+    _q_up(queue, qerr, qidx, i)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _q_pop_back(queue, qidx, state):
+    n = state[_Q_LEN] - 1
+    t = queue[n]
+    state[_Q_LEN] = n
+    qidx[t] = -1
+    return t
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _q_pop(queue, qerr, qidx, state):
+    n = state[_Q_LEN] - 1
+    _q_swap(queue, qerr, qidx, 0, n)
+    _q_down(queue, qerr, qidx, 0, n)
+    return _q_pop_back(queue, qidx, state)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _q_remove(queue, qerr, qidx, pending, state, t):
+    i = qidx[t]
+    if i < 0:
+        # not queued yet: it waits in the pending list for rasterisation
+        for k in range(state[_N_PENDING]):
+            if pending[k] == t:
+                state[_N_PENDING] -= 1
+                pending[k] = pending[state[_N_PENDING]]
+                return
+        return
+    n = state[_Q_LEN] - 1
+    if n != i:
+        _q_swap(queue, qerr, qidx, i, n)
+        if not _q_down(queue, qerr, qidx, i, n):
+            _q_up(queue, qerr, qidx, i)
+    _q_pop_back(queue, qidx, state)
+
+
+# --- the triangulation ---------------------------------------------------------------------
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _add_triangle(tris, half, qidx, pending, state, a, b, c, ab, bc, ca, e):
+    """Write triangle (a, b, c) at halfedge slot ``e`` (-1: append) and queue it for
+    rasterisation; returns its first halfedge."""
+    if e < 0:
+        e = state[_N_EDGES]
+        state[_N_EDGES] = e + 3
+    t = e // 3
+    tris[e] = a
+    tris[e + 1] = b
+    tris[e + 2] = c
+    half[e] = ab
+    half[e + 1] = bc
+    half[e + 2] = ca
+    if ab >= 0:
+        half[ab] = e
+    if bc >= 0:
+        half[bc] = e + 1
+    if ca >= 0:
+        half[ca] = e + 2
+    qidx[t] = -1
+    if state[_N_PENDING] >= pending.shape[0]:
+        raise RuntimeError("greedy TIN: pending list overflow")
+    pending[state[_N_PENDING]] = t
+    state[_N_PENDING] += 1
+    return e
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, start):
+    """Restore the Delaunay condition around halfedge ``start`` by flips (depth first)."""
+    top = 0
+    stack[0] = start
+    top = 1
+    while top > 0:
+        top -= 1
+        a = stack[top]
+        b = half[a]
+        if b < 0:
+            continue
+        a0 = a - a % 3
+        b0 = b - b % 3
+        al = a0 + (a + 1) % 3
+        ar = a0 + (a + 2) % 3
+        bl = b0 + (b + 2) % 3
+        br = b0 + (b + 1) % 3
+        p0 = tris[ar]
+        pr = tris[a]
+        pl = tris[al]
+        p1 = tris[bl]
+        if not _in_circle(coords[p0, 0], coords[p0, 1], coords[pr, 0], coords[pr, 1],
+                          coords[pl, 0], coords[pl, 1], coords[p1, 0], coords[p1, 1]):
+            continue
+        hal = half[al]
+        har = half[ar]
+        hbl = half[bl]
+        hbr = half[br]
+        _q_remove(queue, qerr, qidx, pending, state, a0 // 3)
+        _q_remove(queue, qerr, qidx, pending, state, b0 // 3)
+        t0 = _add_triangle(tris, half, qidx, pending, state, p0, p1, pl, -1, hbl, hal, a0)
+        t1 = _add_triangle(tris, half, qidx, pending, state, p1, p0, pr, t0, har, hbr, b0)
+        # the recursion's order: t0 + 1 (and all it flips) before t1 + 2
+        if top + 2 > stack.shape[0]:
+            raise RuntimeError("greedy TIN: flip stack overflow")
+        stack[top] = t1 + 2
+        stack[top + 1] = t0 + 1
+        top += 2
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+def _span(w, a, lo, hi):
+    """Narrow ``[lo, hi]`` (offsets along a row) to where ``w + a·dx >= 0`` (integers)."""
+    if a > 0:
+        if w < 0:
+            lo = max(lo, (-w + a - 1) // a)
+    elif a < 0:
+        hi = min(hi, w // (-a))
+    elif w < 0:
+        hi = -1
+    return lo, hi
+
+
+# Max-reductions vectorise only without NaN/signed-zero semantics; heights are checked
+# finite, and no sum is reassociated, so results are the same bits as without the flags.
+_RASTER_MATH = {"nnan", "ninf", "nsz"}
+# Tiles of the min/max grid that bounds the error of large triangles (samples per side).
+_TILE = 16
+# Triangles whose box holds more samples than this search tiles by their error bound.
+_TILED_SEARCH = 8 * _TILE * _TILE
+
+
+@njit(cache=CACHE, fastmath=_RASTER_MATH)
+def _scan_rows(h, y0, y1, x_lo, x_hi, min_x, min_y, w00, w01, w02, a12, a20, a01, b12, b20,
+               b01, z0, z1, z2, dz_dx, best, bx, by):
+    """Scan rows ``y0 … y1`` of a triangle, columns ``x_lo … x_hi`` only; return the best
+    ``(error, x, y)``, ties going to the first sample in row-major order."""
+    dy = y0 - min_y
+    w0r = w00 + b12 * dy
+    w1r = w01 + b20 * dy
+    w2r = w02 + b01 * dy
+    for y in range(y0, y1 + 1):
+        lo, hi = x_lo - min_x, x_hi - min_x
+        lo, hi = _span(w0r, a12, lo, hi)
+        lo, hi = _span(w1r, a20, lo, hi)
+        lo, hi = _span(w2r, a01, lo, hi)
+        if lo <= hi:
+            zr = z0 * w0r + z1 * w1r + z2 * w2r
+            row = h[y]
+            row_max = 0.0
+            for dx in range(lo, hi + 1):
+                d = abs(zr + dz_dx * dx - float(row[min_x + dx]))
+                row_max = max(row_max, d)
+            if row_max > best or (row_max == best and best > 0.0 and y < by):
+                for dx in range(lo, hi + 1):
+                    if abs(zr + dz_dx * dx - float(row[min_x + dx])) == row_max:
+                        x = min_x + dx
+                        if row_max > best or y < by or x < bx:
+                            best = row_max
+                            bx = x
+                            by = y
+                        break
+            elif row_max == best and best > 0.0 and y == by:
+                for dx in range(lo, hi + 1):
+                    x = min_x + dx
+                    if x >= bx:
+                        break
+                    if abs(zr + dz_dx * dx - float(row[x])) == row_max:
+                        bx = x
+                        break
+        w0r += b12
+        w1r += b20
+        w2r += b01
+    return best, bx, by
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _rasterise(h, tmin, tmax, coords, tris, t, cand, cerr):
+    """Largest |h − plane| over the samples of triangle ``t``, and where it is.
+
+    The samples inside are those where the three edge functions are ≥ 0; on each row they
+    form one span, found exactly in integers, so the inner loop has no inside test. Each
+    row's maximum is taken first (a loop LLVM vectorises) and its position looked up only
+    when it beats the best so far. A large triangle is searched tile by tile in decreasing
+    order of an upper bound of its error there (the plane's range over the tile against the
+    tile's height range), stopping at the first tile whose bound is below the best error
+    found: the same sample as a full scan, without scanning most of the triangle.
+    """
+    p0 = tris[3 * t]
+    p1 = tris[3 * t + 1]
+    p2 = tris[3 * t + 2]
+    p0x, p0y = coords[p0, 0], coords[p0, 1]
+    p1x, p1y = coords[p1, 0], coords[p1, 1]
+    p2x, p2y = coords[p2, 0], coords[p2, 1]
+    min_x = min(p0x, p1x, p2x)
+    min_y = min(p0y, p1y, p2y)
+    max_x = max(p0x, p1x, p2x)
+    max_y = max(p0y, p1y, p2y)
+    # edge functions at the box corner, advanced by forward differences
+    w00 = _orient(p1x, p1y, p2x, p2y, min_x, min_y)
+    w01 = _orient(p2x, p2y, p0x, p0y, min_x, min_y)
+    w02 = _orient(p0x, p0y, p1x, p1y, min_x, min_y)
+    a01 = p1y - p0y
+    b01 = p0x - p1x
+    a12 = p2y - p1y
+    b12 = p1x - p2x
+    a20 = p0y - p2y
+    b20 = p2x - p0x
+    area = float(_orient(p0x, p0y, p1x, p1y, p2x, p2y))
+    z0 = float(h[p0y, p0x]) / area
+    z1 = float(h[p1y, p1x]) / area
+    z2 = float(h[p2y, p2x]) / area
+    # the plane: z = z00 + dz_dx·(x − min_x) + dz_dy·(y − min_y)
+    dz_dx = z0 * a12 + z1 * a20 + z2 * a01
+    dz_dy = z0 * b12 + z1 * b20 + z2 * b01
+    best = 0.0
+    bx = p0x
+    by = p0y
+    if (max_x - min_x + 1) * (max_y - min_y + 1) <= _TILED_SEARCH:
+        best, bx, by = _scan_rows(h, min_y, max_y, min_x, max_x, min_x, min_y, w00, w01, w02,
+                                  a12, a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, best, bx, by)
+    else:
+        z00 = z0 * w00 + z1 * w01 + z2 * w02
+        slack = 1e-9 * (1.0 + abs(z00) + abs(dz_dx) * (max_x - min_x)
+                        + abs(dz_dy) * (max_y - min_y))
+        tx0, tx1 = min_x // _TILE, max_x // _TILE
+        ty0, ty1 = min_y // _TILE, max_y // _TILE
+        ntx = tx1 - tx0 + 1
+        n = ntx * (ty1 - ty0 + 1)
+        bound = np.empty(n)
+        for k in range(n):
+            ty = ty0 + k // ntx
+            tx = tx0 + k % ntx
+            xa = max(min_x, tx * _TILE) - min_x
+            xb = min(max_x, tx * _TILE + _TILE - 1) - min_x
+            ya = max(min_y, ty * _TILE) - min_y
+            yb = min(max_y, ty * _TILE + _TILE - 1) - min_y
+            # a plane's extremes over a rectangle are at its corners
+            c00 = z00 + dz_dx * xa + dz_dy * ya
+            c10 = z00 + dz_dx * xb + dz_dy * ya
+            c01 = z00 + dz_dx * xa + dz_dy * yb
+            c11 = z00 + dz_dx * xb + dz_dy * yb
+            pmin = min(min(c00, c10), min(c01, c11))
+            pmax = max(max(c00, c10), max(c01, c11))
+            bound[k] = max(pmax - tmin[ty, tx], tmax[ty, tx] - pmin) + slack
+        order = np.argsort(-bound)
+        for k in order:
+            if bound[k] < best:
+                break
+            ty = ty0 + k // ntx
+            tx = tx0 + k % ntx
+            best, bx, by = _scan_rows(
+                h, max(min_y, ty * _TILE), min(max_y, ty * _TILE + _TILE - 1),
+                max(min_x, tx * _TILE), min(max_x, tx * _TILE + _TILE - 1), min_x, min_y,
+                w00, w01, w02, a12, a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, best, bx, by)
+    if ((bx == p0x and by == p0y) or (bx == p1x and by == p1y)
+            or (bx == p2x and by == p2y)):
+        best = 0.0
+    cand[t, 0] = bx
+    cand[t, 1] = by
+    cerr[t] = best
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _tile_ranges(h, tmin, tmax):
+    rows, cols = h.shape
+    for ty in range(tmin.shape[0]):
+        for tx in range(tmin.shape[1]):
+            lo = np.inf
+            hi = -np.inf
+            for y in range(ty * _TILE, min(rows, ty * _TILE + _TILE)):
+                for x in range(tx * _TILE, min(cols, tx * _TILE + _TILE)):
+                    v = float(h[y, x])
+                    lo = min(lo, v)
+                    hi = max(hi, v)
+            tmin[ty, tx] = lo
+            tmax[ty, tx] = hi
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _flush(h, tmin, tmax, coords, tris, cand, cerr, queue, qerr, qidx, pending, state):
+    for k in range(state[_N_PENDING]):
+        t = pending[k]
+        _rasterise(h, tmin, tmax, coords, tris, t, cand, cerr)
+        _q_push(queue, qerr, qidx, state, t, cerr[t])
+    state[_N_PENDING] = 0
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _add_point(coords, state, x, y):
+    i = state[_N_POINTS]
+    coords[i, 0] = x
+    coords[i, 1] = y
+    state[_N_POINTS] = i + 1
+    return i
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, a):
+    """Insert point ``pn`` lying on halfedge ``a``: split the edge's one or two triangles."""
+    a0 = a - a % 3
+    al = a0 + (a + 1) % 3
+    ar = a0 + (a + 2) % 3
+    p0 = tris[ar]
+    pr = tris[a]
+    pl = tris[al]
+    hal = half[al]
+    har = half[ar]
+    b = half[a]
+    args = (tris, half, coords, queue, qerr, qidx, pending, state, stack)
+    if b < 0:
+        t0 = _add_triangle(tris, half, qidx, pending, state, pn, p0, pr, -1, har, -1, a0)
+        t1 = _add_triangle(tris, half, qidx, pending, state, p0, pn, pl, t0, -1, hal, -1)
+        _legalize(*args, t0 + 1)
+        _legalize(*args, t1 + 2)
+        return
+    b0 = b - b % 3
+    bl = b0 + (b + 2) % 3
+    br = b0 + (b + 1) % 3
+    p1 = tris[bl]
+    hbl = half[bl]
+    hbr = half[br]
+    _q_remove(queue, qerr, qidx, pending, state, b0 // 3)
+    t0 = _add_triangle(tris, half, qidx, pending, state, p0, pr, pn, har, -1, -1, a0)
+    t1 = _add_triangle(tris, half, qidx, pending, state, pr, p1, pn, hbr, -1, t0 + 1, b0)
+    t2 = _add_triangle(tris, half, qidx, pending, state, p1, pl, pn, hbl, -1, t1 + 1, -1)
+    t3 = _add_triangle(tris, half, qidx, pending, state, pl, p0, pn, hal, t0 + 2, t2 + 1, -1)
+    _legalize(*args, t0)
+    _legalize(*args, t1)
+    _legalize(*args, t2)
+    _legalize(*args, t3)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _refine(h, tmin, tmax, max_error, max_tris, coords, tris, half, cand, cerr, queue, qerr, qidx,
+            pending, stack, state):
+    """Insert worst candidates until the error is met, the budget is reached, or the arrays
+    are full (then return ``_FULL`` so the caller grows them and calls again)."""
+    cap_tris = tris.shape[0] // 3
+    while state[_Q_LEN] > 0 and qerr[0] > max_error:
+        n_tris = state[_N_EDGES] // 3
+        if n_tris + 2 > max_tris:
+            break
+        if n_tris + 2 > cap_tris or state[_N_POINTS] + 1 > coords.shape[0]:
+            state[_STATUS] = _FULL
+            return
+        t = _q_pop(queue, qerr, qidx, state)
+        e0 = 3 * t
+        e1 = e0 + 1
+        e2 = e0 + 2
+        p0 = tris[e0]
+        p1 = tris[e1]
+        p2 = tris[e2]
+        ax, ay = coords[p0, 0], coords[p0, 1]
+        bx, by = coords[p1, 0], coords[p1, 1]
+        cx, cy = coords[p2, 0], coords[p2, 1]
+        px = cand[t, 0]
+        py = cand[t, 1]
+        pn = _add_point(coords, state, px, py)
+        args = (tris, half, coords, queue, qerr, qidx, pending, state, stack)
+        if _orient(ax, ay, bx, by, px, py) == 0:
+            _split_on_edge(*args, pn, e0)
+        elif _orient(bx, by, cx, cy, px, py) == 0:
+            _split_on_edge(*args, pn, e1)
+        elif _orient(cx, cy, ax, ay, px, py) == 0:
+            _split_on_edge(*args, pn, e2)
+        else:
+            h0 = half[e0]
+            h1 = half[e1]
+            h2 = half[e2]
+            t0 = _add_triangle(tris, half, qidx, pending, state, p0, p1, pn, h0, -1, -1, e0)
+            t1 = _add_triangle(tris, half, qidx, pending, state, p1, p2, pn, h1, -1, t0 + 1,
+                               -1)
+            t2 = _add_triangle(tris, half, qidx, pending, state, p2, p0, pn, h2, t0 + 2,
+                               t1 + 1, -1)
+            _legalize(*args, t0)
+            _legalize(*args, t1)
+            _legalize(*args, t2)
+        _flush(h, tmin, tmax, coords, tris, cand, cerr, queue, qerr, qidx, pending, state)
+    state[_STATUS] = _DONE
+
+
+class _Arrays:
+    """The kernel's growable arrays (capacity in triangles)."""
+
+    def __init__(self, capacity: int) -> None:
+        self.capacity = capacity
+        self.coords = np.zeros((capacity // 2 + 8, 2), np.int64)
+        self.tris = np.zeros(3 * capacity, np.int64)
+        self.half = np.full(3 * capacity, -1, np.int64)
+        self.cand = np.zeros((capacity, 2), np.int64)
+        self.cerr = np.zeros(capacity, np.float64)
+        self.queue = np.zeros(capacity, np.int64)
+        self.qerr = np.zeros(capacity, np.float64)
+        self.qidx = np.full(capacity, -1, np.int64)
+        self.pending = np.zeros(1 << 16, np.int64)
+        self.stack = np.zeros(1 << 16, np.int64)
+
+    def grown(self) -> _Arrays:
+        new = _Arrays(2 * self.capacity)
+        for name in ("coords", "tris", "half", "cand", "cerr", "queue", "qerr", "qidx"):
+            old = getattr(self, name)
+            getattr(new, name)[: old.shape[0]] = old
+        new.pending = self.pending
+        new.stack = self.stack
+        return new
+
+
+def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
+               max_triangles: int | None = None) -> np.ndarray:
+    """Mesh with a guaranteed maximum vertical error by greedy Delaunay insertion.
+
+    Parameters
+    ----------
+    heightmap
+        Any rectangular :class:`~terrascape.Heightmap` of at least 2×2 samples (heights in
+        world units).
+    max_error
+        Largest allowed vertical error in world units (≥ 0), measured on every sample.
+    max_triangles
+        Stop before exceeding this many triangles (≥ 2); with ``max_error`` too, the first
+        criterion reached wins.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``uint32 (M, 3)`` grid vertex indices (``row·cols + col``), counter-clockwise seen
+        from above, like :func:`terrascape.lod.rtin_mesh`.
+
+    References
+    ----------
+    Garland & Heckbert (1995), see the module docstring.
+    """
+    if not isinstance(heightmap, Heightmap):
+        raise InvalidParameterError(f"expected a Heightmap, got {type(heightmap).__name__}")
+    if max_error is None and max_triangles is None:
+        raise InvalidParameterError("give max_error (world units) and/or max_triangles")
+    tol = 0.0
+    if max_error is not None:
+        tol = check_positive(max_error, "max_error (world units)", allow_zero=True)
+    budget = np.iinfo(np.int64).max
+    if max_triangles is not None:
+        budget = check_int(max_triangles, "max_triangles", minimum=2)
+    rows, cols = heightmap.shape
+    if rows < 2 or cols < 2:
+        raise InvalidParameterError(f"greedy TIN needs at least 2×2 samples, got {rows}×{cols}")
+    h = np.ascontiguousarray(heightmap.heights, dtype=np.float32)
+    if not np.isfinite(h).all():
+        raise InvalidParameterError("heights must be finite (fill NaN/inf first)")
+    tiles = (-(-rows // _TILE), -(-cols // _TILE))
+    tmin = np.empty(tiles)
+    tmax = np.empty(tiles)
+    _tile_ranges(h, tmin, tmax)
+    arr = _Arrays(1024)
+    state = np.zeros(5, np.int64)
+    x1, y1 = cols - 1, rows - 1
+    p0 = _add_point(arr.coords, state, 0, 0)
+    p1 = _add_point(arr.coords, state, x1, 0)
+    p2 = _add_point(arr.coords, state, 0, y1)
+    p3 = _add_point(arr.coords, state, x1, y1)
+    t0 = _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p3, p0, p2, -1, -1,
+                       -1, -1)
+    _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p0, p3, p1, t0, -1, -1, -1)
+    _flush(h, tmin, tmax, arr.coords, arr.tris, arr.cand, arr.cerr, arr.queue, arr.qerr, arr.qidx,
+           arr.pending, state)
+    while True:
+        _refine(h, tmin, tmax, float(tol), budget, arr.coords, arr.tris, arr.half, arr.cand,
+                arr.cerr, arr.queue, arr.qerr, arr.qidx, arr.pending, arr.stack, state)
+        if state[_STATUS] != _FULL:
+            break
+        arr = arr.grown()
+    n_tris = int(state[_N_EDGES]) // 3
+    coords = arr.coords[: state[_N_POINTS]]
+    grid_index = coords[:, 1] * cols + coords[:, 0]
+    # the insertion keeps the winding of the two first triangles: counter-clockwise seen
+    # from above (+Y) with rows growing southward
+    return grid_index[arr.tris[: 3 * n_tris].reshape(n_tris, 3)].astype(np.uint32)
