@@ -58,3 +58,17 @@ def test_quick_run_measures_every_technique(gl_ctx):
     assert len(shadow.rows) == 4
     for r in shadow.rows:
         assert 0.0 <= r[3] <= (1.0 if r[2] == "min/max exact" else 20.0)
+
+
+def test_precision_table_worst_over_seeds(gl_ctx):
+    table = bench_relief.precision_table(gl_ctx, tex=32, fb=48, angles=(70,), seeds=(0, 1),
+                                         bits=(8, 32))
+    families = {row[1] for row in table.rows}
+    assert len(families) == 3
+    assert {row[0] for row in table.rows} == {"8-bit", "float"}
+    exact = [row for row in table.rows if row[3] == "min/max exact"]
+    assert len(exact) == 6
+    assert all(row[4] <= 0.05 for row in exact)  # exact at every precision
+    fences_linear = [row for row in table.rows
+                     if row[1].startswith("fences") and row[3] == "relief 16+8"]
+    assert max(row[6] for row in fences_linear) > 5.0  # it steps through the fences

@@ -19,7 +19,8 @@ def test_relief_cli_prewarp_writes_png_and_refuses_overwrite(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "extra", [["--field", "bricks"], ["--angle", "89"], ["--size", "0x3"], ["--sun", "1"]]
+    "extra", [["--field", "bricks"], ["--angle", "89"], ["--size", "0x3"], ["--sun", "1"],
+              ["--bits", "12"]]
 )
 def test_relief_cli_bad_input_is_exit_2(tmp_path, extra):
     out = tmp_path / "x.png"
@@ -35,3 +36,13 @@ def test_relief_cli_gpu_technique(tmp_path, gl_ctx):
     img = np.asarray(Image.open(out))
     assert img.shape == (48, 64, 4) and img[..., :3].std() > 3
     assert run_app(["relief", str(tmp_path / "b.png"), "--technique", "bogus", "-q"]) == 2
+
+
+@pytest.mark.gl
+def test_relief_cli_default_is_exact_on_8_bit_fences(tmp_path, gl_ctx, capsys):
+    out = tmp_path / "fences.png"
+    assert run_app(["relief", str(out), "--field", "fences", "--bits", "8",
+                    "--texture-size", "64", "--size", "64x48", "--angle", "70"]) == 0
+    assert "minmax" in capsys.readouterr().err  # auto chose the exact tracer
+    img = np.asarray(Image.open(out))
+    assert img.shape == (48, 64, 4) and img[..., :3].std() > 3

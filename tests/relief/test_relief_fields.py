@@ -67,3 +67,31 @@ def test_walls_are_told_apart_from_slopes():
         max_texel_step(np.zeros(8))
     with pytest.raises(InvalidParameterError):
         has_walls(ramp, step=0.0)
+
+
+def test_fence_field_has_one_texel_walls_and_tiles():
+    from terrascape.relief.fields import fence_field, has_walls
+
+    f = fence_field(64, seed=2, fences=8)
+    assert f.dtype == np.float32 and f.shape == (64, 64)
+    assert f.max() == 1.0 and f.min() == 0.0
+    assert has_walls(f)
+    raised = f > 0
+    # one texel thick: no 2×2 block of fence texels unless two fences cross
+    blocks = raised[:-1, :-1] & raised[1:, :-1] & raised[:-1, 1:] & raised[1:, 1:]
+    assert blocks.sum() <= 4
+    np.testing.assert_array_equal(f, fence_field(64, seed=2, fences=8))
+
+
+@pytest.mark.parametrize("bits", [8, 16])
+def test_sampled_heights_are_the_packed_codes(bits):
+    from terrascape.lighting.normals import pack_normal_height
+    from terrascape.relief.fields import natural_field, sampled_heights
+
+    h = 0.2 + 0.6 * natural_field(32, seed=1)  # not spanning [0, 1]: the pack stretches it
+    s = sampled_heights(h, bits)
+    codes = pack_normal_height(h, bits=bits)[..., 3]
+    np.testing.assert_array_equal(s, (codes / float((1 << bits) - 1)).astype(np.float32))
+    # idempotent: packing the sampled surface gives the same codes
+    np.testing.assert_array_equal(pack_normal_height(s, bits=bits)[..., 3], codes)
+    np.testing.assert_array_equal(sampled_heights(h, 32), h.astype(np.float32))

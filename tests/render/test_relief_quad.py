@@ -354,3 +354,59 @@ def test_bad_technique_and_settings():
     assert ReliefSettings(adaptive=True).uniforms(0.1)["u_adaptive"] == 1
     assert ReliefSettings(march="fixed").uniforms(0.1)["u_adaptive"] == 0
     assert ReliefSettings().uniforms(0.1)["u_adaptive"] == 2
+
+
+@pytest.mark.parametrize("bits", [8, 16])
+@pytest.mark.parametrize("theta", [30, 70, 80])
+def test_minmax_is_exact_on_the_surface_an_integer_texture_samples(gl_ctx, theta, bits):
+    """Packed 8/16-bit heights: the pyramid is built from the sampled codes, so the tracer
+    stays exact against the exact hit of the quantised surface."""
+    from terrascape.relief.fields import sampled_heights
+    from terrascape.render.relief_quad import ReliefQuadRenderer
+
+    field = natural_field(N, seed=11, beta=2.6)
+    surface = sampled_heights(field, bits)
+    r = ReliefQuadRenderer(gl_ctx, field, size=(FB, FB), bits=bits)
+    try:
+        np.testing.assert_array_equal(r.heights, surface)
+        cam = _camera(theta)
+        out = r.render(TILED, cam, "minmax")
+        ref = reference_image(surface, TILED, cam, FB, FB)
+        err, _ = _errors(out, ref)
+        assert np.percentile(err, 95) <= 0.01
+        assert (err > 1).mean() < 0.003
+    finally:
+        r.release()
+
+
+def test_minmax_finds_one_texel_fences_that_linear_search_misses(gl_ctx):
+    from terrascape.relief.fields import fence_field
+    from terrascape.render.relief_quad import ReliefQuadRenderer, ReliefSettings
+
+    fences = fence_field(N, seed=3, fences=10)
+    r = ReliefQuadRenderer(gl_ctx, fences, size=(FB, FB))
+    try:
+        cam = _camera(75, azimuth=25)
+        ref = reference_image(fences, TILED, cam, FB, FB)
+        _, exact_depth = _errors(r.render(TILED, cam, "minmax"), ref)
+        fixed = ReliefSettings(march="fixed", linear_steps=16, binary_steps=8)
+        _, linear_depth = _errors(r.render(TILED, cam, "relief", settings=fixed), ref)
+        assert (exact_depth > 0.01).mean() < 0.003
+        assert (linear_depth > 0.01).mean() > 0.05  # the fences it stepped through
+    finally:
+        r.release()
+
+
+def test_auto_draws_the_exact_tracer_on_square_textures(gl_ctx, city):
+    from terrascape.render.relief_quad import ReliefQuadRenderer, choose_technique
+
+    assert choose_technique(city) == "minmax"
+    assert choose_technique(np.zeros((64, 96), np.float32)) == "relief"
+    r = ReliefQuadRenderer(gl_ctx, city, size=(FB, FB))
+    try:
+        cam = _camera(70, azimuth=20)
+        auto = r.render(TILED, cam)  # technique="auto" is the default
+        assert r.last_technique == "minmax"
+        np.testing.assert_array_equal(auto, r.render(TILED, cam, "minmax"))
+    finally:
+        r.release()

@@ -9,8 +9,9 @@ import typer
 from terrascape.cli.app import app, console, timed
 
 TECHNIQUE_HELP = (
-    "plain, parallax, offset_limiting, steep, pom, relief, interval, cone, minmax, "
-    "by_distance (GPU), or prewarp (relief texture mapping on the CPU, seed 000 §2.4.4)"
+    "auto (the exact min/max tracer where the texture allows, else relief), plain, "
+    "parallax, offset_limiting, steep, pom, relief, interval, cone, minmax, by_distance "
+    "(GPU), or prewarp (relief texture mapping on the CPU)"
 )
 
 
@@ -31,8 +32,11 @@ def _shade_heights(heights, depth: float, light) -> np.ndarray:  # noqa: F821
 @app.command("relief")
 def relief_command(
     output: Path = typer.Argument(..., help="Output PNG path."),
-    technique: str = typer.Option("relief", "--technique", "-t", help=TECHNIQUE_HELP),
-    field: str = typer.Option("city", "--field", help="Relief test field: city or natural."),
+    technique: str = typer.Option("auto", "--technique", "-t", help=TECHNIQUE_HELP),
+    field: str = typer.Option("city", "--field",
+                              help="Relief test field: city, natural or fences."),
+    bits: int = typer.Option(32, "--bits",
+                             help="Height texture precision: 8, 16 (packed) or 32 (float)."),
     texture_size: int = typer.Option(256, "--texture-size",
                                      help="Relief texture size in texels (power of two)."),
     angle: float = typer.Option(60.0, "--angle",
@@ -65,7 +69,7 @@ def relief_command(
     from terrascape.errors import InvalidParameterError
     from terrascape.io.atomic import atomic_output, check_output_path
     from terrascape.lighting.sun import sun_direction
-    from terrascape.relief.fields import city_field, natural_field
+    from terrascape.relief.fields import city_field, fence_field, natural_field
     from terrascape.relief.reference import ReliefQuad
 
     check_output_path(output, force=force)
@@ -73,9 +77,13 @@ def relief_command(
     check_range(angle, "angle (degrees)", 0.0, 85.0)
     az, el = parse_floats(sun, 2, name="sun")
     light = sun_direction(az, el)
-    if field not in ("city", "natural"):
-        raise InvalidParameterError(f"--field must be city or natural, got {field!r}")
-    maker = city_field if field == "city" else natural_field
+    makers = {"city": city_field, "natural": natural_field, "fences": fence_field}
+    if field not in makers:
+        raise InvalidParameterError(
+            f"--field must be one of {', '.join(makers)}, got {field!r}")
+    if bits not in (8, 16, 32):
+        raise InvalidParameterError(f"--bits must be 8, 16 or 32, got {bits}")
+    maker = makers[field]
     with timed("field", quiet=quiet):
         heights = maker(texture_size, seed=seed)
     cam = Camera.orbit((0, 0, 0), 30.0, 90.0 - angle, 2.0, aspect=w / h, fov_y=40.0)
@@ -98,12 +106,14 @@ def relief_command(
                                   adaptive=adaptive, step_texels=1.0, shadows=shadows)
         ctx = create_headless_context()
         try:
-            r = ReliefQuadRenderer(ctx, heights, size=(w, h), depth_hint=depth)
-            with timed(f"render {technique}", quiet=quiet):
+            r = ReliefQuadRenderer(ctx, heights, size=(w, h), depth_hint=depth, bits=bits)
+            wanted = r.auto_technique if technique == "auto" else technique
+            with timed(f"render {wanted}", quiet=quiet):
                 rgba = r.render(quad, cam, technique, settings=settings, output="colour",
                                 light_dir=light)
-            if r.last_technique != technique:
+            if r.last_technique != wanted:
                 console.print(f"[yellow]fell back to {r.last_technique}[/]")
+            technique = r.last_technique
             r.release()
         finally:
             ctx.release()

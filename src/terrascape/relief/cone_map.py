@@ -11,6 +11,20 @@ The brute-force definition ``c_i = min_j dist(i, j)/(d_i − d_j)`` over every h
 stops as soon as the ring distance divided by the largest possible depth difference can no
 longer beat the current minimum — exact, and fast for both city and natural fields.
 Distances wrap (tileable textures, ``GL_REPEAT``).
+
+Cone step mapping is an approximate method here: the cones are exact for the texel-centre
+samples but not conservative for the bilinear surface between them, and the tracer has no
+minimum step, so rays pass through the surface near silhouettes and stall short of it at
+grazing angles — `terrascape bench relief` measures 1–40 % of pixels more than a texel off
+depending on field and angle. Use the min/max tracer (``minmax``) where exact hits matter;
+Bán et al. (2024) describe cones that are conservative under bilinear interpolation.
+
+References
+----------
+.. [1] Dummer, J. (2006). Cone Step Mapping: An Iterative Ray-Heightfield Intersection
+   Algorithm.
+.. [2] Bán, R., Valasek, G., Bálint, Cs., Vad, V. A. (2024). Robust Cone Step Mapping.
+   Eurographics Symposium on Rendering.
 """
 
 from __future__ import annotations

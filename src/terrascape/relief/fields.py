@@ -1,4 +1,4 @@
-"""Test height fields for relief texturing: a "city" of boxes and a smooth natural field.
+"""Test height fields for relief texturing: a "city" of boxes, fences and a natural field.
 
 Both are *tileable* (periodic) ``float32`` arrays of heights in ``[0, 1]`` (1 = the polygon
 surface, 0 = the deepest point), indexed ``[row (v), col (u)]`` like every texture in
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from terrascape._validate import check_int, check_range, make_rng
-from terrascape.errors import HeightmapSizeError
+from terrascape.errors import HeightmapSizeError, InvalidParameterError
 
 
 def _check_size(size: int, *, pow2: bool = True) -> int:
@@ -135,6 +135,71 @@ def natural_field(size: int = 256, *, seed: int = 0, beta: float = 3.2) -> np.nd
     return h.astype(np.float32)
 
 
+def fence_field(
+    size: int = 256,
+    *,
+    seed: int = 0,
+    fences: int = 24,
+    min_height: float = 0.4,
+    ground: float = 0.0,
+) -> np.ndarray:
+    """A tileable field of one-texel-thick fences on flat ground: the thinnest walls.
+
+    ``fences`` straight fences, each along a row or a column at a random offset, of a
+    random length (a quarter to the whole period) and height in ``[min_height, 1]``. A
+    linear search whose step is longer than one texel of the ray passes straight through
+    them; only a search that visits every texel the ray crosses (the min/max tracer) is
+    sure to find them.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 ``(size, size)`` heights in ``[0, 1]``; the tallest fence is at exactly 1.
+    """
+    n = _check_size(size)
+    k = check_int(fences, "fences", minimum=1, maximum=4 * n)
+    low = check_range(min_height, "min_height", 1e-3, 1.0)
+    base = check_range(ground, "ground", 0.0, low)
+    rng = make_rng(seed)
+    h = np.full((n, n), base, dtype=np.float32)
+    for i in range(k):
+        top = np.float32(1.0 if i == 0 else rng.uniform(low, 1.0))
+        along_rows = bool(rng.integers(0, 2))
+        offset = int(rng.integers(0, n))
+        start = int(rng.integers(0, n))
+        length = int(rng.integers(max(2, n // 4), n + 1))
+        idx = (start + np.arange(length)) % n
+        if along_rows:
+            h[offset, idx] = np.maximum(h[offset, idx], top)
+        else:
+            h[idx, offset] = np.maximum(h[idx, offset], top)
+    return h
+
+
+def sampled_heights(heights, bits: int) -> np.ndarray:
+    """The heights a relief shader actually samples from a texture of ``bits`` precision.
+
+    The packed 8- and 16-bit relief textures store ``round((h − min)/(max − min)·maxval)``
+    (:func:`terrascape.lighting.normals.pack_normal_height`); the GPU reads
+    ``code / maxval``. Acceleration structures (min/max pyramids, cone maps, wall tests) and
+    the exact reference must be built from these values, not from the heights before
+    quantisation, or the "exact" tracer traces a different surface from the one it shades.
+    Packing the returned heights again gives the same codes. ``bits = 32`` (float32
+    textures) returns the heights as float32.
+    """
+    h = np.asarray(heights, dtype=np.float32)
+    if bits == 32:
+        return h.copy()
+    if bits not in (8, 16) or isinstance(bits, bool):
+        raise InvalidParameterError(f"bits must be 8, 16 or 32, got {bits!r}")
+    maxval = float((1 << bits) - 1)
+    h64 = h.astype(np.float64)
+    span = float(h64.max() - h64.min())
+    unit = (h64 - h64.min()) / span if span > 0 else np.zeros_like(h64)
+    codes = np.rint(unit * maxval).clip(0, maxval)
+    return (codes / maxval).astype(np.float32)
+
+
 # A height step of a quarter of the depth range between neighbouring texels is a wall, not a
 # slope: the smooth test field stays below 0.08 (256²) / 0.04 (1280²), the city reaches 1 (tested).
 WALL_STEP = 0.25
@@ -160,4 +225,12 @@ def has_walls(heights, step: float = WALL_STEP) -> bool:
     return max_texel_step(heights) >= step
 
 
-__all__ = ["WALL_STEP", "city_field", "has_walls", "max_texel_step", "natural_field"]
+__all__ = [
+    "WALL_STEP",
+    "city_field",
+    "fence_field",
+    "has_walls",
+    "max_texel_step",
+    "natural_field",
+    "sampled_heights",
+]
