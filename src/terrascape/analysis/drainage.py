@@ -407,8 +407,8 @@ def drainage_statistics(surface: Heightmap | np.ndarray, *, epsilon: float | Non
 
 __all__ = [
     "DrainageStatistics",
-    "breach_depressions",
     "FlowRouting",
+    "breach_depressions",
     "depression_share",
     "drainage_area",
     "drainage_statistics",
