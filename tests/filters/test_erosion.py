@@ -120,3 +120,25 @@ def test_bad_input_type() -> None:
         thermal_erosion(np.zeros((4, 4)))
     with pytest.raises(InvalidParameterError):
         hydraulic_erosion(np.zeros((4, 4)))
+
+
+def test_thermal_talus_map_per_material() -> None:
+    # Two materials side by side: the left half (soft, 20°) slumps further than the right
+    # (hard, 70°) from the same ridge, and material still balances exactly.
+    ridge = np.zeros((24, 40), dtype=np.float32)
+    ridge[:, 10] = 30.0
+    ridge[:, 30] = 30.0
+    talus = np.full(ridge.shape, 70.0, dtype=np.float32)
+    talus[:, :20] = 20.0
+    out = thermal_erosion(Heightmap(ridge), iterations=400, talus_angle=talus).heights
+    assert out[12, 10] < out[12, 30] - 5.0
+    assert out.sum() == pytest.approx(ridge.sum(), rel=1e-6)
+    same = thermal_erosion(Heightmap(ridge), iterations=50, talus_angle=np.full(ridge.shape, 30.0))
+    ref = thermal_erosion(Heightmap(ridge), iterations=50, talus_angle=30.0)
+    np.testing.assert_array_equal(same.heights, ref.heights)
+    with pytest.raises(InvalidParameterError, match="shape"):
+        thermal_erosion(Heightmap(ridge), talus_angle=np.full((3, 3), 30.0))
+    bad = talus.copy()
+    bad[0, 0] = np.nan
+    with pytest.raises(InvalidParameterError, match="NaN"):
+        thermal_erosion(Heightmap(ridge), talus_angle=bad)
