@@ -142,3 +142,19 @@ def test_thermal_talus_map_per_material() -> None:
     bad[0, 0] = np.nan
     with pytest.raises(InvalidParameterError, match="NaN"):
         thermal_erosion(Heightmap(ridge), talus_angle=bad)
+
+
+def test_hydraulic_brush_spreads_wear(rough: Heightmap) -> None:
+    # With a brush the same droplets wear more samples, each by less, than Beyer's four
+    # bilinear corners; material is still conserved.
+    point = hydraulic_erosion(rough, droplets=300, seed=5, radius=0.0).heights
+    brush = hydraulic_erosion(rough, droplets=300, seed=5, radius=3.0).heights
+    h0 = rough.heights
+    worn_point = np.count_nonzero(point < h0 - 1e-4)
+    worn_brush = np.count_nonzero(brush < h0 - 1e-4)
+    assert worn_brush > 1.3 * worn_point
+    assert (h0 - brush).max() < (h0 - point).max()
+    assert abs(brush.astype(np.float64).sum() - h0.astype(np.float64).sum()) <= \
+        1e-6 * np.abs(h0.astype(np.float64)).sum()
+    with pytest.raises(InvalidParameterError):
+        hydraulic_erosion(rough, radius=-1.0)
