@@ -120,3 +120,41 @@ def test_bad_input_type() -> None:
         thermal_erosion(np.zeros((4, 4)))
     with pytest.raises(InvalidParameterError):
         hydraulic_erosion(np.zeros((4, 4)))
+
+
+def test_thermal_talus_map_per_material() -> None:
+    # Two materials side by side: the left half (soft, 20°) slumps further than the right
+    # (hard, 70°) from the same ridge, and material still balances exactly.
+    ridge = np.zeros((24, 40), dtype=np.float32)
+    ridge[:, 10] = 30.0
+    ridge[:, 30] = 30.0
+    talus = np.full(ridge.shape, 70.0, dtype=np.float32)
+    talus[:, :20] = 20.0
+    out = thermal_erosion(Heightmap(ridge), iterations=400, talus_angle=talus).heights
+    assert out[12, 10] < out[12, 30] - 5.0
+    assert out.sum() == pytest.approx(ridge.sum(), rel=1e-6)
+    same = thermal_erosion(Heightmap(ridge), iterations=50, talus_angle=np.full(ridge.shape, 30.0))
+    ref = thermal_erosion(Heightmap(ridge), iterations=50, talus_angle=30.0)
+    np.testing.assert_array_equal(same.heights, ref.heights)
+    with pytest.raises(InvalidParameterError, match="shape"):
+        thermal_erosion(Heightmap(ridge), talus_angle=np.full((3, 3), 30.0))
+    bad = talus.copy()
+    bad[0, 0] = np.nan
+    with pytest.raises(InvalidParameterError, match="NaN"):
+        thermal_erosion(Heightmap(ridge), talus_angle=bad)
+
+
+def test_hydraulic_brush_spreads_wear(rough: Heightmap) -> None:
+    # With a brush the same droplets wear more samples, each by less, than Beyer's four
+    # bilinear corners; material is still conserved.
+    point = hydraulic_erosion(rough, droplets=300, seed=5, radius=0.0).heights
+    brush = hydraulic_erosion(rough, droplets=300, seed=5, radius=3.0).heights
+    h0 = rough.heights
+    worn_point = np.count_nonzero(point < h0 - 1e-4)
+    worn_brush = np.count_nonzero(brush < h0 - 1e-4)
+    assert worn_brush > 1.3 * worn_point
+    assert (h0 - brush).max() < (h0 - point).max()
+    assert abs(brush.astype(np.float64).sum() - h0.astype(np.float64).sum()) <= \
+        1e-6 * np.abs(h0.astype(np.float64)).sum()
+    with pytest.raises(InvalidParameterError):
+        hydraulic_erosion(rough, radius=-1.0)

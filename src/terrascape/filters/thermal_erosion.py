@@ -37,12 +37,13 @@ _DX4 = np.array([0, -1, 1, 0], dtype=np.int64)
 
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _excess(h, z, x, zz, xx, t):  # pragma: no cover - compiled
-    # One expression for sender and receiver, so both see bit-identical amounts.
+    # One expression for sender and receiver, so both see bit-identical amounts; the
+    # threshold is always the sender's (its material's talus).
     return (h[z, x] - h[zz, xx]) - t
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _thermal_run(a, b, k, iterations, dz, dx, thr, rate):  # pragma: no cover - compiled
+def _thermal_run(a, b, k, iterations, dz, dx, dist, tan_map, rate):  # pragma: no cover - compiled
     """``iterations`` Jacobi steps ping-ponging between ``a`` and ``b``; returns the parity.
 
     One compiled call for all iterations keeps the parallel regions back to back.
@@ -62,14 +63,14 @@ def _thermal_run(a, b, k, iterations, dz, dx, thr, rate):  # pragma: no cover - 
                     xx = x + dx[n]
                     if zz < 0 or zz >= rows or xx < 0 or xx >= cols:
                         continue
-                    e = _excess(src, z, x, zz, xx, thr[n])
+                    e = _excess(src, z, x, zz, xx, tan_map[z, x] * dist[n])
                     if e > 0.0:
                         esum += e
                         if e > emax:
                             emax = e
                 k[z, x] = rate * emax / esum if esum > 0.0 else 0.0
         # Pass 2: outflow along every direction, inflow from every neighbour that sends to us
-        # (the opposite direction has the same threshold).
+        # (the opposite direction has the same length; the threshold is the sender's).
         for z in prange(rows):
             for x in range(cols):
                 delta = 0.0
@@ -80,12 +81,12 @@ def _thermal_run(a, b, k, iterations, dz, dx, thr, rate):  # pragma: no cover - 
                     if zz < 0 or zz >= rows or xx < 0 or xx >= cols:
                         continue
                     if kc > 0.0:
-                        e = _excess(src, z, x, zz, xx, thr[n])
+                        e = _excess(src, z, x, zz, xx, tan_map[z, x] * dist[n])
                         if e > 0.0:
                             delta -= kc * e
                     kn = k[zz, xx]
                     if kn > 0.0:
-                        e = _excess(src, zz, xx, z, x, thr[n])
+                        e = _excess(src, zz, xx, z, x, tan_map[zz, xx] * dist[n])
                         if e > 0.0:
                             delta += kn * e
                 dst[z, x] = src[z, x] + delta
@@ -93,20 +94,48 @@ def _thermal_run(a, b, k, iterations, dz, dx, thr, rate):  # pragma: no cover - 
 
 
 def _thermal_f64(h: np.ndarray, iterations: int, thr: np.ndarray, rate: float,
-                 dz: np.ndarray, dx: np.ndarray) -> np.ndarray:
-    """float64 core (also used by tests to check conservation without float32 rounding)."""
+                 dz: np.ndarray, dx: np.ndarray, tan_map: np.ndarray | None = None
+                 ) -> np.ndarray:
+    """float64 core (also used by tests to check conservation without float32 rounding).
+
+    ``thr`` is ``tan(talus) · distance`` per direction for one material, or, with
+    ``tan_map`` (per-sample ``tan(talus)``), the distances alone.
+    """
     a = np.ascontiguousarray(h, dtype=np.float64).copy()
     b = np.empty_like(a)
     k = np.empty_like(a)
-    parity = _thermal_run(a, b, k, iterations, dz, dx, thr, rate)
+    if tan_map is None:  # one material on a unit grid: thr = tan(talus) · hypot(dx, dz)
+        dist = np.hypot(dx, dz).astype(np.float64)
+        tan_map = np.full(a.shape, float(thr[0]) / dist[0])
+    else:
+        dist = np.asarray(thr, dtype=np.float64)
+    parity = _thermal_run(a, b, k, iterations, dz, dx, dist, np.ascontiguousarray(tan_map,
+                          dtype=np.float64), rate)
     return b if parity else a
+
+
+def _tan_map(talus_angle: float | np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Per-sample tan(talus) from a scalar angle or an angle map (degrees)."""
+    if np.ndim(talus_angle) == 0:
+        angle = check_range(talus_angle, "talus_angle", 0.0, 89.0)
+        return np.full(shape, math.tan(math.radians(angle)))
+    angles = np.asarray(talus_angle, dtype=np.float64)
+    if angles.shape != tuple(shape):
+        raise InvalidParameterError(
+            f"talus_angle map must have the heightmap's shape {tuple(shape)}, got {angles.shape}")
+    if not np.isfinite(angles).all():
+        raise InvalidParameterError("talus_angle map contains NaN/infinite values")
+    if angles.min() < 0.0 or angles.max() > 89.0:
+        raise InvalidParameterError(
+            f"talus_angle map must be in [0, 89] degrees, got {angles.min():g} … {angles.max():g}")
+    return np.tan(np.radians(angles))
 
 
 def thermal_erosion(
     heightmap: Heightmap,
     *,
     iterations: int = 50,
-    talus_angle: float = 30.0,
+    talus_angle: float | np.ndarray = 30.0,
     rate: float = 0.5,
     neighbourhood: int = 8,
 ) -> Heightmap:
@@ -120,7 +149,9 @@ def thermal_erosion(
     iterations
         Number of Jacobi iterations (``>= 0``).
     talus_angle
-        Steepest stable slope in degrees, ``[0, 89]``.
+        Steepest stable slope in degrees, ``[0, 89]``: one number, or a map of the input's
+        shape (one angle per sample, e.g. from a hardness or material layer). Material
+        leaving a sample uses that sample's angle, so amounts still balance exactly.
     rate
         Fraction of the largest excess moved per iteration, ``(0, 0.5]``.
     neighbourhood
@@ -135,7 +166,7 @@ def thermal_erosion(
     if not isinstance(heightmap, Heightmap):
         raise InvalidParameterError(f"expected a Heightmap, got {type(heightmap).__name__}")
     iterations = check_int(iterations, "iterations", minimum=0, maximum=1_000_000)
-    angle = check_range(talus_angle, "talus_angle", 0.0, 89.0)
+    tan_map = _tan_map(talus_angle, heightmap.shape)
     rate = check_range(rate, "rate", 0.0, 0.5)
     if rate == 0.0:
         raise InvalidParameterError("rate must be in (0, 0.5], got 0")
@@ -144,8 +175,7 @@ def thermal_erosion(
     dz, dx = (_DZ8, _DX8) if neighbourhood == 8 else (_DZ4, _DX4)
     sx, sz = heightmap.spacing
     dist = np.sqrt((dx * sx) ** 2 + (dz * sz) ** 2)
-    thr = math.tan(math.radians(angle)) * dist
-    out = _thermal_f64(heightmap.heights, iterations, thr, rate, dz, dx)
+    out = _thermal_f64(heightmap.heights, iterations, dist, rate, dz, dx, tan_map)
     return heightmap.with_heights(out.astype(np.float32))
 
 
