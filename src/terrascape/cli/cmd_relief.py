@@ -8,9 +8,10 @@ import typer
 
 from terrascape.cli.app import app, console, timed
 
+# {relief_techniques} is filled from the technique registry when help is shown (cli/app.py).
 TECHNIQUE_HELP = (
-    "plain, parallax, offset_limiting, steep, pom, relief, interval, cone, minmax, "
-    "by_distance (GPU), or prewarp (relief texture mapping on the CPU, seed 000 §2.4.4)"
+    "Technique: {relief_techniques} (on the GPU), or prewarp (relief texture mapping on the "
+    "CPU, Oliveira 2000)."
 )
 
 
@@ -48,9 +49,11 @@ def relief_command(
     adaptive: bool = typer.Option(False, "--adaptive/--fixed",
                                   help="Linear steps follow the view angle (1 per texel)."),
     shadows: bool = typer.Option(True, "--shadows/--no-shadows",
-                                 help="Self-shadowing toward the light (R7)."),
-    sun: str = typer.Option("60,35", "--sun",
-                            help="Light azimuth,elevation in degrees (clockwise from north)."),
+                                 help="Self-shadowing: the relief casts shadows on itself."),
+    sun: str = typer.Option(
+        "60,35", "--sun",
+        help="Sun direction AZ,EL in degrees: azimuth clockwise from north (90 = east), "
+             "elevation above the horizon in (0, 90]."),
     seed: int = typer.Option(0, "--seed", help="Seed of the test field."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines on stderr."),
@@ -69,9 +72,13 @@ def relief_command(
     from terrascape.relief.reference import ReliefQuad
 
     check_output_path(output, force=force)
+    if technique != "prewarp":
+        from terrascape.render.relief_techniques import quad_technique
+
+        quad_name = quad_technique(technique)  # registered names and their old spellings
     w, h = parse_size(size)
     check_range(angle, "angle (degrees)", 0.0, 85.0)
-    az, el = parse_floats(sun, 2, name="sun")
+    az, el = parse_floats(sun, 2, name="--sun AZ,EL")
     light = sun_direction(az, el)
     if field not in ("city", "natural"):
         raise InvalidParameterError(f"--field must be city or natural, got {field!r}")
@@ -100,9 +107,9 @@ def relief_command(
         try:
             r = ReliefQuadRenderer(ctx, heights, size=(w, h), depth_hint=depth)
             with timed(f"render {technique}", quiet=quiet):
-                rgba = r.render(quad, cam, technique, settings=settings, output="colour",
+                rgba = r.render(quad, cam, quad_name, settings=settings, output="colour",
                                 light_dir=light)
-            if r.last_technique != technique:
+            if r.last_technique != quad_name:
                 console.print(f"[yellow]fell back to {r.last_technique}[/]")
             r.release()
         finally:

@@ -98,7 +98,7 @@ def render_command(
         "plain",
         "--technique",
         "-t",
-        help="Shading technique: plain, regions, texture3d, splat, bump (+ registered ones).",
+        help="Shading technique: {techniques}.",
     ),
     camera: str = typer.Option(
         None,
@@ -168,7 +168,7 @@ def render_command(
         raise InvalidParameterError(f"--turntable must be >= 0, got {turntable}")
     if fmt not in ("png", "mp4"):
         raise InvalidParameterError(f"--format must be png or mp4, got {fmt!r}")
-    get_technique(technique)  # fail fast on a typo, listing the techniques
+    technique = get_technique(technique).name  # fail fast on a typo; old names → new
     if output is None:
         output = Path("turntable.mp4" if turntable and fmt == "mp4" else "render.png")
     want = ".mp4" if turntable and fmt == "mp4" else ".png"
