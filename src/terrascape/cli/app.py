@@ -8,6 +8,7 @@ import warnings
 from collections.abc import Callable, Iterator
 
 import typer
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from typer.core import TyperOption
 
@@ -138,7 +139,7 @@ def _main_options(
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings as one yellow line on stderr (not Python's two-line source-quoting form)."""
-    console.print(f"[yellow]warning:[/] {message}", markup=True)
+    console.print(f"[yellow]warning:[/] {escape(str(message))}")
 
 
 def fail(message: str) -> None:
@@ -156,13 +157,13 @@ def run_app(argv: list[str] | None = None) -> int:
             warnings.showwarning = _show_warning
             app(args=argv, prog_name="terrascape")
     except TerrascapeError as exc:
-        console.print(f"[bold red]error:[/] {exc}")
+        console.print(f"[bold red]error:[/] {escape(str(exc))}")
         return USAGE_EXIT
     except ModuleNotFoundError as exc:
         message = missing_module_message(exc)
         if message is None:
             raise
-        console.print(f"[bold red]error:[/] {message}")
+        console.print(f"[bold red]error:[/] {escape(message)}")
         return USAGE_EXIT
     except SystemExit as exc:
         code = exc.code
