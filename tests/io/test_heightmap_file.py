@@ -18,6 +18,7 @@ from terrascape.io import (
     read_heightmap,
     write_heightmap,
 )
+from terrascape.io.heightmap_file import WRITE_METADATA, MetadataLossWarning
 
 # extension -> (exact?, spacing kept?)
 ROUND_TRIPS = {
@@ -27,7 +28,7 @@ ROUND_TRIPS = {
     ".r32": (True, True),
     ".tif": (True, True),
     ".tiff": (True, True),
-    ".npy": (True, False),
+    ".npy": (True, True),
     ".ter": (False, True),
 }
 
@@ -58,14 +59,56 @@ def test_every_written_format_round_trips(terrain, tmp_path, ext):
 
 
 def test_bmp_is_an_8bit_normalised_preview(terrain, tmp_path):
-    write_heightmap(terrain, tmp_path / "p.bmp")
-    back = read_heightmap(tmp_path / "p.bmp")
+    with pytest.warns(MetadataLossWarning, match=r"normalised to 0…1.*\.png \(16-bit\)"):
+        write_heightmap(terrain, tmp_path / "p.bmp")
+    with pytest.warns(UserWarning, match="no height units"):
+        back = read_heightmap(tmp_path / "p.bmp")
     expected = (terrain.heights - terrain.min) / (terrain.max - terrain.min)
     assert np.abs(back.heights - expected).max() <= 0.5 / 255 + 1e-6
 
 
+@pytest.mark.parametrize("ext", WRITE_EXTENSIONS)
+def test_write_metadata_table_says_what_reads_back(terrain, tmp_path, ext, recwarn):
+    """WRITE_METADATA is what the warnings rely on: check it against a real round trip."""
+    keeps = WRITE_METADATA[ext.lstrip(".")]
+    back = read_heightmap(write_heightmap(terrain, tmp_path / f"t{ext}"))
+    assert (back.spacing == pytest.approx(terrain.spacing)) == keeps.spacing
+    in_world_units = abs(back.max - terrain.max) < 0.01 * (terrain.max - terrain.min)
+    assert in_world_units == keeps.world_units
+    assert (back.metadata["step"] == 0.0) == keeps.exact
+    lossy = [w for w in recwarn if issubclass(w.category, MetadataLossWarning)]
+    assert bool(lossy) == (not keeps.world_units)
+
+
+def test_lossless_writes_give_no_warning(terrain, tmp_path):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for ext in (".png", ".r16", ".r32", ".tif", ".npy", ".ter"):
+            read_heightmap(write_heightmap(terrain, tmp_path / f"q{ext}"))
+
+
+def test_npy_sidecar_keeps_spacing_and_checks_the_grid(terrain, tmp_path):
+    path = write_heightmap(terrain, tmp_path / "h.npy")
+    assert np.load(path).shape == terrain.shape  # still a plain .npy for numpy
+    assert read_heightmap(path).spacing == (2.0, 2.5)
+    with pytest.raises(OutputExistsError, match=r"h\.npy"):
+        write_heightmap(terrain, path)
+    (tmp_path / "h.npy").unlink()
+    with pytest.raises(OutputExistsError, match=r"h\.npy\.json"):  # the sidecar too
+        write_heightmap(terrain, path)
+    np.save(tmp_path / "other.npy", np.zeros((3, 4), np.float32))
+    (tmp_path / "other.npy.json").write_text((tmp_path / "h.npy.json").read_text())
+    with pytest.raises(FileFormatError, match="describes a 21×17 grid"):
+        read_heightmap(tmp_path / "other.npy")
+    np.save(tmp_path / "bare.npy", np.zeros((3, 4), np.float32))  # from another tool
+    assert read_heightmap(tmp_path / "bare.npy").spacing == (1.0, 1.0)
+
+
 def test_format_argument_overrides_extension(terrain, tmp_path):
-    write_heightmap(terrain, tmp_path / "p8.png", format="png8")
+    with pytest.warns(MetadataLossWarning, match="256 levels"):
+        write_heightmap(terrain, tmp_path / "p8.png", format="png8")
     assert read_heightmap(tmp_path / "p8.png").metadata["dtype"] == "uint8"
     write_heightmap(terrain, tmp_path / "h.dat", format="r32")
     assert (tmp_path / "h.dat").stat().st_size == terrain.heights.size * 4

@@ -14,10 +14,12 @@ def test_round_trip_is_exact_float32(rng, tmp_path):
     write_npy(hm, tmp_path / "h.npy")
     raw = np.load(tmp_path / "h.npy")
     assert raw.dtype == np.float32 and raw.shape == (6, 10)
-    back = read_npy(tmp_path / "h.npy", spacing=4.0)
+    back = read_npy(tmp_path / "h.npy")
     np.testing.assert_array_equal(back.heights, hm.heights)
-    assert back.spacing == (4.0, 4.0)
-    assert read_npy(tmp_path / "h.npy").spacing == (1.0, 1.0)  # .npy stores no spacing
+    assert back.spacing == (4.0, 4.0)  # from the h.npy.json sidecar
+    assert read_npy(tmp_path / "h.npy", spacing=2.0).spacing == (2.0, 2.0)  # override
+    (tmp_path / "h.npy.json").unlink()
+    assert read_npy(tmp_path / "h.npy").spacing == (1.0, 1.0)  # a bare .npy has none
 
 
 def test_integer_arrays_and_vertical_scale(tmp_path):

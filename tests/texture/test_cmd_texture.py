@@ -5,6 +5,7 @@ import pytest
 from PIL import Image
 
 from terrascape.cli.app import run_app
+from terrascape.cli.cmd_texture import layer_colour
 from terrascape.heightmap import Heightmap
 from terrascape.texture import (
     builtin_material,
@@ -88,11 +89,26 @@ def test_splat_command_all_or_nothing(tmp_path, hm_file):
     assert run_app(["texture", "splat", str(path), "-o", str(prefix), "--block", "8",
                     "--force", "-q"]) == 0
     regions = default_regions(hm)
-    expected = pack_splat_maps(splat_weights(material_ids_from_rules(hm, regions), 5))
+    weights = splat_weights(material_ids_from_rules(hm, regions), 5)
+    packed = np.concatenate(pack_splat_maps(weights), axis=-1)  # layer k in channel k
+    # Opaque RGB, 3 layers per image: water, sand, grass | rock, snow, (unused).
     for k in range(2):
         img = _png(tmp_path / f"splat_{k}.png")
-        assert img.shape == (33, 41, 4)
-        np.testing.assert_array_equal(img, expected[k])
+        assert img.shape == (33, 41, 3)
+        layers = packed[..., 3 * k: min(3 * k + 3, 5)]
+        np.testing.assert_array_equal(img[..., : layers.shape[-1]], layers)
+    assert not _png(tmp_path / "splat_1.png")[..., 2].any()  # only 5 layers
+    sums = _png(tmp_path / "splat_0.png").sum(-1, dtype=int) + _png(
+        tmp_path / "splat_1.png").sum(-1, dtype=int)
+    assert (sums == 255).all()
+    # The preview mixes the layer colours by weight, opaque.
+    preview = _png(tmp_path / "splat_preview.png").astype(float)
+    assert preview.shape == (33, 41, 3)
+    colours = np.array([layer_colour(k, r.name) for k, r in enumerate(regions)], float)
+    np.testing.assert_allclose(preview, np.tensordot(weights, colours, axes=(0, 0)), atol=0.51)
+    only_water = weights[0] > 0.999
+    if only_water.any():
+        assert (preview[only_water] == colours[0]).all()
     assert run_app(["texture", "splat", str(path), "-o", str(prefix), "--block", "0"]) == 2
 
 
@@ -112,9 +128,13 @@ def test_splat_command_with_material_map(tmp_path, hm_file):
     assert run_app(["texture", "splat", str(path), "-o", str(prefix), "--materials",
                     str(tmp_path / "ids.png"), "-q"]) == 0
     img = _png(tmp_path / "m_0.png")
-    np.testing.assert_array_equal(img, pack_splat_maps(splat_weights(ids, 3))[0])
-    assert img[5, 0].tolist() == [255, 0, 0, 0] and img[5, 40].tolist() == [0, 0, 255, 0]
+    np.testing.assert_array_equal(img, pack_splat_maps(splat_weights(ids, 3))[0][..., :3])
+    assert img[5, 0].tolist() == [255, 0, 0] and img[5, 40].tolist() == [0, 0, 255]
     assert not (tmp_path / "m_1.png").exists()
+    preview = _png(tmp_path / "m_preview.png")
+    assert preview[5, 0].tolist() == list(layer_colour(0))
+    assert preview[5, 40].tolist() == list(layer_colour(2))
+    assert layer_colour(0) != layer_colour(1) != layer_colour(2)
     # a material map of the vertex size (not the cell size) is a typed error -> exit 2
     Image.fromarray(np.zeros((33, 41), np.uint8)).save(tmp_path / "wrong.png")
     assert run_app(["texture", "splat", str(path), "-o", str(tmp_path / "w"), "--materials",

@@ -53,6 +53,13 @@ def run(quick: bool = False) -> list[BenchTable]:
         "hills 1025² × 1000 ≤ 500 ms",
         "diamond-square includes the bulk draw of size² float32 uniforms (numpy Generator)",
     ]
+    table.check_target("diamond-square 4097²", table.value("diamond-square (halve)", "4097²"),
+                       at_most=250, unit=" ms")
+    table.check_target("fault 1025² × 1000", table.value("fault 1000 (step)", "1025²"),
+                       at_most=1000, unit=" ms")
+    table.check_target("hills 1025² × 1000",
+                       table.value("hills 1000 (r = side/64…side/16)", "1025²"),
+                       at_most=500, unit=" ms")
     erosion_sizes = QUICK_SIZES if quick else (257, 513, 1025)
     ero = BenchTable(
         title="Erosion time (ms) by grid side (H7, beyond the seeds)",

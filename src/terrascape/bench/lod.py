@@ -99,6 +99,10 @@ def _geomipmap_table(quick: bool) -> tuple[BenchTable, dict]:
         "triangles() = materialised uint32 grid-index mesh (not needed for GL drawing)",
         "targets (brief): setup ≤ 0.5 s at 2049²; update ≤ 2 ms at 4097²",
     ]
+    table.check_target("geomipmap setup 2049²", table.value("2049²", "setup s"),
+                       at_most=0.5, unit=" s")
+    table.check_target("geomipmap update 4097²", table.value("4097²", "update median ms"),
+                       at_most=2, unit=" ms")
     return table, kept
 
 
@@ -137,6 +141,9 @@ def _culling_table(quick: bool, kept: dict) -> BenchTable:
                float(np.median(brute_times) * 1e3), wrongly_culled, extra]],
         notes=["target (brief): ≤ 0.5 ms per frame on 2049²; wrongly culled must be 0"],
     )
+    table.check_target("culling 2049² median", float(np.median(times) * 1e3) if n == 2049
+                       else None, at_most=0.5, unit=" ms")
+    table.check_target("wrongly culled patches", wrongly_culled, at_most=0)
     return table
 
 

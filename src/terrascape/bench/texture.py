@@ -70,4 +70,8 @@ def run(quick: bool = False) -> list[BenchTable]:
     region_table.notes += [env, "target (brief): region texture 2049² ≤ 500 ms",
                            "terrain: diamond-square, heights 0…side/4, spacing 1"]
     splat_table.notes += [env, "target (brief): splat maps 2049² ≤ 500 ms"]
+    region_table.check_target("region texture 2049²", region_table.value("no jitter", "2049²"),
+                              at_most=500, unit=" ms")
+    splat_table.check_target("splat maps 2049²", splat_table.value("total", "2049²"),
+                             at_most=500, unit=" ms")
     return [region_table, splat_table]

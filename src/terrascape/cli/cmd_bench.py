@@ -4,24 +4,29 @@ from __future__ import annotations
 
 import typer
 
-from terrascape.bench import available_cases, get_case, print_tables
+from terrascape.bench import OUTPUT_FORMATS, available_cases, get_case, print_tables
 from terrascape.cli.app import bench_app
 
 
 def _make_command(name: str) -> None:
     def command(
         quick: bool = typer.Option(False, "--quick", help="Small sizes, same table layout."),
+        fmt: str = typer.Option(
+            "table", "--format", "-f",
+            help=f"Output: {', '.join(OUTPUT_FORMATS)} (table: full width in files and pipes)."),
         markdown: bool = typer.Option(
-            False, "--markdown", "-m",
-            help="Print Markdown tables (every column in full, for files and pipes)."),
+            False, "--markdown", "-m", help="Same as --format md."),
     ) -> None:
-        tables = get_case(name)(quick=quick)
-        if markdown:
-            typer.echo("\n".join(t.to_markdown() for t in tables))
-        else:
-            print_tables(tables)
+        if fmt not in OUTPUT_FORMATS:  # before a run of minutes, not after
+            from terrascape.errors import InvalidParameterError
 
-    command.__doc__ = f"Run the {name!r} benchmark and print its tables."
+            raise InvalidParameterError(
+                f"--format must be one of {', '.join(OUTPUT_FORMATS)}, got {fmt!r}")
+        tables = get_case(name)(quick=quick)
+        print_tables(tables, "md" if markdown else fmt)
+
+    command.__doc__ = (f"Run the {name!r} benchmark and print its tables and which of its "
+                       "targets the run met.")
     bench_app.command(name=name)(command)
 
 

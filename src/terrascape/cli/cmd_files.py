@@ -1,4 +1,4 @@
-"""``terrascape info`` and ``terrascape convert`` — heightmap files (MISSION H2)."""
+"""``terrascape info`` and ``terrascape convert`` — heightmap files."""
 
 from __future__ import annotations
 

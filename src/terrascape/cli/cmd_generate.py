@@ -129,7 +129,7 @@ def diamond_square_cmd(
     force: bool = _FORCE,
     quiet: bool = _QUIET,
 ) -> None:
-    """Diamond-square fractal terrain on a (2**n + 1)² grid (seed 001 §2.2, §5.3.1)."""
+    """Diamond-square fractal terrain on a (2**n + 1)² grid."""
     from terrascape.cli.parsing import parse_floats
     from terrascape.generate import diamond_square
 
@@ -166,7 +166,7 @@ def fault_cmd(
     force: bool = _FORCE,
     quiet: bool = _QUIET,
 ) -> None:
-    """Fault-formation terrain: random lines raise one side and lower the other (§2.3)."""
+    """Fault-formation terrain: random lines raise one side and lower the other."""
     from terrascape._validate import check_int
     from terrascape.generate import fault_formation
 
@@ -198,7 +198,7 @@ def hills_cmd(
     force: bool = _FORCE,
     quiet: bool = _QUIET,
 ) -> None:
-    """Cosine-hills terrain: h += d/2 + cos(pd·π)·d/2 inside each circle (§2.4)."""
+    """Cosine-hills terrain: random round hills, each h += d/2 + cos(pd·π)·d/2."""
     from terrascape._validate import check_int
     from terrascape.generate import hills
     from terrascape.generate.hills import default_radius_range

@@ -8,10 +8,11 @@ import typer
 
 from terrascape.cli.app import app, console, timed
 
+# {relief_techniques} is filled from the technique registry when help is shown (cli/app.py).
 TECHNIQUE_HELP = (
-    "auto (the exact min/max tracer where the texture allows, else relief), plain, "
-    "parallax, offset_limiting, steep, pom, relief, interval, cone, minmax, by_distance "
-    "(GPU), or prewarp (relief texture mapping on the CPU)"
+    "Technique: auto (the exact min/max tracer where the texture allows it, else relief), "
+    "{relief_techniques} (on the GPU), or prewarp (relief texture mapping on the CPU, "
+    "Oliveira 2000)."
 )
 
 
@@ -52,9 +53,11 @@ def relief_command(
     adaptive: bool = typer.Option(False, "--adaptive/--fixed",
                                   help="Linear steps follow the view angle (1 per texel)."),
     shadows: bool = typer.Option(True, "--shadows/--no-shadows",
-                                 help="Self-shadowing toward the light (R7)."),
-    sun: str = typer.Option("60,35", "--sun",
-                            help="Light azimuth,elevation in degrees (clockwise from north)."),
+                                 help="Self-shadowing: the relief casts shadows on itself."),
+    sun: str = typer.Option(
+        "60,35", "--sun",
+        help="Sun direction AZ,EL in degrees: azimuth clockwise from north (90 = east), "
+             "elevation above the horizon in (0, 90]."),
     seed: int = typer.Option(0, "--seed", help="Seed of the test field."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines on stderr."),
@@ -73,9 +76,14 @@ def relief_command(
     from terrascape.relief.reference import ReliefQuad
 
     check_output_path(output, force=force)
+    quad_name = technique
+    if technique not in ("prewarp", "auto"):
+        from terrascape.render.relief_techniques import quad_technique
+
+        quad_name = quad_technique(technique)  # registered names and their old spellings
     w, h = parse_size(size)
     check_range(angle, "angle (degrees)", 0.0, 85.0)
-    az, el = parse_floats(sun, 2, name="sun")
+    az, el = parse_floats(sun, 2, name="--sun AZ,EL")
     light = sun_direction(az, el)
     makers = {"city": city_field, "natural": natural_field, "fences": fence_field}
     if field not in makers:
@@ -107,9 +115,9 @@ def relief_command(
         ctx = create_headless_context()
         try:
             r = ReliefQuadRenderer(ctx, heights, size=(w, h), depth_hint=depth, bits=bits)
-            wanted = r.auto_technique if technique == "auto" else technique
+            wanted = r.auto_technique if quad_name == "auto" else quad_name
             with timed(f"render {wanted}", quiet=quiet):
-                rgba = r.render(quad, cam, technique, settings=settings, output="colour",
+                rgba = r.render(quad, cam, wanted, settings=settings, output="colour",
                                 light_dir=light)
             if r.last_technique != wanted:
                 console.print(f"[yellow]fell back to {r.last_technique}[/]")

@@ -53,7 +53,42 @@ def _clip_planes(hm, exaggeration: float, eye: np.ndarray) -> tuple[float, float
     return max(far * 1e-4, 1e-3), far
 
 
-def build_camera(hm, size, exaggeration, camera: str | None, target: str | None, orbit: str | None):
+def ground_height(hm, x: float, z: float) -> float:
+    """Bilinear terrain height at world ``(x, z)`` (clamped to the map's edges)."""
+    from scipy.ndimage import map_coordinates
+
+    col = min(max(x / hm.spacing[0], 0.0), hm.cols - 1.0)
+    row = min(max(z / hm.spacing[1], 0.0), hm.rows - 1.0)
+    return float(map_coordinates(hm.heights, [[row], [col]], order=1, mode="nearest")[0])
+
+
+def _camera_eye(hm, exaggeration: float, camera: str, camera_height: float | None) -> np.ndarray:
+    """``--camera X,Y,Z`` (or ``X,Z`` with ``--camera-height H``: H above the ground at x,z);
+    a camera under the terrain is a warning naming the ground height there."""
+    import warnings
+
+    parts = camera.split(",")
+    if camera_height is not None:
+        if not math.isfinite(camera_height):
+            raise InvalidParameterError(f"--camera-height must be finite, got {camera_height}")
+        xz = parse_floats(camera, len(parts) if len(parts) in (2, 3) else 2,
+                          name="--camera X,Z (with --camera-height)")
+        x, z = xz[0], xz[-1]
+        return np.array([x, ground_height(hm, x, z) * exaggeration + camera_height, z])
+    eye = np.array(parse_floats(camera, 3, name="--camera X,Y,Z"))
+    ground = ground_height(hm, eye[0], eye[2]) * exaggeration
+    if eye[1] < ground:
+        warnings.warn(
+            f"the camera (y = {eye[1]:.6g}) is {ground - eye[1]:.6g} under the ground, whose "
+            f"height at x = {eye[0]:.6g}, z = {eye[2]:.6g} is {ground:.6g}; raise Y or use "
+            "--camera-height H to place the camera H above the ground",
+            stacklevel=2,
+        )
+    return eye
+
+
+def build_camera(hm, size, exaggeration, camera: str | None, target: str | None, orbit: str | None,
+                 camera_height: float | None = None):
     """The CLI's camera: ``--camera/--target``, ``--orbit`` around the centre, or the
     default framing of the whole terrain (``None``)."""
     from terrascape.camera import Camera
@@ -61,6 +96,8 @@ def build_camera(hm, size, exaggeration, camera: str | None, target: str | None,
     aspect = size[0] / size[1]
     if orbit is not None and (camera is not None or target is not None):
         raise InvalidParameterError("use either --orbit or --camera/--target, not both")
+    if camera_height is not None and camera is None:
+        raise InvalidParameterError("--camera-height needs --camera X,Z (and --target)")
     if orbit is not None:
         az, el, dist = parse_floats(orbit, 3, name="--orbit AZ,EL,DIST")
         ex, ez = hm.extent
@@ -71,7 +108,7 @@ def build_camera(hm, size, exaggeration, camera: str | None, target: str | None,
     if camera is not None or target is not None:
         if camera is None or target is None:
             raise InvalidParameterError("--camera and --target must be given together")
-        eye = np.array(parse_floats(camera, 3, name="--camera X,Y,Z"))
+        eye = _camera_eye(hm, exaggeration, camera, camera_height)
         tgt = parse_floats(target, 3, name="--target X,Y,Z")
         near, far = _clip_planes(hm, exaggeration, eye)
         return Camera.look_at(eye, tgt, fov_y=45.0, aspect=aspect, near=near, far=far)
@@ -98,12 +135,19 @@ def render_command(
         "plain",
         "--technique",
         "-t",
-        help="Shading technique: plain, regions, texture3d, splat, bump (+ registered ones).",
+        help="Shading technique: {techniques}.",
     ),
     camera: str = typer.Option(
         None,
         "--camera",
         help="Camera position X,Y,Z in world units (with --target).",
+        show_default=False,
+    ),
+    camera_height: float = typer.Option(
+        None,
+        "--camera-height",
+        help="Place the camera this far above the ground at --camera's x,z (world units; "
+        "then --camera X,Z is enough).",
         show_default=False,
     ),
     target: str = typer.Option(
@@ -168,7 +212,7 @@ def render_command(
         raise InvalidParameterError(f"--turntable must be >= 0, got {turntable}")
     if fmt not in ("png", "mp4"):
         raise InvalidParameterError(f"--format must be png or mp4, got {fmt!r}")
-    get_technique(technique)  # fail fast on a typo, listing the techniques
+    technique = get_technique(technique).name  # fail fast on a typo; old names → new
     if output is None:
         output = Path("turntable.mp4" if turntable and fmt == "mp4" else "render.png")
     want = ".mp4" if turntable and fmt == "mp4" else ".png"
@@ -211,7 +255,7 @@ def render_command(
                 else f"{files[0]} … {files[-1]} ({len(files)} frames)"
             )
             return
-        cam = build_camera(hm, wh, exaggeration, camera, target, orbit)
+        cam = build_camera(hm, wh, exaggeration, camera, target, orbit, camera_height)
         renderer = OffscreenRenderer(ctx, hm, size=wh, exaggeration=exaggeration)
         try:
             with timed(f"render ({technique})", quiet=quiet):

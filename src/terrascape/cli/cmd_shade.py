@@ -1,4 +1,4 @@
-"""``terrascape normalmap | heightfromimage | shade`` (MISSION T4, T6).
+"""``terrascape normalmap | heightfromimage | shade``.
 
 Thin layer over :mod:`terrascape.lighting`: read, compute, write a PNG atomically.
 """
@@ -140,7 +140,7 @@ def heightfromimage_cmd(
     force: bool = _FORCE,
     quiet: bool = _QUIET,
 ) -> None:
-    """Approximate a heightmap from a photo's brightness (seed 000 §2.7)."""
+    """Approximate a heightmap from a photo's brightness (bright = high)."""
     from terrascape.heightmap import Heightmap
     from terrascape.io import write_png16
     from terrascape.lighting import height_from_image
@@ -166,12 +166,14 @@ def heightfromimage_cmd(
 def shade_cmd(
     heightmap: Path = typer.Argument(..., help="Input heightmap (any format terrascape reads)."),
     output: Path = typer.Option(..., "--output", "-o", help="Output 8-bit grey lightmap .png."),
+    sun: str = typer.Option(
+        "135,45", "--sun",
+        help="Sun direction AZ,EL in degrees: azimuth clockwise from north (90 = east), "
+             "elevation above the horizon in (0, 90]."),
     sun_azimuth: float = typer.Option(
-        ..., "--sun-azimuth", help="Degrees clockwise from north (90 = east)."
-    ),
+        None, "--sun-azimuth", hidden=True, help="Deprecated: use --sun AZ,EL."),
     sun_elevation: float = typer.Option(
-        ..., "--sun-elevation", help="Degrees above the horizon, in (0, 90]."
-    ),
+        None, "--sun-elevation", hidden=True, help="Deprecated: use --sun AZ,EL."),
     ambient: float = typer.Option(0.2, "--ambient", help="Ambient light in [0, 1]."),
     soft: bool = typer.Option(False, "--soft", help="Soft shadows from the sun's disc (0.27°)."),
     no_shadows: bool = typer.Option(False, "--no-shadows", help="Slope shading only."),
@@ -181,10 +183,21 @@ def shade_cmd(
     force: bool = _FORCE,
     quiet: bool = _QUIET,
 ) -> None:
-    """Lightmap: ambient + 0.5·(1 + N·L) where lit, ambient in shadow (seed 001 §3.2.2)."""
+    """Lightmap with cast shadows: ambient + 0.5·(1 + N·L) where the sun is seen, ambient in
+    shadow."""
+    import warnings
+
     from PIL import Image
 
+    from terrascape.cli.parsing import parse_floats
     from terrascape.lighting import lightmap
+
+    sun_az, sun_el = parse_floats(sun, 2, name="--sun AZ,EL")
+    if sun_azimuth is not None or sun_elevation is not None:
+        warnings.warn("--sun-azimuth/--sun-elevation are deprecated; use --sun AZ,EL "
+                      "(as in render and relief)", FutureWarning, stacklevel=2)
+        sun_az = sun_az if sun_azimuth is None else sun_azimuth
+        sun_el = sun_el if sun_elevation is None else sun_elevation
 
     _require_png(output)
     if method not in ("fast", "reference"):
@@ -194,7 +207,7 @@ def shade_cmd(
         hm = _read_heightmap(heightmap)
     with timed("lightmap", quiet=quiet):
         light = lightmap(
-            hm, sun_azimuth, sun_elevation, ambient=ambient, shadows=not no_shadows, soft=soft,
+            hm, sun_az, sun_el, ambient=ambient, shadows=not no_shadows, soft=soft,
             method=method,
         )
     codes = np.rint(light * 255.0).astype(np.uint8)

@@ -1,4 +1,4 @@
-"""``terrascape texture …`` — region textures, splat maps and built-in materials (MISSION T1–T3)."""
+"""``terrascape texture …`` — region textures, splat maps and built-in materials."""
 
 from __future__ import annotations
 
@@ -108,7 +108,7 @@ def regions_cmd(
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress output."),
 ) -> None:
-    """Procedural colour texture from height bands (seed 001 §3.1.1), with slope and jitter."""
+    """Procedural colour texture from height bands, with rock on slopes and jitter."""
     from terrascape.io import atomic_output, check_output_path
     from terrascape.texture import region_texture
 
@@ -129,12 +129,51 @@ def regions_cmd(
         console.print(f"wrote {output} ({tex.shape[1]}×{tex.shape[0]} RGB)")
 
 
+#: Preview colours of the default layers (by region name) and of numbered layers.
+_LAYER_COLOURS = {
+    "water": (40, 90, 170), "sand": (205, 185, 130), "grass": (70, 135, 50),
+    "rock": (120, 110, 100), "snow": (245, 245, 250),
+}
+
+
+def layer_colour(k: int, name: str | None = None) -> tuple[int, int, int]:
+    """A distinct opaque colour for splat layer ``k`` (its material's when named)."""
+    import colorsys
+
+    if name in _LAYER_COLOURS:
+        return _LAYER_COLOURS[name]
+    hue = (k * 0.618033988749895) % 1.0  # golden-angle steps: neighbours never look alike
+    r, g, b = colorsys.hsv_to_rgb(hue, 0.65, 0.9)
+    return round(r * 255), round(g * 255), round(b * 255)
+
+
+def splat_rgb_images(packed: list[np.ndarray], n_layers: int) -> list[np.ndarray]:
+    """The quantised weights of :func:`~terrascape.texture.pack_splat_maps` (4 layers per
+    RGBA image) as opaque RGB images, 3 layers per image: layer ``k`` in image ``k // 3``,
+    channel ``k % 3``. Same codes (each vertex's still sum to 255); nothing sits in an alpha
+    channel, which viewers show as transparency."""
+    channels = np.concatenate(packed, axis=-1)[..., :n_layers]
+    pad = (-n_layers) % 3
+    if pad:
+        channels = np.concatenate(
+            [channels, np.zeros((*channels.shape[:2], pad), np.uint8)], axis=-1)
+    return [np.ascontiguousarray(channels[..., i:i + 3]) for i in range(0, channels.shape[-1], 3)]
+
+
+def splat_preview(weights: np.ndarray, colours: list[tuple[int, int, int]]) -> np.ndarray:
+    """Opaque RGB composite: every vertex's layer colours mixed by its weights."""
+    palette = np.asarray(colours, dtype=np.float32)  # (L, 3)
+    rgb = np.tensordot(np.asarray(weights, np.float32), palette, axes=(0, 0))
+    return np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+
+
 @texture_app.command("splat")
 def splat_cmd(
     heightmap: Path = typer.Argument(..., help=_HM_HELP),
     output: str = typer.Option(..., "--output", "-o",
                                help="Output prefix: writes PREFIX_0.png, PREFIX_1.png, … "
-                                    "(4 layers per RGBA image)."),
+                                    "(3 layer weights per opaque RGB image) and "
+                                    "PREFIX_preview.png (layer colours mixed by weight)."),
     block: int = typer.Option(32, "--block", min=1,
                               help="Block side in cells for the block-wise computation."),
     materials: Path = typer.Option(None, "--materials",
@@ -149,7 +188,8 @@ def splat_cmd(
     force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress output."),
 ) -> None:
-    """Splat alpha maps (seed 001 §3.1.3) at vertex resolution, packed 4 layers per RGBA PNG.
+    """Splat maps: per-layer blend weights at vertex resolution, 3 layers per RGB PNG
+    (0…255, each vertex's weights sum to 255), plus a colour preview of the blend.
 
     Without --materials, layers are the default regions: 0 water, 1 sand, 2 grass, 3 rock,
     4 snow. Either every file is written or none is.
@@ -170,33 +210,40 @@ def splat_cmd(
             ids = _read_material_ids(materials)
             check_material_map(hm, ids)
             n_layers = layers if layers is not None else int(ids.max()) + 1
+            layer_names: list[str | None] = [None] * n_layers
             names = [f"{k}" for k in range(n_layers)]
         else:
             regions = default_regions(hm)
             n_layers = len(regions)
+            layer_names = [r.name for r in regions]
             names = [f"{k}={r.name}" for k, r in enumerate(regions)]
-        n_images = (n_layers + 3) // 4
+        n_images = (n_layers + 2) // 3
         # "-o splat.png" and "-o splat" both give splat_0.png, splat_1.png, ...
         base = Path(output)
         base = base.with_suffix("") if base.suffix.lower() == ".png" else base
         paths = [Path(f"{base}_{k}.png") for k in range(n_images)]
-        for p in paths:  # all-or-nothing: refuse before writing any
+        preview_path = Path(f"{base}_preview.png")
+        for p in (*paths, preview_path):  # all-or-nothing: refuse before writing any
             check_output_path(p, force=force)
         bar.advance(task)
         if materials is None:
             ids = material_ids_from_rules(hm, regions, slope_rule=slope_rule)
         bar.advance(task)
-        images = pack_splat_maps(splat_weights(ids, n_layers, block=block))
+        weights = splat_weights(ids, n_layers, block=block)
+        images = splat_rgb_images(pack_splat_maps(weights), n_layers)
+        preview = splat_preview(
+            weights, [layer_colour(k, name) for k, name in enumerate(layer_names)])
         bar.advance(task)
         # Every file goes to a temporary first; the renames happen only after all writes
         # succeeded, so a failure leaves no new file behind.
         with contextlib.ExitStack() as stack:
-            for img, p in zip(images, paths, strict=True):
+            for img, p in zip((*images, preview), (*paths, preview_path), strict=True):
                 tmp = stack.enter_context(atomic_output(p, force=force))
                 _save_rgb(img, tmp, p)
         bar.advance(task)
     if not quiet:
-        console.print(f"wrote {', '.join(map(str, paths))} (layers {', '.join(names)})")
+        console.print(f"wrote {', '.join(map(str, paths))} (layers {', '.join(names)}, "
+                      f"3 per image in R, G, B) and the preview {preview_path}")
 
 
 @texture_app.command("material")

@@ -1,4 +1,4 @@
-"""``terrascape view``: the interactive viewer window (MISSION P1, P2)."""
+"""``terrascape view``: the interactive viewer window."""
 
 from __future__ import annotations
 
@@ -59,9 +59,8 @@ def view_cmd(
         None, "--texture", help="Colour image stretched over the whole terrain.",
         show_default="procedural region texture"),
     technique: str = typer.Option(
-        "plain", "--technique", help="Start technique (Tab switches at run time): plain, "
-        "regions, texture3d, splat, bump, parallax, parallax_limited, steep_parallax, pom, "
-        "relief, interval, relief_by_distance."),
+        "plain", "--technique", help="Start technique (Tab switches at run time): "
+        "{techniques}."),
     lod: str = typer.Option(
         "none", "--lod", help="Level of detail: none, roam, turner, geomipmap (L switches)."),
     size: str = typer.Option("1280x720", "--size", help="Window size WIDTHxHEIGHT in pixels."),
@@ -94,6 +93,9 @@ def view_cmd(
     if generate is not None and generate not in GENERATORS:
         raise InvalidParameterError(
             f"--generate must be one of {', '.join(GENERATORS)}, got {generate!r}")
+    from terrascape.render.techniques import canonical_technique_name
+
+    technique = canonical_technique_name(technique)  # old spellings, with a note
     names = technique_names()
     if technique not in names:
         raise InvalidParameterError(

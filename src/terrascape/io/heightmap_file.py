@@ -1,9 +1,11 @@
-"""Format dispatch: :func:`read_heightmap` / :func:`write_heightmap` by file extension (H2)."""
+"""Format dispatch: :func:`read_heightmap` / :func:`write_heightmap` by file extension."""
 
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 from terrascape.errors import FileFormatError, InvalidParameterError
@@ -26,9 +28,59 @@ FORMATS: dict[str, tuple[bool, bool, str]] = {
     ".r32": (True, True, "RAW float32 little-endian (+ .json sidecar on write)"),
     ".tif": (True, True, "(Geo)TIFF any int/float type in (nodata filled); float32 out"),
     ".tiff": (True, True, "same as .tif"),
-    ".npy": (True, True, "NumPy 2-D array; float32 out"),
+    ".npy": (True, True, "NumPy 2-D array; float32 out + .npy.json sidecar (spacing)"),
     ".ter": (True, True, "Terragen terrain (int16 + HeightScale/BaseHeight)"),
 }
+
+
+@dataclass(frozen=True)
+class FormatMetadata:
+    """What a written heightmap file keeps, for the warnings of :func:`write_heightmap`.
+
+    ``world_units``: heights read back in world units (not normalised); ``spacing``: the
+    sample spacing is stored; ``exact``: float32 heights, not quantised codes.
+    """
+
+    world_units: bool
+    spacing: bool
+    exact: bool
+    how: str
+
+
+#: Per written format (extension or ``format=`` name): what reads back and from where.
+WRITE_METADATA: dict[str, FormatMetadata] = {
+    "png": FormatMetadata(True, True, False, "16-bit codes + terrascape text chunk"),
+    "png16": FormatMetadata(True, True, False, "16-bit codes + terrascape text chunk"),
+    "png8": FormatMetadata(True, True, False, "8-bit codes (256 levels) + terrascape chunk"),
+    "bmp": FormatMetadata(False, False, False, "8-bit preview, no metadata"),
+    "r16": FormatMetadata(True, True, False, "uint16 codes + .json sidecar"),
+    "raw": FormatMetadata(True, True, False, "uint16 codes + .json sidecar"),
+    "r32": FormatMetadata(True, True, True, "float32 + .json sidecar"),
+    "tif": FormatMetadata(True, True, True, "float32 + ModelPixelScale tag"),
+    "tiff": FormatMetadata(True, True, True, "float32 + ModelPixelScale tag"),
+    "npy": FormatMetadata(True, True, True, "float32 + .npy.json sidecar"),
+    "ter": FormatMetadata(True, True, False, "int16 + SCAL and HeightScale"),
+}
+LOSSLESS_HINT = ".png (16-bit), .r16, .tif, .r32 or .npy"
+
+
+class MetadataLossWarning(UserWarning):
+    """A heightmap was written in a format that loses its world units or spacing."""
+
+
+def metadata_loss(key: str) -> str | None:
+    """What writing as format ``key`` (``"bmp"``, ``"png8"``, …) loses, or ``None``."""
+    keeps = WRITE_METADATA[key]
+    if not keeps.world_units:
+        return (f"an 8-bit preview: heights are normalised to 0…1 (256 levels) and the "
+                f"spacing is not stored; for a heightmap that reads back in world units use "
+                f"{LOSSLESS_HINT}")
+    if key == "png8":
+        return (f"8-bit: heights are quantised to 256 levels; for full precision use "
+                f"{LOSSLESS_HINT}")
+    return None
+
+
 READ_EXTENSIONS: tuple[str, ...] = tuple(e for e, (r, _w, _d) in FORMATS.items() if r)
 WRITE_EXTENSIONS: tuple[str, ...] = tuple(e for e, (_r, w, _d) in FORMATS.items() if w)
 
@@ -65,7 +117,7 @@ def read_heightmap(
     spacing: float | tuple[float, float] | None = None,
     vertical_scale: float | None = None,
 ) -> Heightmap:
-    """Read a heightmap file, choosing the reader by extension (seed 001 §2.1, MISSION H2).
+    """Read a heightmap file, choosing the reader by extension (seed 001 §2.1).
 
     Parameters
     ----------
@@ -130,7 +182,10 @@ def write_heightmap(
     ``.png`` → 16-bit PNG with a terrascape chunk (world units restored on read within half
     a step); ``.bmp`` (or ``format="png8"``) → 8-bit normalised preview; ``.r16``/``.raw`` →
     uint16 RAW + ``.json`` sidecar; ``.r32`` → float32 RAW + sidecar; ``.tif`` → float32
-    TIFF with ModelPixelScale; ``.npy`` → float32 array; ``.ter`` → Terragen.
+    TIFF with ModelPixelScale; ``.npy`` → float32 array + ``.npy.json`` sidecar (spacing);
+    ``.ter`` → Terragen. What each keeps is :data:`WRITE_METADATA`; a format that loses
+    world units or precision (``.bmp``, ``png8``) gives a :class:`MetadataLossWarning`
+    naming a lossless one.
 
     Raises
     ------
@@ -159,5 +214,9 @@ def write_heightmap(
                 f"cannot write heightmaps as {ext or '(no extension)'!r} ({p.name}); "
                 f"expected one of {formats_help(write=True)}"
             )
-        writer = WRITE_FORMAT_NAMES[ext.lstrip(".")]
+        key = ext.lstrip(".")
+        writer = WRITE_FORMAT_NAMES[key]
+    lost = metadata_loss(key)
+    if lost is not None:
+        warnings.warn(f"{p.name} is {lost}", MetadataLossWarning, stacklevel=2)
     return writer(heightmap, p, force=force)

@@ -149,6 +149,13 @@ def read_image(
             step *= vscale
         file_spacing = meta.get("spacing")
     else:
+        if vscale is None:
+            warnings.warn(
+                f"{p.name} has no height units: heights are normalised to 0…1 and the spacing "
+                f"is 1 (give --vertical-scale/--spacing, or keep heightmaps as .png written "
+                f"by terrascape, .tif, .r16, .r32 or .npy)",
+                stacklevel=2,
+            )
         v = 1.0 if vscale is None else vscale
         heights = values * (v / full_scale)
         step = v / full_scale

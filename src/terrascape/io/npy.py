@@ -1,7 +1,10 @@
 """NumPy ``.npy`` heightmaps: a 2-D numeric array of world heights (exact, float32 on write).
 
-``.npy`` has no room for the spacing, so reading gives ``(1, 1)`` unless ``spacing`` is
-passed. Pickled (object) arrays are refused: loading them could run arbitrary code.
+``.npy`` has no room for the spacing, so it goes in a JSON sidecar next to the array, named
+like the RAW formats' (``dem.npy`` → ``dem.npy.json``, ``{"spacing": [dx, dz], …}``): every
+command reads it back through :func:`read_npy`, and ``np.load`` still reads the array alone.
+Without a sidecar (an array saved by other tools) the spacing is ``(1, 1)`` unless
+``spacing`` is passed. Pickled (object) arrays are refused: loading them could run code.
 """
 
 from __future__ import annotations
@@ -18,9 +21,34 @@ from terrascape.io._common import (
     check_input_path,
     check_vertical_scale,
     file_metadata,
+    meta_json,
     normalise_spacing,
+    parse_meta,
 )
-from terrascape.io.atomic import atomic_output
+from terrascape.io.atomic import atomic_output, check_output_path
+
+
+def npy_sidecar_path(path: str | os.PathLike) -> Path:
+    """The JSON sidecar of a ``.npy`` heightmap: ``dem.npy`` → ``dem.npy.json``."""
+    p = Path(path)
+    return p.with_name(p.name + ".json")
+
+
+def _sidecar_spacing(path: Path, shape: tuple[int, ...]) -> tuple[float, float] | None:
+    side = npy_sidecar_path(path)
+    if not side.is_file():
+        return None
+    try:
+        text = side.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise FileFormatError(f"cannot read sidecar {side}: {exc}") from None
+    meta = parse_meta(text, where=str(side))
+    if (meta.get("rows"), meta.get("cols")) != tuple(shape):
+        raise FileFormatError(
+            f"sidecar {side} describes a {meta.get('cols')}×{meta.get('rows')} grid but "
+            f"{path.name} holds {shape[1]}×{shape[0]}; remove or rewrite the sidecar"
+        )
+    return normalise_spacing(meta.get("spacing"))
 
 
 def read_npy(
@@ -31,6 +59,7 @@ def read_npy(
 ) -> Heightmap:
     """Read a 2-D integer/float ``.npy`` array as world heights.
 
+    The spacing comes from ``spacing``, else the ``.npy.json`` sidecar, else ``(1, 1)``;
     ``vertical_scale`` multiplies the heights.
 
     Raises
@@ -62,13 +91,25 @@ def read_npy(
         )
     if vscale is not None:
         heights = heights * vscale
-    md = file_metadata(p, "npy", str(array.dtype), step=0.0)
-    return Heightmap(heights.astype(np.float32), spacing_t or (1.0, 1.0), md)
+    file_spacing = _sidecar_spacing(p, array.shape)
+    md = file_metadata(p, "npy", str(array.dtype), step=0.0,
+                       spacing_restored=file_spacing is not None)
+    return Heightmap(heights.astype(np.float32), spacing_t or file_spacing or (1.0, 1.0), md)
 
 
 def write_npy(heightmap: Heightmap, path: str | os.PathLike, *, force: bool = False) -> Path:
-    """Write the heights as a float32 ``.npy`` (exact; spacing is not stored)."""
+    """Write the heights as a float32 ``.npy`` (exact) and the spacing to ``<file>.json``.
+
+    Both files are checked before either is written (``force`` covers both).
+    """
     check_heightmap(heightmap)
+    side = npy_sidecar_path(path)
+    check_output_path(path, force=force)
+    check_output_path(side, force=force)
+    record = meta_json(rows=heightmap.rows, cols=heightmap.cols,
+                       spacing=list(heightmap.spacing))
     with atomic_output(path, force=force) as tmp, open(tmp, "wb") as fh:
         np.save(fh, np.ascontiguousarray(heightmap.heights, dtype=np.float32))
+    with atomic_output(side, force=force) as tmp:
+        tmp.write_text(record + "\n", encoding="utf-8")
     return Path(path)

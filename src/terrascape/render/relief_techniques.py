@@ -185,6 +185,24 @@ def register_relief_techniques(*, replace: bool = True) -> list[str]:
 
 register_relief_techniques()
 
+#: Registered terrain relief technique → the relief quad's (:mod:`relief_quad`) name for the
+#: same method, so ``terrascape relief`` takes the same names as ``render`` and ``view``.
+QUAD_TECHNIQUE: dict[str, str] = {"plain": "plain",
+                                  **{name: tech for name, (tech, _) in _TERRAIN_NAMES.items()}}
+
+
+def quad_technique(name: str) -> str:
+    """The relief quad's technique for a registered name or any alias of one (old relief
+    quad spellings such as ``steep`` included, with a deprecation note)."""
+    from terrascape.errors import InvalidParameterError
+    from terrascape.render.techniques import canonical_technique_name
+
+    canonical = canonical_technique_name(name)
+    if canonical not in QUAD_TECHNIQUE:
+        raise InvalidParameterError(
+            f"unknown relief technique {name!r}; available: {', '.join(QUAD_TECHNIQUE)}")
+    return QUAD_TECHNIQUE[canonical]
+
 
 def relief_variant(name: str, label: str | None = None, **defines: Any) -> Technique:
     """An unregistered copy of the relief technique ``name`` with extra or replaced
@@ -203,5 +221,5 @@ def relief_variant(name: str, label: str | None = None, **defines: Any) -> Techn
     return dataclasses.replace(base, name=tag, defines=merged)
 
 
-__all__ = ["RELIEF_DEFAULTS", "build_relief_height", "build_relief_texture",
-           "register_relief_techniques", "relief_variant"]
+__all__ = ["QUAD_TECHNIQUE", "RELIEF_DEFAULTS", "build_relief_height", "build_relief_texture",
+           "quad_technique", "register_relief_techniques", "relief_variant"]

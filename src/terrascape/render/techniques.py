@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -313,18 +314,51 @@ def _discover() -> None:
             importlib.import_module(f"terrascape.render.{mod.name}")
 
 
+#: Old or other spellings of registered technique names (the relief quad's, the viewer's,
+#: hyphens for underscores): accepted everywhere a technique name is, with a one-line
+#: deprecation note naming the registered name.
+TECHNIQUE_ALIASES: dict[str, str] = {
+    "offset_limiting": "parallax_limited",
+    "offset-limiting": "parallax_limited",
+    "offset-limited": "parallax_limited",
+    "offset_limited": "parallax_limited",
+    "parallax-limited": "parallax_limited",
+    "steep": "steep_parallax",
+    "steep-parallax": "steep_parallax",
+    "by_distance": "relief_by_distance",
+    "by-distance": "relief_by_distance",
+    "relief-by-distance": "relief_by_distance",
+    "texture-3d": "texture3d",
+    "texture_3d": "texture3d",
+}
+
+
+def canonical_technique_name(name: str, *, warn: bool = True) -> str:
+    """The registered name for ``name``: itself, or the name an alias stands for (with a
+    ``FutureWarning`` saying so when ``warn``). Unknown names are returned unchanged."""
+    if name in TECHNIQUE_ALIASES:
+        canonical = TECHNIQUE_ALIASES[name]
+        if warn:
+            warnings.warn(f"technique {name!r} is now called {canonical!r}; the old name "
+                          "will stop working in a later version", FutureWarning, stacklevel=3)
+        return canonical
+    return name
+
+
 def technique_names() -> list[str]:
+    """Registered technique names, sorted (aliases not included)."""
     _discover()
     return sorted(_REGISTRY)
 
 
 def get_technique(name: str) -> Technique:
-    """The technique called ``name``; unknown names raise listing the available ones."""
+    """The technique called ``name`` (or an alias of it, see :data:`TECHNIQUE_ALIASES`);
+    unknown names raise listing the available ones."""
     _discover()
     if isinstance(name, Technique):
         return name
     try:
-        return _REGISTRY[name]
+        return _REGISTRY[canonical_technique_name(name) if isinstance(name, str) else name]
     except (KeyError, TypeError):
         raise InvalidParameterError(
             f"unknown technique {name!r}; available: {', '.join(sorted(_REGISTRY))}"
@@ -461,9 +495,11 @@ register_technique(
 __all__ = [
     "COMMON_PARAMS",
     "LIGHTING_MODES",
+    "TECHNIQUE_ALIASES",
     "Technique",
     "TextureData",
     "TextureSlot",
+    "canonical_technique_name",
     "get_technique",
     "register_technique",
     "technique_names",
