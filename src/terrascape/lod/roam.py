@@ -1039,6 +1039,15 @@ class RoamStats:
     update_ms: float
     stopped_by: str
 
+    @property
+    def settled(self) -> bool:
+        """False when the time budget stopped the update (the next one continues it)."""
+        return self.stopped_by != "time"
+
+    @property
+    def summary(self) -> str:
+        return f"max error {self.max_screen_error:.2f} px ({self.stopped_by})"
+
 
 def _check_camera(camera):
     from terrascape.camera import Camera
@@ -1134,6 +1143,7 @@ class Roam:
         self.max_screen_error = math.inf
         self._theta_frac = _THETA_MAX
         self.rebuilds = 0  # full split-queue rebuilds after a partial one ran empty (stats)
+        self._planes: np.ndarray | None = None  # last update's frustum (triangles())
         self.reset()
 
     # --- state -------------------------------------------------------------------------
@@ -1318,6 +1328,7 @@ class Roam:
         if time_budget_ms is not None:
             budget = check_positive(time_budget_ms, "time_budget_ms (milliseconds)") / 1000.0
         cam = camera_params(camera, viewport, self.heightmap.spacing)
+        self._planes = cam[_PLANES : _PLANES + 24].reshape(6, 4).copy()
         splits, merges, stop = self._run(cam, tau, nmax, budget, t0)
         self.frame += 1
         return RoamStats(
@@ -1330,12 +1341,20 @@ class Roam:
             stopped_by=stop,
         )
 
-    def triangles(self) -> np.ndarray:
+    def triangles(self, *, visible_only: bool = False) -> np.ndarray:
         """The current mesh: uint32 ``(M, 3)`` grid vertex indices ``row·cols + col``,
-        counter-clockwise seen from above (+Y)."""
+        counter-clockwise seen from above (+Y).
+
+        ROAM keeps the whole map (leaves outside the view stay coarse); ``visible_only``
+        leaves out the triangles whose three corners are all outside one plane of the last
+        update's view frustum (such a triangle cannot be seen).
+        """
         out = np.empty((self._count, 3), np.uint32)
         m = _roam_collect(self._state, np.int64(self.size), out, self._stack8)
-        return out[:m]
+        tris = out[:m]
+        if visible_only and self._planes is not None:
+            tris = tris[_in_frustum(self.heightmap, tris, self._planes)]
+        return tris
 
     # --- direct bintree operations (tools, tests) ------------------------------------------
     def leaf_ids(self) -> np.ndarray:
@@ -1386,6 +1405,19 @@ class Roam:
         )  # fmt: skip
         self._count -= int(removed)
         return int(removed)
+
+
+def _in_frustum(heightmap: Heightmap, tris: np.ndarray, planes: np.ndarray) -> np.ndarray:
+    """bool per triangle: False when its three corners are all outside one frustum plane."""
+    cols = heightmap.cols
+    dx, dz = heightmap.spacing
+    flat = tris.astype(np.int64)
+    h = heightmap.heights.reshape(-1).astype(np.float64)
+    x, z, y = (flat % cols) * dx, (flat // cols) * dz, h[flat]
+    outside = np.zeros(len(tris), np.bool_)
+    for a, b, c, d in planes:
+        outside |= np.all(a * x + b * y + c * z + d < 0.0, axis=1)
+    return ~outside
 
 
 def _check_max_triangles(max_triangles) -> int:
