@@ -7,7 +7,7 @@ import pytest
 from PIL import Image
 
 from terrascape.cli.app import run_app
-from terrascape.demo import run_demo
+from terrascape.cli.demo import run_demo
 from terrascape.io import read_heightmap
 
 

@@ -1,6 +1,6 @@
 import pytest
 
-from terrascape.report import write_report
+from terrascape.bench.report import write_report
 
 
 def test_report_writes_markdown_and_plots(tmp_path):
@@ -20,7 +20,7 @@ def test_report_writes_markdown_and_plots(tmp_path):
 def test_analyses_read_tables_and_write_plots(tmp_path):
     """Each analysis builds its plots and discussion from the numbers in the tables."""
     from terrascape.bench import BenchTable
-    from terrascape.report_analysis import ANALYSES
+    from terrascape.bench.report_analysis import ANALYSES
 
     seed = BenchTable("Seed 000 §2.7 reproduction on the terrain mesh (x)",
                       ["texture", "technique", "ms/frame", "% drop vs texture",

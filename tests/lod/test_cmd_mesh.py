@@ -92,3 +92,23 @@ def test_view_dependent_roam(hm_path, tmp_path, capsys):
     n = int(re.search(r"(\d+) triangles", text).group(1))
     err = float(re.search(r"max screen error ([\d.e+-]+) px", text).group(1))
     assert err <= 3.0 and n == _faces_in_obj(out)
+
+
+def test_view_dependent_budget_one_flag_and_old_alias(hm_path, tmp_path, capsys):
+    view = ["--camera", "-50,600,-50", "--target", "32,0,32", "--size", "640x480", "-q"]
+    counts = {}
+    for lod, flag in (("roam", "--triangles"), ("roam", "--roam-max-triangles"),
+                      ("turner", "--triangles")):
+        out = tmp_path / f"{lod}{flag}.obj"
+        assert run_app(["mesh", str(hm_path), "-o", str(out), "--lod", lod, flag, "300",
+                        *view]) == 0
+        text = capsys.readouterr().out
+        assert ("deprecated" in text) == (flag == "--roam-max-triangles")
+        counts[lod, flag] = n = int(re.search(r"(\d+) triangles", text).group(1))
+        assert n == _faces_in_obj(out) and 0 < n <= 315
+    assert counts["roam", "--triangles"] == counts["roam", "--roam-max-triangles"] <= 300
+    base = ["mesh", str(hm_path), "-o", str(tmp_path / "x.obj"), *view]
+    assert run_app([*base, "--lod", "geomipmap", "--triangles", "300"]) == 2
+    assert run_app([*base, "--lod", "turner", "--tolerance", "2"]) == 2
+    assert run_app([*base, "--lod", "roam", "--patch-size", "9"]) == 2
+    assert not (tmp_path / "x.obj").exists()

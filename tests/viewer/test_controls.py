@@ -60,11 +60,27 @@ def test_toggles_lod_and_detail():
     assert s.lod == "roam"
     s.handle_key("PAGE_UP")
     assert s.triangle_target == 100_000
+    # J moves PgUp/PgDn to ROAM's tolerance: off (refine to the budget) until PgDn
+    assert s.lod_update_settings() == {"max_triangles": 100_000}
+    s.handle_key("J")
+    s.handle_key("PAGE_UP")
+    assert s.lod_update_settings() == {"max_triangles": 100_000}
+    s.handle_key("PAGE_DOWN")
+    s.handle_key("PAGE_DOWN")
+    assert s.lod_update_settings() == {"max_triangles": 100_000, "tolerance_px": 0.3125}
+    assert "tolerance 0.31 px" in s.status_lines()[-2]
+    s.handle_key("PAGE_UP")
+    s.handle_key("PAGE_UP")
+    assert s.lod_update_settings() == {"max_triangles": 100_000}
     s.handle_key("L")
+    assert s.lod == "turner" and s.lod_update_settings() == {"max_triangles": 80_000}
     s.handle_key("L")
     assert s.lod == "geomipmap"
     s.handle_key("PAGE_DOWN")
-    assert s.tolerance_px == pytest.approx(2.5)
+    assert s.lod_update_settings() == {"tolerance_px": pytest.approx(2.5)}
+    assert "tolerance 2.50 px" in s.status_lines()[-2]
+    s.handle_key("L")
+    assert s.lod == "none"
     s.handle_key("h")
     assert s.show_help
 

@@ -117,20 +117,20 @@ def test_lod_manager_recomputes_only_on_change():
     hm = _terrain(65)
     lod = LodManager(hm, time_budget_ms=None)
     cam = start_camera(hm, SIZE)
-    tris, changed = lod.update("roam", cam, SIZE, triangle_target=500, tolerance_px=2.0)
+    tris, changed = lod.update("roam", cam, SIZE, {"max_triangles": 500})
     assert changed and 2 <= len(tris) <= 500 and tris.dtype == np.uint32
     assert int(tris.max()) < hm.rows * hm.cols
-    assert lod.update("roam", cam, SIZE, triangle_target=500, tolerance_px=2.0) == (None, False)
+    assert lod.update("roam", cam, SIZE, {"max_triangles": 500}) == (None, False)
     moved = cam.moved((5.0, 0.0, 0.0))
-    assert lod.update("roam", moved, SIZE, triangle_target=500, tolerance_px=2.0)[1]
-    geo, changed = lod.update("geomipmap", moved, SIZE, triangle_target=500, tolerance_px=4.0)
+    assert lod.update("roam", moved, SIZE, {"max_triangles": 500})[1]
+    geo, changed = lod.update("geomipmap", moved, SIZE, {"tolerance_px": 4.0})
     assert changed and len(geo) > 0
-    turner, _ = lod.update("turner", moved, SIZE, triangle_target=2000, tolerance_px=4.0)
+    turner, _ = lod.update("turner", moved, SIZE, {"max_triangles": 2000})
     assert 0 < len(turner) <= 2 * 64 * 64
-    assert lod.update("none", moved, SIZE, triangle_target=1, tolerance_px=1.0) == (None, True)
+    assert lod.update("none", moved, SIZE) == (None, True)
     odd = LodManager(Heightmap(np.zeros((20, 30), np.float32)))
     with pytest.raises(InvalidParameterError, match="2\\^n\\+1"):
-        odd.update("roam", cam, SIZE, triangle_target=100, tolerance_px=1.0)
+        odd.update("roam", cam, SIZE, {"max_triangles": 100})
 
 
 # --- with GL -----------------------------------------------------------------------------

@@ -16,7 +16,7 @@ from typing import Any
 
 from terrascape.errors import InvalidParameterError
 
-_NOT_CASES = {"__main__", "runner"}
+_NOT_CASES = {"__main__", "report", "report_analysis"}
 
 
 def _fmt(v: Any) -> str:

@@ -5,9 +5,11 @@ heightmap size at an 80,000-triangle target, and by frame rate vs triangle count
 LOD benches (``lod_roam``, ``lod``) time the LOD update alone; here every frame is the FULL
 frame a viewer pays for, drawn headless on the renderer used everywhere else:
 
-1. LOD update for the frame's camera and the gather of its triangle list
-   (``Roam.update(..., max_triangles=N)`` + ``triangles()``; ``TurnerRoam.update`` +
-   ``triangles(visible_only=True)``; ``Geomipmap.update(..., cull=True)`` + ``triangles()``);
+1. LOD update for the frame's camera and the gather of its triangle list, for every scheme
+   of :data:`~terrascape.lod.schemes.SCHEMES` through its common interface
+   (``update(camera, viewport, max_triangles=N)`` — or ``tolerance_px=τ`` for a scheme with
+   no triangle budget — + ``triangles(visible_only=...)`` as the scheme draws:
+   ROAM the whole map, Turner and geomipmapping the patches passing the frustum test);
 2. upload of that index list into the renderer's dynamic index buffer
    (``TerrainRenderer.set_indices``);
 3. draw (sky + terrain with the ``regions`` technique) and read-back of the colour buffer to
@@ -33,6 +35,7 @@ import numpy as np
 
 from terrascape.bench import BenchTable
 from terrascape.errors import InvalidParameterError
+from terrascape.lod.schemes import SCHEMES
 
 FULL_SIZES = (257, 513, 1025, 2049, 4097)
 QUICK_SIZES = (257, 513)
@@ -46,14 +49,15 @@ QUICK_FRAMES = 10
 # ROAM's first frame (refined from the two root triangles), Turner's threshold feedback.
 WARMUP = 3
 TARGET = 80_000
-TURNER_PATCH = 65
-GM_PATCH = 17  # the seed's default patch size (§4.2)
+TURNER_PATCH = SCHEMES["turner"].options["patch_size"]
+GM_PATCH = SCHEMES["geomipmap"].options["patch_size"]  # the seed's default (§4.2)
 TAU_MIN = 1e-3  # px: the bisection's lower end (full resolution in practice)
 TECHNIQUE = "regions"
 # Full-resolution reference rows above this side are skipped (parameter of the size table;
 # measured: ~0.25 s per frame at 2049² and ~0.45 s at 4097² on llvmpipe, so all fit).
 FULL_RES_MAX = 4097
-ALGORITHMS = ("ROAM", "Turner", "geomipmap")
+ALGORITHMS = tuple(s.label for s in SCHEMES.values())  # table names, SCHEMES order
+_BY_LABEL = {s.label: s for s in SCHEMES.values()}
 FULL_RES = "full resolution"
 
 
@@ -161,44 +165,35 @@ class FlightResult:
         return 1000.0 / float(np.median(self.frame_ms))
 
 
+def _budgeted(entry) -> bool:
+    """Whether the scheme takes a triangle budget (else its tolerance is bisected)."""
+    return "max_triangles" in entry.parameter_names
+
+
 def _lod_driver(name: str, hm, target: int, first_cam, viewport):
     """(mesh(camera) -> triangles or None, setup seconds, τ, first-frame triangles)."""
-    t0 = time.perf_counter()
-    if name == "ROAM":
-        from terrascape.lod import Roam
-
-        roam = Roam(hm)
-
-        def mesh(cam):
-            roam.update(cam, viewport, max_triangles=target)
-            return roam.triangles()
-
-        return mesh, time.perf_counter() - t0, None, None
-    if name == "Turner":
-        from terrascape.lod import TurnerRoam
-
-        tr = TurnerRoam(hm, patch_size=min(TURNER_PATCH, hm.rows), target_triangles=target)
-
-        def mesh(cam):
-            tr.update(cam, viewport)
-            # Turner draws the patches that passed the frustum test only
-            return tr.triangles(visible_only=True)
-
-        return mesh, time.perf_counter() - t0, None, None
-    if name == "geomipmap":
-        from terrascape.lod import Geomipmap
-
-        gm = Geomipmap(hm, min(GM_PATCH, hm.rows))
-        tau, first = bisect_tolerance(gm, first_cam, viewport, target)
-
-        def mesh(cam):
-            gm.update(cam, viewport, tau, cull=True)
-            return gm.triangles()
-
-        return mesh, time.perf_counter() - t0, tau, first
     if name == FULL_RES:
         return (lambda cam: None), 0.0, None, None
-    raise InvalidParameterError(f"unknown algorithm {name!r}; expected {(*ALGORITHMS, FULL_RES)}")
+    entry = _BY_LABEL.get(name)
+    if entry is None:
+        raise InvalidParameterError(
+            f"unknown algorithm {name!r}; expected {(*ALGORITHMS, FULL_RES)}")
+    t0 = time.perf_counter()
+    lod = entry.build(hm)
+    visible_only = entry.draw_visible_only
+    if _budgeted(entry):
+        def mesh(cam):
+            lod.update(cam, viewport, max_triangles=target)
+            return lod.triangles(visible_only=visible_only)
+
+        return mesh, time.perf_counter() - t0, None, None
+    tau, first = bisect_tolerance(lod, first_cam, viewport, target)
+
+    def mesh(cam):
+        lod.update(cam, viewport, tolerance_px=tau)
+        return lod.triangles(visible_only=visible_only)
+
+    return mesh, time.perf_counter() - t0, tau, first
 
 
 def _sky_only(renderer, cam) -> np.ndarray:
@@ -392,18 +387,21 @@ def _target_results(ctx, n: int, targets: Sequence[int], frames: int, viewport):
 
 def _target_table(ctx, n: int, targets, frames, viewport) -> tuple[BenchTable, dict]:
     res = _target_results(ctx, n, targets, frames, viewport)
-    rows = []
+    rows, columns = [], ["target"]
+    for label in ALGORITHMS:
+        if not _budgeted(_BY_LABEL[label]):
+            columns.append(f"{label} τ px")
+        columns += [f"{label} triangles", f"{label} frames/s"]
     for t in targets:
-        roam, turner, gm = res[t]
-        rows.append([
-            t, round(float(np.mean(roam.triangles))), roam.fps,
-            round(float(np.mean(turner.triangles))), turner.fps,
-            float(gm.tau_px), round(float(np.mean(gm.triangles))), gm.fps,
-        ])  # fmt: skip
+        row = [t]
+        for r in res[t]:
+            if r.tau_px is not None:
+                row.append(float(r.tau_px))
+            row += [round(float(np.mean(r.triangles))), r.fps]
+        rows.append(row)
     table = BenchTable(
         f"LOD flight: frame rate vs triangle target ({n}²)",
-        ["target", "ROAM triangles", "ROAM frames/s", "Turner triangles", "Turner frames/s",
-         "geomipmap τ px", "geomipmap triangles", "geomipmap frames/s"],
+        columns,
         rows,
         [f"same flight and frame definition as the size table; {n}², viewport "
          f"{viewport[0]}×{viewport[1]}, {frames} frames after {WARMUP} warm-up; triangles = "

@@ -22,8 +22,8 @@ def demo(
                                help="Comma-separated stages to run (generate is always run)."),
 ) -> None:
     """Generate, texture, shade and render terrains; write everything to OUTPUT."""
+    from terrascape.cli.demo import run_demo
     from terrascape.cli.parsing import parse_size
-    from terrascape.demo import run_demo
 
     chosen = tuple(s.strip() for s in stages.split(",") if s.strip())
     result = run_demo(output, size=size, render_size=parse_size(render_size), force=force,

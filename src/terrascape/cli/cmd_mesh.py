@@ -4,8 +4,9 @@ Three modes:
 
 * ``--max-error METRES`` and/or ``--triangles N``: static RTIN mesh with a true maximum
   vertical error / a hard triangle budget (:mod:`terrascape.lod.rtin`);
-* ``--camera X,Y,Z --target X,Y,Z --tolerance PIXELS``: the view-dependent mesh a renderer
-  would draw from that camera (geomipmapping, or ROAM with ``--lod roam``).
+* ``--camera X,Y,Z --target X,Y,Z``: the view-dependent mesh a renderer would draw from that
+  camera, by any scheme of :data:`terrascape.lod.schemes.SCHEMES` (``--lod``; geomipmapping
+  by default), with ``--tolerance PIXELS`` and/or ``--triangles N`` as the scheme takes them.
 
 The printed error is always MEASURED on every grid sample (vertical error in world units;
 screen-space pixels for the view-dependent mode), never the requested value.
@@ -20,9 +21,12 @@ import typer
 from terrascape.cli.app import app, out, timed
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
+from terrascape.lod.schemes import SCHEMES
 
-_LODS = ("geomipmap", "roam")
 _FITS = ("none", "pad", "resample")
+_DEFAULT_TOLERANCE = 2.0
+# update() keyword → the option that gives it
+_FLAGS = {"tolerance_px": "--tolerance", "max_triangles": "--triangles"}
 
 
 def _read(path: Path, spacing: str | None, vertical_scale: float | None):
@@ -52,7 +56,9 @@ def mesh_command(
         show_default="off",
     ),
     triangles: int = typer.Option(
-        None, "--triangles", help="Static mesh: hard triangle budget (never exceeded).",
+        None, "--triangles", help="Hard triangle budget (never exceeded): the static mesh's, "
+        "or the view-dependent scheme's (" + ", ".join(
+            n for n, s in SCHEMES.items() if "max_triangles" in s.parameter_names) + ").",
         show_default="off",
     ),
     camera: str = typer.Option(
@@ -64,21 +70,27 @@ def mesh_command(
         show_default="off",
     ),
     tolerance: float = typer.Option(
-        2.0, "--tolerance", help="View-dependent mesh: screen-space error tolerance τ (pixels)."
+        None, "--tolerance", help="View-dependent mesh: screen-space error tolerance τ (pixels; "
+        + ", ".join(n for n, s in SCHEMES.items() if "tolerance_px" in s.parameter_names)
+        + ").", show_default=f"{_DEFAULT_TOLERANCE:g}",
     ),
     lod: str = typer.Option(
-        "geomipmap", "--lod", help="View-dependent algorithm: geomipmap or roam."
+        "geomipmap", "--lod", help="View-dependent scheme: " + "; ".join(
+            f"{n} ({s.help})" for n, s in SCHEMES.items()) + ".",
     ),
     size: str = typer.Option(
         "1920x1080", "--size", help="View-dependent mesh: viewport WIDTHxHEIGHT (pixels)."
     ),
     fov: float = typer.Option(60.0, "--fov", help="Vertical field of view (degrees)."),
     patch_size: int = typer.Option(
-        17, "--patch-size", help="Geomipmapping patch size in samples (2**k + 1)."
+        None, "--patch-size", help="Patch size in samples (2**k + 1) of the patch schemes ("
+        + ", ".join(f"{n} {s.options['patch_size']}" for n, s in SCHEMES.items()
+                    if "patch_size" in s.options) + ").",
+        show_default="per scheme",
     ),
     max_triangles_roam: int = typer.Option(
-        None, "--roam-max-triangles", help="ROAM only: triangle budget per frame.",
-        show_default="off",
+        None, "--roam-max-triangles", hidden=True,
+        help="Deprecated alias of --triangles (kept so old scripts run).",
     ),
     fit: str = typer.Option(
         "none", "--fit",
@@ -107,8 +119,14 @@ def mesh_command(
             f"output must end in {', '.join(MESH_FORMATS)}, got {output.name!r}"
         )
     check_output_path(output, force=force)
+    if max_triangles_roam is not None:
+        if triangles is not None and triangles != max_triangles_roam:
+            raise InvalidParameterError(
+                "give the triangle budget once: --triangles (--roam-max-triangles is its old name)")
+        out.print("[yellow]note:[/] --roam-max-triangles is deprecated; use --triangles")
+        triangles = max_triangles_roam
     view_mode = camera is not None or target is not None
-    static_mode = max_error is not None or triangles is not None
+    static_mode = max_error is not None or (triangles is not None and not view_mode)
     if view_mode and static_mode:
         raise InvalidParameterError(
             "choose one mode: --max-error/--triangles (static) or --camera/--target (view)"
@@ -119,8 +137,18 @@ def mesh_command(
         )
     if view_mode and (camera is None or target is None):
         raise InvalidParameterError("the view-dependent mode needs both --camera and --target")
-    if lod not in _LODS:
-        raise InvalidParameterError(f"--lod must be one of {', '.join(_LODS)}, got {lod!r}")
+    if lod not in SCHEMES:
+        raise InvalidParameterError(f"--lod must be one of {', '.join(SCHEMES)}, got {lod!r}")
+    entry = SCHEMES[lod] if view_mode else None
+    if entry is not None:
+        given = {"tolerance_px": tolerance, "max_triangles": triangles}
+        for name, value in given.items():
+            if value is not None and name not in entry.parameter_names:
+                raise InvalidParameterError(f"--lod {lod} does not take {_FLAGS[name]}")
+    if patch_size is not None and (entry is None or "patch_size" not in entry.options):
+        raise InvalidParameterError(
+            "--patch-size is for the view-dependent patch schemes (" + ", ".join(
+                n for n, s in SCHEMES.items() if "patch_size" in s.options) + ")")
     if fit not in _FITS:
         raise InvalidParameterError(f"--fit must be one of {', '.join(_FITS)}, got {fit!r}")
 
@@ -150,36 +178,25 @@ def mesh_command(
             parse_floats(target, 3, name="--target"),
             fov_y=fov, aspect=width / height, near=0.1, far=1e9,
         )
-        if lod == "geomipmap":
-            from terrascape.lod.geomipmap import Geomipmap
-
-            with timed("geomipmap setup", quiet=quiet):
-                gm = Geomipmap(hm, patch_size)
-            with timed("geomipmap update", quiet=quiet):
-                gm.update(cam, (width, height), tolerance)
-                tri = gm.triangles()
-        else:
-            try:
-                from terrascape.lod.roam import Roam
-            except ImportError:
-                raise InvalidParameterError(
-                    "--lod roam is not available in this build (terrascape.lod.roam missing)"
-                ) from None
-            with timed("roam setup", quiet=quiet):
-                roam = Roam(hm)
-            with timed("roam update", quiet=quiet):
-                kwargs = {"tolerance_px": tolerance}
-                if max_triangles_roam is not None:
-                    kwargs["max_triangles"] = max_triangles_roam
-                roam.update(cam, (width, height), **kwargs)
-                tri = roam.triangles()
+        kwargs = {}
+        if "tolerance_px" in entry.parameter_names:
+            tolerance = _DEFAULT_TOLERANCE if tolerance is None else tolerance
+            kwargs["tolerance_px"] = tolerance
+        if triangles is not None:
+            kwargs["max_triangles"] = triangles
+        with timed(f"{lod} setup", quiet=quiet):
+            lod_mesh = entry.build(hm, **({} if patch_size is None else {"patch_size": patch_size}))
+        with timed(f"{lod} update", quiet=quiet):
+            lod_mesh.update(cam, (width, height), **kwargs)
+            tri = lod_mesh.triangles()
         with timed("measure", quiet=quiet):
             per_sample = screen_errors(hm, tri, cam, (width, height))
             in_view = frustum_mask(hm, cam)
             screen = float(per_sample[in_view].max()) if in_view.any() else 0.0
             vertical = max_vertical_error(hm, tri)
+        asked = f"tolerance {tolerance:g} px; " if "tolerance_px" in kwargs else ""
         summary = (
-            f"max screen error {screen:.4g} px in view (tolerance {tolerance:g} px; "
+            f"max screen error {screen:.4g} px in view ({asked}"
             f"whole map {float(per_sample.max()):.4g} px), "
             f"max vertical error {vertical:.6g} (measured on every sample)"
         )

@@ -17,7 +17,7 @@ def report(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
     """Run the benchmark suite and write a Markdown report with plots."""
-    from terrascape.report import write_report
+    from terrascape.bench.report import write_report
 
     with progress(quiet=quiet) as bar:
         task = bar.add_task("report", total=None)

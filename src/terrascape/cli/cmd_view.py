@@ -9,6 +9,9 @@ import typer
 
 from terrascape.cli.app import app, console, timed
 from terrascape.errors import InvalidParameterError
+from terrascape.lod.schemes import SCHEMES
+
+LOD_CHOICES = ("none", *SCHEMES)
 
 GENERATORS = ("diamond-square", "fault", "hills")
 
@@ -62,7 +65,9 @@ def view_cmd(
         "plain", "--technique", help="Start technique (Tab switches at run time): "
         "{techniques}."),
     lod: str = typer.Option(
-        "none", "--lod", help="Level of detail: none, roam, turner, geomipmap (L switches)."),
+        "none", "--lod",
+        help=f"Level of detail: {', '.join(LOD_CHOICES)} (L switches, J picks the setting "
+        "PgUp/PgDn change)."),
     size: str = typer.Option("1280x720", "--size", help="Window size WIDTHxHEIGHT in pixels."),
     fullscreen: bool = typer.Option(False, "--fullscreen", help="Open full screen."),
     exaggeration: float = typer.Option(1.0, "--exaggeration", help="Vertical scale factor."),
@@ -84,7 +89,6 @@ def view_cmd(
     from terrascape.cli.parsing import parse_size
     from terrascape.render.techniques import technique_names
     from terrascape.viewer.app import check_display, run_viewer
-    from terrascape.viewer.controls import LOD_MODES
 
     # Cheap checks first, so a wrong option never waits for a terrain to be generated.
     if (heightmap is None) == (generate is None):
@@ -100,8 +104,8 @@ def view_cmd(
     if technique not in names:
         raise InvalidParameterError(
             f"--technique must be one of {', '.join(names)}, got {technique!r}")
-    if lod not in LOD_MODES:
-        raise InvalidParameterError(f"--lod must be one of {', '.join(LOD_MODES)}, got {lod!r}")
+    if lod not in LOD_CHOICES:
+        raise InvalidParameterError(f"--lod must be one of {', '.join(LOD_CHOICES)}, got {lod!r}")
     width, height = parse_size(size, name="--size")
     check_positive(exaggeration, "--exaggeration")
     if not math.isfinite(exaggeration):

@@ -3,31 +3,83 @@ static RTIN mesher and the mesh checks they all share.
 
 Triangle format shared by all LOD code: ``uint32 (M, 3)`` grid vertex indices
 ``row * cols + col``, counter-clockwise seen from above (+Y).
+
+The view-dependent schemes share one interface (:class:`~terrascape.lod.schemes.LodScheme`)
+and are listed in :data:`~terrascape.lod.schemes.SCHEMES`. Names are imported on first use
+(PEP 562), so ``terrascape.lod.schemes`` — read by the CLI's ``--help`` — loads no numba
+kernels.
 """
 
-from terrascape.lod.geomipmap import Geomipmap, full_resolution_triangles, patch_templates
-from terrascape.lod.mesh_checks import (
-    ConformityReport,
-    conformity_report,
-    is_conforming,
-    max_screen_error,
-    max_vertical_error,
-    sample_errors,
-    screen_errors,
-)
-from terrascape.lod.quadtree import PatchQuadtree, patch_grid
-from terrascape.lod.roam import Roam, RoamStats, roam_mesh
-from terrascape.lod.rtin import Rtin, RtinMesh, rtin_mesh
-from terrascape.lod.turner_roam import TurnerRoam, TurnerStats, turner_variance
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+_EXPORTS = {
+    "terrascape.lod.geomipmap": ("Geomipmap", "GeomipmapStats", "full_resolution_triangles",
+                                 "patch_templates"),
+    "terrascape.lod.mesh_checks": ("ConformityReport", "conformity_report", "is_conforming",
+                                   "max_screen_error", "max_vertical_error", "sample_errors",
+                                   "screen_errors"),
+    "terrascape.lod.quadtree": ("PatchQuadtree", "patch_grid"),
+    "terrascape.lod.roam": ("Roam", "RoamStats", "roam_mesh"),
+    "terrascape.lod.rtin": ("Rtin", "RtinMesh", "rtin_mesh"),
+    "terrascape.lod.schemes": ("SCHEMES", "LodParameter", "LodScheme", "LodStats", "Scheme",
+                               "scheme"),
+    "terrascape.lod.turner_roam": ("TurnerRoam", "TurnerStats", "turner_variance"),
+}
+_WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
+
+if TYPE_CHECKING:
+    from terrascape.lod.geomipmap import (
+        Geomipmap,
+        GeomipmapStats,
+        full_resolution_triangles,
+        patch_templates,
+    )
+    from terrascape.lod.mesh_checks import (
+        ConformityReport,
+        conformity_report,
+        is_conforming,
+        max_screen_error,
+        max_vertical_error,
+        sample_errors,
+        screen_errors,
+    )
+    from terrascape.lod.quadtree import PatchQuadtree, patch_grid
+    from terrascape.lod.roam import Roam, RoamStats, roam_mesh
+    from terrascape.lod.rtin import Rtin, RtinMesh, rtin_mesh
+    from terrascape.lod.schemes import SCHEMES, LodParameter, LodScheme, LodStats, Scheme, scheme
+    from terrascape.lod.turner_roam import TurnerRoam, TurnerStats, turner_variance
+
+
+def __getattr__(name: str):
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'terrascape.lod' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_WHERE])
+
 
 __all__ = [
+    "SCHEMES",
     "ConformityReport",
     "Geomipmap",
+    "GeomipmapStats",
+    "LodParameter",
+    "LodScheme",
+    "LodStats",
     "PatchQuadtree",
     "Roam",
     "RoamStats",
     "Rtin",
     "RtinMesh",
+    "Scheme",
     "TurnerRoam",
     "TurnerStats",
     "conformity_report",
@@ -40,6 +92,7 @@ __all__ = [
     "roam_mesh",
     "rtin_mesh",
     "sample_errors",
+    "scheme",
     "screen_errors",
     "turner_variance",
 ]

@@ -34,6 +34,8 @@ neighbours to level 0 too, so it is never stitched.
 from __future__ import annotations
 
 import math
+import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -44,8 +46,9 @@ from terrascape.errors import HeightmapSizeError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.lod.mesh_checks import _tri_max_error, _viewport
 from terrascape.lod.quadtree import PatchQuadtree, patch_grid
+from terrascape.lod.schemes import unsupported
 
-__all__ = ["Geomipmap", "full_resolution_triangles", "patch_templates"]
+__all__ = ["Geomipmap", "GeomipmapStats", "full_resolution_triangles", "patch_templates"]
 
 NORTH, EAST, SOUTH, WEST = 1, 2, 4, 8
 
@@ -258,6 +261,22 @@ def _gather(index, start, count, base, visible, use_visible, out):
 # --------------------------------------------------------------------------------------------
 # public class
 # --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class GeomipmapStats:
+    """What one :meth:`Geomipmap.update` did: triangles drawn (culled patches left out when
+    culling), wall time, and the coarsest/finest level chosen (0 = full resolution)."""
+
+    triangles: int
+    update_ms: float
+    min_level: int
+    max_level: int
+    settled: bool = True  # one update selects the levels for a view; nothing carries over
+
+    @property
+    def summary(self) -> str:
+        return f"levels {self.min_level}–{self.max_level}"
+
+
 class Geomipmap:
     """Geomipmapped terrain: precomputed level errors, per-frame level selection and indices.
 
@@ -360,6 +379,8 @@ class Geomipmap:
         self._base = np.zeros((npr, npc), np.int64)
         self._visible = np.ones((npr, npc), np.bool_)
         self._culled = False
+        self._planes: np.ndarray | None = None
+        self._visible_for: np.ndarray | None = None  # the planes self._visible was culled for
         self._updated = False
         self.last_rounds = 0
 
@@ -384,8 +405,9 @@ class Geomipmap:
         big_t = 2.0 * tau / v_res
         return a / big_t
 
-    def update(self, camera: Camera, viewport, tolerance_px: float = 2.0, *,
-               cull: bool = False) -> None:
+    def update(self, camera: Camera, viewport, tolerance_px: float | None = 2.0, *,
+               max_triangles: int | None = None, time_budget_ms: float | None = None,
+               cull: bool = False) -> GeomipmapStats:
         """Select every patch's level for this view and its neighbour mask / index range.
 
         Parameters
@@ -400,7 +422,19 @@ class Geomipmap:
             Also cull patches outside the view frustum with the quadtree; culled patches
             keep their level (neighbours still need it) but :meth:`triangles` and
             :meth:`draw_ranges` skip them.
+        max_triangles, time_budget_ms
+            Not taken (the tolerance alone sets the levels; ``bench lod_flight`` bisects it
+            for a triangle count): anything but ``None`` raises
+            :class:`~terrascape.errors.InvalidParameterError`.
+
+        Returns
+        -------
+        GeomipmapStats
         """
+        t0 = time.perf_counter()
+        unsupported("geomipmapping", max_triangles=max_triangles, time_budget_ms=time_budget_ms)
+        if tolerance_px is None:
+            tolerance_px = 2.0
         c = self._c_factor(camera, viewport, tolerance_px)
         ex, ey, ez = (float(v) for v in camera.position)
         self.last_rounds = int(_select_levels(
@@ -409,9 +443,18 @@ class Geomipmap:
             self._base, self._p, self.heightmap.cols,
         ))
         self._culled = bool(cull)
+        self._planes = camera.frustum_planes()
+        self._visible_for = None
         if cull:
-            self.quadtree.visible(camera.frustum_planes(), out=self._visible)
+            self.quadtree.visible(self._planes, out=self._visible)
+            self._visible_for = self._planes
         self._updated = True
+        return GeomipmapStats(
+            triangles=self.triangle_count(),
+            update_ms=(time.perf_counter() - t0) * 1000.0,
+            min_level=int(self._lev.min()),
+            max_level=int(self._lev.max()),
+        )
 
     def _require_update(self) -> None:
         if not self._updated:
@@ -450,10 +493,21 @@ class Geomipmap:
         sel = self._visible if self._culled else np.ones(self.patch_shape, np.bool_)
         return self._start[sel], self._count[sel], self._base[sel]
 
-    def triangles(self) -> np.ndarray:
-        """This frame's mesh as ``uint32 (M, 3)`` grid vertex indices, CCW from above."""
+    def triangles(self, *, visible_only: bool = False) -> np.ndarray:
+        """This frame's mesh as ``uint32 (M, 3)`` grid vertex indices, CCW from above.
+
+        Patches culled by ``update(..., cull=True)`` are left out; ``visible_only`` culls
+        with the last update's frustum also after an update without ``cull``.
+        """
         self._require_update()
-        out = np.empty((self.triangle_count(), 3), np.uint32)
+        culled = self._culled
+        if visible_only and not culled:
+            if self._visible_for is not self._planes:
+                self.quadtree.visible(self._planes, out=self._visible)
+                self._visible_for = self._planes
+            culled = True
+        count = int(self._count[self._visible].sum()) if culled else int(self._count.sum())
+        out = np.empty((count, 3), np.uint32)
         _gather(self._index, self._start, self._count, self._base, self._visible,
-                self._culled, out)
+                culled, out)
         return out

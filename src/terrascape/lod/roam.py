@@ -66,6 +66,15 @@ from terrascape._numba import CACHE, FASTMATH, njit
 from terrascape._validate import check_finite, check_int, check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
+from terrascape.lod._heap import _TIE_M, _TIE_S, _heapify, _hpop, _hpush
+from terrascape.lod._records import (
+    _alloc_records,
+    _grow_records,
+    _hfind,
+    _rec_add,
+    _rec_remove_at,
+    _rec_replace,
+)
 from terrascape.lod.bintree import (
     _level,
     _partner,
@@ -96,75 +105,27 @@ _STOP_NAMES = {_TOLERANCE: "tolerance", _TRIANGLES: "triangles", _NO_MERGE: "tri
 
 
 # --------------------------------------------------------------------------------------------
-# binary max-heaps on (key float64, id int64) arrays; the merge queue stores −priority
-# --------------------------------------------------------------------------------------------
-# Equal keys are ordered by id (``tie = −1``: smaller id first, the split queue; ``tie = +1``:
-# larger id first, the merge queue — finer diamonds of equal priority merge first). With a
-# total order the pop sequence depends only on the queue's contents, never on the order the
-# entries were inserted or heapified in, so the greedy loop's result is the same whatever
-# order the per-frame refresh lists the leaves and diamonds in.
-_TIE_S, _TIE_M = -1, 1
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _above(k1, i1, k2, i2, tie):
-    """True when entry ``(k1, i1)`` belongs above ``(k2, i2)`` in the heap."""
-    return k1 > k2 or (k1 == k2 and i1 * tie > i2 * tie)
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _sift_down(keys, ids, n, i, tie):
-    k = keys[i]
-    v = ids[i]
-    while True:
-        c = 2 * i + 1
-        if c >= n:
-            break
-        if c + 1 < n and _above(keys[c + 1], ids[c + 1], keys[c], ids[c], tie):
-            c += 1
-        if not _above(keys[c], ids[c], k, v, tie):
-            break
-        keys[i] = keys[c]
-        ids[i] = ids[c]
-        i = c
-    keys[i] = k
-    ids[i] = v
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _hpush(keys, ids, n, k, v, tie):
-    i = n
-    while i > 0:
-        p = (i - 1) >> 1
-        if not _above(k, v, keys[p], ids[p], tie):
-            break
-        keys[i] = keys[p]
-        ids[i] = ids[p]
-        i = p
-    keys[i] = k
-    ids[i] = v
-    return n + 1
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _hpop(keys, ids, n, tie):
-    n -= 1
-    if n > 0:
-        keys[0] = keys[n]
-        ids[0] = ids[n]
-        _sift_down(keys, ids, n, 0, tie)
-    return n
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _heapify(keys, ids, n, tie):
-    for i in range(n // 2 - 1, -1, -1):
-        _sift_down(keys, ids, n, i, tie)
-
-
-# --------------------------------------------------------------------------------------------
 # priorities
 # --------------------------------------------------------------------------------------------
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _wedgie_sphere(e, xa, ya, za, x0, y0, z0, x1, y1, z1):
+    """Bounding sphere ``(cx, cy, cz, r)`` of the wedgie of thickness ``e`` over the triangle
+    with the given world corners: centred on the hypotenuse midpoint in x/z and on the
+    wedgie's height range in y. The priority's frustum short-cut and the leaf records'
+    refresh bound (:func:`_leaf_fill`) use the same sphere."""
+    cx = 0.5 * (x0 + x1)
+    cz = 0.5 * (z0 + z1)
+    ylo = min(ya, y0, y1) - e
+    yhi = max(ya, y0, y1) + e
+    cy = 0.5 * (ylo + yhi)
+    r2 = max(
+        (xa - cx) ** 2 + (za - cz) ** 2,
+        (x0 - cx) ** 2 + (z0 - cz) ** 2,
+        (x1 - cx) ** 2 + (z1 - cz) ** 2,
+    )
+    return cx, cy, cz, math.sqrt(r2 + (0.5 * (yhi - ylo)) ** 2)
+
+
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _wedgie_priority(e, xa, ya, za, x0, y0, z0, x1, y1, z1,
                      planes, ex, ey, ez, fx, fy, fz, near, kpx):  # fmt: skip
@@ -176,17 +137,7 @@ def _wedgie_priority(e, xa, ya, za, x0, y0, z0, x1, y1, z1,
     matters: culling must be nested like the wedgies so priorities stay monotonic. Depth:
     the exact minimum over the six wedgie corners.
     """
-    cx = 0.5 * (x0 + x1)
-    cz = 0.5 * (z0 + z1)
-    ylo = min(ya, y0, y1) - e
-    yhi = max(ya, y0, y1) + e
-    cy = 0.5 * (ylo + yhi)
-    r2 = max(
-        (xa - cx) ** 2 + (za - cz) ** 2,
-        (x0 - cx) ** 2 + (z0 - cz) ** 2,
-        (x1 - cx) ** 2 + (z1 - cz) ** 2,
-    )
-    rad = math.sqrt(r2 + (0.5 * (yhi - ylo)) ** 2)
+    cx, cy, cz, rad = _wedgie_sphere(e, xa, ya, za, x0, y0, z0, x1, y1, z1)
     for k in range(6):
         a, b, c, d = planes[k, 0], planes[k, 1], planes[k, 2], planes[k, 3]
         if a * cx + b * cy + c * cz + d >= rad:
@@ -242,135 +193,14 @@ def _diamond_priority_at(cam, h, err, size, max_lvl, lvl, ar, ac, r0, c0, r1, c1
 
 
 # --------------------------------------------------------------------------------------------
-# per-entry records of the queues' elements (leaves and mergeable diamonds)
+# leaf and diamond records (record sets: terrascape.lod._records)
 # --------------------------------------------------------------------------------------------
-# The per-frame refresh must not touch the bintree: at 4097² its node array (4·S² bytes) and
-# the height/error grids (67 MB each) are far larger than the caches, and a walk over them
-# costs a cache miss per node — the refresh then grows with the map although the mesh does
-# not (seed 001 §5.3: the map size must not matter). Every leaf and every mergeable diamond
-# therefore has a record in a dense array — its id, corner coordinates, wedgie thickness
-# and corner heights — created and deleted by the split/merge operations themselves. The
-# refresh reads only these O(triangles) contiguous records.
-#
-# A record set is the tuple ``(ids, co, fl, ht, keys)``: ``ids[s]`` int64, ``co[s] = (ar, ac,
-# r0, c0, r1, c1)`` int32, ``fl[s]`` float32 values (leaves: ``e, y_a, y_0, y_1`` and a
-# bounding sphere ``c_x, c_y, c_z, r`` of the wedgie, world units, see :func:`_leaf_add`;
-# diamonds: ``e, y_a, y_0, y_1, y_b``, ``y_b`` the height at the base neighbour's apex), for
-# slots ``s < n``; ``ht`` an open-addressing hash table (linear probing, load <= 1/2) of
-# ``(key, slot)`` pairs and ``keys[s]`` each record's key (a leaf's id; a diamond's split
-# vertex ``row·(S+1) + col``, which both its triangles and their children know without a
-# neighbour search), so a record is found and deleted (swap with the last one) in O(1). The
-# memory grows with the mesh, not with the map. The counts live in ``cnt = [leaves,
-# diamonds]``.
+# Leaves: ``fl[s] = e, y_a, y_0, y_1`` and the wedgie's bounding sphere ``c_x, c_y, c_z, r``
+# (world units, :func:`_leaf_fill`), keyed by the leaf id. Mergeable diamonds: ``fl[s] = e,
+# y_a, y_0, y_1, y_b`` (``y_b`` the height at the base neighbour's apex), keyed by the split
+# vertex ``row·(S+1) + col``, which both triangles and their children know without a
+# neighbour search.
 _LEAF_FIELDS, _DIAMOND_FIELDS = 8, 5  # float32 values per record (widths of ``fl``)
-_FIB = np.uint64(0x9E3779B97F4A7C15)  # Fibonacci hashing (Knuth): spreads structured ids
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _hslot(key, mask):
-    # keys 2k and 2k + 1 (sibling leaves, which a split creates and a merge removes
-    # together) get adjacent home slots, usually in one cache line
-    hk = np.int64((np.uint64(key >> 1) * _FIB) >> np.uint64(32))
-    return ((hk << 1) | (key & 1)) & mask
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _hfind(ht, key):
-    """Table index of ``key``, or −1 when absent."""
-    mask = ht.shape[0] - 1
-    i = _hslot(key, mask)
-    while True:
-        k = ht[i, 0]
-        if k == key:
-            return i
-        if k < 0:
-            return -1
-        i = (i + 1) & mask
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _hput(ht, key, val):
-    """Insert ``key`` (absent) with value ``val``."""
-    mask = ht.shape[0] - 1
-    i = _hslot(key, mask)
-    while ht[i, 0] >= 0:
-        i = (i + 1) & mask
-    ht[i, 0] = key
-    ht[i, 1] = val
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _hdel_at(ht, i):
-    """Delete table entry ``i`` by backward shifting (no tombstones, so probe chains stay as
-    short as the load allows)."""
-    mask = ht.shape[0] - 1
-    j = i
-    while True:
-        j = (j + 1) & mask
-        k = ht[j, 0]
-        if k < 0:
-            break
-        # the entry at j may move to the hole i unless its home slot lies in (i, j]
-        if ((j - _hslot(k, mask)) & mask) >= ((j - i) & mask):
-            ht[i, 0] = k
-            ht[i, 1] = ht[j, 1]
-            i = j
-    ht[i, 0] = -1
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _rehash(ids, n, ht):
-    ht[:, 0] = -1
-    for s in range(n):
-        _hput(ht, ids[s], s)
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _rec_add(rec, n, key, tid, ar, ac, r0, c0, r1, c1):
-    """Append a record with hash key ``key`` and triangle id ``tid`` at slot ``n``
-    (returned); the caller fills ``fl[n]``."""
-    ids, co, _, ht, keys = rec
-    ids[n] = tid
-    keys[n] = key
-    co[n, 0], co[n, 1], co[n, 2] = ar, ac, r0
-    co[n, 3], co[n, 4], co[n, 5] = c0, r1, c1
-    _hput(ht, key, n)
-    return n
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _rec_replace(rec, i, key, tid, ar, ac, r0, c0, r1, c1):
-    """Give the record of table entry ``i`` the new key ``key`` (absent) and triangle id
-    ``tid``, keeping its slot (returned); the caller fills ``fl``."""
-    ids, co, _, ht, keys = rec
-    s = ht[i, 1]
-    _hdel_at(ht, i)
-    _hput(ht, key, s)
-    ids[s] = tid
-    keys[s] = key
-    co[s, 0], co[s, 1], co[s, 2] = ar, ac, r0
-    co[s, 3], co[s, 4], co[s, 5] = c0, r1, c1
-    return s
-
-
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _rec_remove_at(rec, n, i):
-    """Delete the record of table entry ``i``; the last record fills its slot. Returns the
-    new count."""
-    ids, co, fl, ht, keys = rec
-    s = ht[i, 1]
-    _hdel_at(ht, i)
-    n -= 1
-    if s != n:
-        last = keys[n]
-        keys[s] = last
-        ids[s] = ids[n]
-        for k in range(6):
-            co[s, k] = co[n, k]
-        for k in range(fl.shape[1]):
-            fl[s, k] = fl[n, k]
-        ht[_hfind(ht, last), 1] = s
-    return n
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -407,18 +237,8 @@ def _leaf_fill(fl, s, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1):
     fl[s, 1] = ya
     fl[s, 2] = y0
     fl[s, 3] = y1
-    xa, za, x0, z0, x1, z1 = ac * dx, ar * dz, c0 * dx, r0 * dz, c1 * dx, r1 * dz
-    cx = 0.5 * (x0 + x1)
-    cz = 0.5 * (z0 + z1)
-    ylo = min(ya, y0, y1) - e
-    yhi = max(ya, y0, y1) + e
-    cy = 0.5 * (ylo + yhi)
-    r2 = max(
-        (xa - cx) ** 2 + (za - cz) ** 2,
-        (x0 - cx) ** 2 + (z0 - cz) ** 2,
-        (x1 - cx) ** 2 + (z1 - cz) ** 2,
-    )
-    rad = math.sqrt(r2 + (0.5 * (yhi - ylo)) ** 2)
+    cx, cy, cz, rad = _wedgie_sphere(e, ac * dx, ya, ar * dz, c0 * dx, y0, r0 * dz,
+                                      c1 * dx, y1, r1 * dz)
     fl[s, 4] = cx
     fl[s, 5] = cy
     fl[s, 6] = cz
@@ -977,34 +797,6 @@ def _mergeable_ids(state, size, out):
     return m
 
 
-def _alloc_records(cap: int, width: int, key_dtype=np.int64):
-    """An empty record set (see "per-entry records") for ``cap`` records of ``width`` float
-    values; the hash table has a power-of-two size >= 2·cap (load <= 1/2) and holds
-    ``key_dtype`` (key, slot) pairs (int32 when the keys fit: half the table's cache
-    footprint, and the table is read at random places by every split and merge)."""
-    hcap = 1 << max(4, (2 * cap - 1).bit_length())
-    return (
-        np.zeros(cap, np.int64),
-        np.zeros((cap, 6), np.int32),
-        np.zeros((cap, width), np.float32),
-        np.full((hcap, 2), -1, key_dtype),  # (key, slot) pairs: one cache line per probe
-        np.zeros(cap, np.int64),  # each record's hash key (leaves: the id)
-    )
-
-
-def _grow_records(rec, n: int, extra: int):
-    """``rec`` itself when it has room for ``extra`` more records, else a copy with at least
-    twice the capacity (records kept in their slots, hash table rebuilt)."""
-    if rec[0].size >= n + extra:
-        return rec
-    new = _alloc_records(max(n + extra, 2 * rec[0].size), rec[2].shape[1], rec[3].dtype)
-    for k in range(3):
-        new[k][:n] = rec[k][:n]
-    new[4][:n] = rec[4][:n]
-    _rehash(new[4], np.int64(n), new[3])
-    return new
-
-
 # --------------------------------------------------------------------------------------------
 # public API
 # --------------------------------------------------------------------------------------------
@@ -1038,6 +830,15 @@ class RoamStats:
     max_screen_error: float
     update_ms: float
     stopped_by: str
+
+    @property
+    def settled(self) -> bool:
+        """False when the time budget stopped the update (the next one continues it)."""
+        return self.stopped_by != "time"
+
+    @property
+    def summary(self) -> str:
+        return f"max error {self.max_screen_error:.2f} px ({self.stopped_by})"
 
 
 def _check_camera(camera):
@@ -1134,6 +935,7 @@ class Roam:
         self.max_screen_error = math.inf
         self._theta_frac = _THETA_MAX
         self.rebuilds = 0  # full split-queue rebuilds after a partial one ran empty (stats)
+        self._planes: np.ndarray | None = None  # last update's frustum (triangles())
         self.reset()
 
     # --- state -------------------------------------------------------------------------
@@ -1318,6 +1120,7 @@ class Roam:
         if time_budget_ms is not None:
             budget = check_positive(time_budget_ms, "time_budget_ms (milliseconds)") / 1000.0
         cam = camera_params(camera, viewport, self.heightmap.spacing)
+        self._planes = cam[_PLANES : _PLANES + 24].reshape(6, 4).copy()
         splits, merges, stop = self._run(cam, tau, nmax, budget, t0)
         self.frame += 1
         return RoamStats(
@@ -1330,12 +1133,20 @@ class Roam:
             stopped_by=stop,
         )
 
-    def triangles(self) -> np.ndarray:
+    def triangles(self, *, visible_only: bool = False) -> np.ndarray:
         """The current mesh: uint32 ``(M, 3)`` grid vertex indices ``row·cols + col``,
-        counter-clockwise seen from above (+Y)."""
+        counter-clockwise seen from above (+Y).
+
+        ROAM keeps the whole map (leaves outside the view stay coarse); ``visible_only``
+        leaves out the triangles whose three corners are all outside one plane of the last
+        update's view frustum (such a triangle cannot be seen).
+        """
         out = np.empty((self._count, 3), np.uint32)
         m = _roam_collect(self._state, np.int64(self.size), out, self._stack8)
-        return out[:m]
+        tris = out[:m]
+        if visible_only and self._planes is not None:
+            tris = tris[_in_frustum(self.heightmap, tris, self._planes)]
+        return tris
 
     # --- direct bintree operations (tools, tests) ------------------------------------------
     def leaf_ids(self) -> np.ndarray:
@@ -1386,6 +1197,19 @@ class Roam:
         )  # fmt: skip
         self._count -= int(removed)
         return int(removed)
+
+
+def _in_frustum(heightmap: Heightmap, tris: np.ndarray, planes: np.ndarray) -> np.ndarray:
+    """bool per triangle: False when its three corners are all outside one frustum plane."""
+    cols = heightmap.cols
+    dx, dz = heightmap.spacing
+    flat = tris.astype(np.int64)
+    h = heightmap.heights.reshape(-1).astype(np.float64)
+    x, z, y = (flat % cols) * dx, (flat // cols) * dz, h[flat]
+    outside = np.zeros(len(tris), np.bool_)
+    for a, b, c, d in planes:
+        outside |= np.all(a * x + b * y + c * z + d < 0.0, axis=1)
+    return ~outside
 
 
 def _check_max_triangles(max_triangles) -> int:

@@ -46,6 +46,7 @@ from terrascape.errors import HeightmapSizeError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.lod.quadtree import PatchQuadtree
 from terrascape.lod.roam import _check_camera, _check_viewport
+from terrascape.lod.schemes import unsupported
 
 __all__ = ["TurnerRoam", "TurnerStats", "turner_variance"]
 
@@ -347,6 +348,11 @@ class TurnerStats:
     update_ms: float
     pool_exhausted: bool
     passes: int = 1
+    settled: bool = True
+
+    @property
+    def summary(self) -> str:
+        return f"threshold {self.threshold_px:.3g} px"
 
 
 class TurnerRoam:
@@ -399,10 +405,22 @@ class TurnerRoam:
         pool_factor = check_positive(pool_factor, "pool_factor")
         if pool_factor < 1.5:
             raise InvalidParameterError(f"pool_factor must be >= 1.5, got {pool_factor}")
+        self._pool_factor = pool_factor
+        self._initial_threshold = self.threshold_px
         self._variance = turner_variance(heightmap, psize, self.variance_depth)
         self.quadtree = PatchQuadtree(heightmap, psize)
+        self._stack = np.zeros(2 * (full + 4), np.int64)
+        self._split_stack = np.zeros(2 * (full + 4), np.int64)
+        self._vis = np.zeros((npatch, npatch), np.bool_)
+        self._ivars = np.zeros(3, np.int64)
+        self.frame = 0
+        self._allocate()
+
+    def _allocate(self) -> None:
+        """Node pool for the current target, base tessellation, fresh feedback state."""
+        npatch, full = self.patches, self.max_level
         roots = 2 * npatch * npatch
-        cap = int(2 * pool_factor * self.target_triangles) + roots + 4 * (full + 2) + 8
+        cap = int(2 * self._pool_factor * self.target_triangles) + roots + 4 * (full + 2) + 8
         self._lc = np.full(cap, -1, np.int32)
         self._base = np.full(cap, -1, np.int32)
         self._left = np.full(cap, -1, np.int32)
@@ -411,21 +429,24 @@ class TurnerRoam:
         self._tid = np.zeros(cap, np.int32)
         self._lvl = np.zeros(cap, np.int32)
         self._co = np.zeros((cap, 6), np.int32)
-        self._stack = np.zeros(2 * (full + 4), np.int64)
-        self._split_stack = np.zeros(2 * (full + 4), np.int64)
-        self._vis = np.zeros((npatch, npatch), np.bool_)
-        self._ivars = np.zeros(3, np.int64)
-        self._nodes = 0
-        self._leaves = 0
-        self.frame = 0
+        self.threshold_px = self._initial_threshold
         # feedback state (log-space secant on count(threshold))
         self._prev: tuple[float, float] | None = None
         self._slope = 1.0
         _reset_arrays = _reset(
-            np.int64(npatch), np.int64(psize - 1), self._lc, self._base, self._left,
+            np.int64(npatch), np.int64(self.patch_size - 1), self._lc, self._base, self._left,
             self._right, self._patch, self._tid, self._lvl, self._co,
         )  # fmt: skip
         self._nodes = self._leaves = int(_reset_arrays)
+
+    def retarget(self, target_triangles: int) -> None:
+        """Hold ``target_triangles`` from the next update on: the node pool is re-sized and
+        the threshold feedback starts again (as a new instance would), the patch variances
+        are kept."""
+        target = check_int(target_triangles, "target_triangles", minimum=2)
+        if target != self.target_triangles:
+            self.target_triangles = target
+            self._allocate()
 
     @property
     def triangle_count(self) -> int:
@@ -435,7 +456,9 @@ class TurnerRoam:
         """bool ``(P, P)`` patches tessellated in the last update."""
         return self._vis.copy()
 
-    def update(self, camera, viewport: tuple[int, int]) -> TurnerStats:
+    def update(self, camera, viewport: tuple[int, int], *, tolerance_px: float | None = None,
+               max_triangles: int | None = None,
+               time_budget_ms: float | None = None) -> TurnerStats:
         """Cull patches, rebuild the tessellation for ``camera``, adjust the threshold.
 
         Parameters
@@ -444,8 +467,17 @@ class TurnerRoam:
             :class:`~terrascape.camera.Camera`.
         viewport
             ``(width, height)`` in pixels.
+        max_triangles
+            New triangle target (:meth:`retarget`); default: keep the current one.
+        tolerance_px, time_budget_ms
+            Not taken (the threshold is set by the feedback, the rebuild is not
+            interruptible): anything but ``None`` raises
+            :class:`~terrascape.errors.InvalidParameterError`.
         """
         t0 = time.perf_counter()
+        unsupported("Turner's ROAM", tolerance_px=tolerance_px, time_budget_ms=time_budget_ms)
+        if max_triangles is not None:
+            self.retarget(max_triangles)
         camera = _check_camera(camera)
         _, height = _check_viewport(viewport)
         planes = camera.frustum_planes()
@@ -484,6 +516,10 @@ class TurnerRoam:
             update_ms=(time.perf_counter() - t0) * 1000.0,
             pool_exhausted=exhausted,
             passes=passes,
+            # the feedback converges over frames: not settled while off target (unless the
+            # whole map at full resolution is already drawn)
+            settled=abs(self._leaves / self.target_triangles - 1.0) <= 0.05
+            or self._leaves >= 2 * self.size * self.size,
         )
 
     def _feedback(self, thr: float, exhausted: bool) -> None:

@@ -16,6 +16,7 @@ from enum import Enum
 import numpy as np
 
 from terrascape.camera import Camera
+from terrascape.lod.schemes import SCHEMES
 
 TECHNIQUES: tuple[str, ...] = (
     "plain",
@@ -32,13 +33,11 @@ TECHNIQUES: tuple[str, ...] = (
     "cone",
     "by-distance",
 )
-LOD_MODES: tuple[str, ...] = ("none", "roam", "turner", "geomipmap")
+LOD_MODES: tuple[str, ...] = ("none", *SCHEMES)  # L cycles these (lod/schemes.py)
 
 PARALLAX_SCALE_STEP = 0.001  # seed 000 §2.6.4.3: parametar ± 0.001
 SUN_AZIMUTH_STEP = 10.0
 SUN_ELEVATION_STEP = 5.0
-TRIANGLE_TARGET_FACTOR = 1.25
-TOLERANCE_FACTOR = 1.25
 
 
 class Action(Enum):
@@ -61,8 +60,9 @@ HELP: tuple[tuple[str, str], ...] = (
     (". / ,", "binary search steps ± 1"),
     ("X", "self-shadowing on/off"),
     ("Z", "wireframe on/off"),
-    ("L", "LOD algorithm: none / roam / turner / geomipmap"),
-    ("PgUp / PgDn", "triangle target (ROAM) or pixel tolerance (geomipmap)"),
+    ("L", "LOD algorithm: " + " / ".join(LOD_MODES)),
+    ("J", "which LOD setting PgUp / PgDn change (ROAM: triangle target, tolerance)"),
+    ("PgUp / PgDn", "finer / coarser: triangle target or pixel tolerance"),
     ("K", "lightmap with shadows on/off"),
     ("O / P", "sun azimuth ∓ 10°"),
     ("N / M", "sun elevation ∓ 5° (below 0: night)"),
@@ -84,8 +84,10 @@ class ViewerState:
     self_shadow: bool = False
     wireframe: bool = False
     lod: str = "none"
-    triangle_target: int = 80_000
-    tolerance_px: float = 2.0
+    # per scheme: its key-adjustable update() settings (lod/schemes.py defaults)
+    lod_settings: dict[str, dict[str, float]] = field(default_factory=lambda: {
+        name: {p.name: p.default for p in s.adjustable} for name, s in SCHEMES.items()})
+    lod_focus: int = 0  # index into the scheme's adjustable settings (J)
     lightmap: bool = True
     sun_azimuth: float = 135.0
     sun_elevation: float = 35.0
@@ -134,6 +136,10 @@ class ViewerState:
             self.wireframe = not self.wireframe
         elif key == "L":
             self.lod = LOD_MODES[(LOD_MODES.index(self.lod) + 1) % len(LOD_MODES)]
+            self.lod_focus = 0
+        elif key == "J":
+            n = len(SCHEMES[self.lod].adjustable) if self.lod in SCHEMES else 0
+            self.lod_focus = (self.lod_focus + 1) % n if n else 0
         elif key in ("PAGE_UP", "PAGE_DOWN"):
             self._change_detail(up=key == "PAGE_UP")
         elif key == "K":
@@ -154,13 +160,41 @@ class ViewerState:
         i = self.available.index(self.technique)
         self.technique = self.available[(i + step) % len(self.available)]
 
+    def _focused(self):
+        """(scheme name, the setting PgUp/PgDn change); ROAM's when LOD is off."""
+        name = self.lod if self.lod in SCHEMES else next(iter(SCHEMES))
+        adjustable = SCHEMES[name].adjustable
+        return name, adjustable[self.lod_focus % len(adjustable)]
+
     def _change_detail(self, *, up: bool) -> None:
-        if self.lod == "geomipmap":
-            f = 1 / TOLERANCE_FACTOR if up else TOLERANCE_FACTOR
-            self.tolerance_px = float(min(64.0, max(0.25, self.tolerance_px * f)))
-        else:
-            f = TRIANGLE_TARGET_FACTOR if up else 1 / TRIANGLE_TARGET_FACTOR
-            self.triangle_target = int(min(2_000_000, max(1_000, self.triangle_target * f)))
+        """PgUp: a finer mesh (more triangles / a smaller tolerance), PgDn: coarser."""
+        name, param = self._focused()
+        values = self.lod_settings[name]
+        values[param.name] = param.stepped(values[param.name], finer=up)
+
+    def lod_update_settings(self) -> dict[str, float | int | None]:
+        """The current scheme's ``update`` keywords ("off" values left out)."""
+        if self.lod not in SCHEMES:
+            return {}
+        out = {}
+        for p in SCHEMES[self.lod].adjustable:
+            v = self.lod_settings[self.lod][p.name]
+            if v is not None and not (p.off is not None and v == p.off):
+                out[p.name] = v
+        return out
+
+    @property
+    def triangle_target(self) -> int:
+        """The triangle budget of the current scheme (ROAM's when it has none)."""
+        name = self.lod if "max_triangles" in self.lod_settings.get(self.lod, {}) else "roam"
+        return int(self.lod_settings[name]["max_triangles"])
+
+    @triangle_target.setter
+    def triangle_target(self, value: int) -> None:
+        """Set the triangle budget of every scheme that has one."""
+        for values in self.lod_settings.values():
+            if "max_triangles" in values:
+                values["max_triangles"] = int(value)
 
     def scroll(self, amount: float) -> None:
         """Mouse wheel: each notch changes the flying speed by 20 %."""
@@ -191,12 +225,14 @@ class ViewerState:
                 f"scale {self.parallax_scale:.3f}  linear {self.linear_steps}  "
                 f"binary {self.binary_steps}  self-shadow {'on' if self.self_shadow else 'off'}"
             )
-        detail = (
-            f"tolerance {self.tolerance_px:.2f} px"
-            if self.lod == "geomipmap"
-            else f"target {self.triangle_target:,} tris"
-        )
-        lines.append(f"LOD: {self.lod}" + ("" if self.lod == "none" else f"  {detail}"))
+        detail = ""
+        if self.lod in SCHEMES:
+            _, focus = self._focused()
+            detail = "  " + "  ".join(
+                ("→" if p is focus and len(SCHEMES[self.lod].adjustable) > 1 else "")
+                + p.label(self.lod_settings[self.lod][p.name])
+                for p in SCHEMES[self.lod].adjustable)
+        lines.append(f"LOD: {self.lod}{detail}")
         lines.append(
             f"sun az {self.sun_azimuth:.0f}° el {self.sun_elevation:.0f}°  "
             f"lightmap {'on' if self.lightmap else 'off'}  fog {'on' if self.fog else 'off'}"

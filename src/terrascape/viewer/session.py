@@ -25,6 +25,7 @@ from terrascape._validate import check_positive
 from terrascape.camera import Camera
 from terrascape.errors import InvalidParameterError, TerrascapeError
 from terrascape.heightmap import Heightmap
+from terrascape.lod.schemes import SCHEMES
 from terrascape.viewer.controls import HELP, LOD_MODES, ViewerState, fly, look
 
 # Technique cycling order (Tab): the seed 001 texturing methods, then seed 000's relief
@@ -208,21 +209,20 @@ class KeyRepeat:
 
 
 class LodManager:
-    """The viewer's LOD modes over one heightmap: ROAM (frame-coherent split/merge), Turner's
-    ROAM (triangle target by feedback), geomipmapping (pixel tolerance); built lazily.
+    """The viewer's LOD schemes (:data:`~terrascape.lod.schemes.SCHEMES`) over one heightmap,
+    each built on first use and kept (ROAM's frame coherence, Turner's variances).
 
     ``update`` returns the triangles to draw (``None`` = full mesh) and whether they changed
     since the last call — the mesh is recomputed only when the view or the settings change
-    (or ROAM stopped on its time budget and has more work to do).
+    (or the last update was not settled: ROAM stopped on its time budget, Turner's feedback
+    still off its target).
     """
 
     def __init__(self, heightmap: Heightmap, *, time_budget_ms: float | None = 12.0) -> None:
         self.heightmap = heightmap
         self.available = heightmap.is_pow2_plus1
         self.time_budget_ms = time_budget_ms
-        self._roam = None
-        self._turner = None
-        self._geo = None
+        self._schemes: dict[str, Any] = {}
         self._key: tuple | None = None
         self._mode = "none"
         self._pending = False
@@ -235,8 +235,11 @@ class LodManager:
         return (f"LOD needs a square 2^n+1 heightmap, this one is {hm.cols}×{hm.rows} "
                 "(restart with --pad)")
 
-    def update(self, mode: str, camera: Camera, viewport: tuple[int, int], *,
-               triangle_target: int, tolerance_px: float) -> tuple[np.ndarray | None, bool]:
+    def update(self, mode: str, camera: Camera, viewport: tuple[int, int],
+               settings: Mapping[str, float | int] | None = None,
+               ) -> tuple[np.ndarray | None, bool]:
+        """Triangles for ``camera`` with scheme ``mode`` (or ``"none"``) and its ``update``
+        keywords ``settings`` (``ViewerState.lod_update_settings()``; others ignored)."""
         if mode not in LOD_MODES:
             raise InvalidParameterError(f"LOD mode must be one of {LOD_MODES}, got {mode!r}")
         if mode == "none":
@@ -246,43 +249,22 @@ class LodManager:
             return None, changed
         if not self.available:
             raise InvalidParameterError(self.why_unavailable())
+        entry = SCHEMES[mode]
+        kwargs = {k: v for k, v in (settings or {}).items() if k in entry.parameter_names}
         key = (mode, camera.position, camera.yaw, camera.pitch, camera.fov_y, camera.aspect,
-               tuple(viewport), int(triangle_target), float(tolerance_px))
+               tuple(viewport), tuple(sorted(kwargs.items())))
         if key == self._key and not self._pending:
             return None, False
+        if "time_budget_ms" in entry.parameter_names:
+            kwargs["time_budget_ms"] = self.time_budget_ms
         t0 = time.perf_counter()
-        n = self.heightmap.rows
-        if mode == "roam":
-            from terrascape.lod import Roam
-
-            if self._roam is None:
-                self._roam = Roam(self.heightmap)
-            st = self._roam.update(camera, viewport, max_triangles=int(triangle_target),
-                                   time_budget_ms=self.time_budget_ms)
-            self._pending = st.stopped_by == "time"
-            tris = self._roam.triangles()
-            self.last_detail = f"max error {st.max_screen_error:.2f} px ({st.stopped_by})"
-        elif mode == "turner":
-            from terrascape.lod import TurnerRoam
-
-            if self._turner is None or self._turner.target_triangles != int(triangle_target):
-                self._turner = TurnerRoam(self.heightmap, patch_size=min(65, n),
-                                          target_triangles=int(triangle_target))
-            st = self._turner.update(camera, viewport)
-            # Turner's feedback converges over frames: keep updating while off target.
-            self._pending = abs(st.triangles / int(triangle_target) - 1.0) > 0.05 and (
-                st.triangles < 2 * (n - 1) ** 2)
-            tris = self._turner.triangles(visible_only=True)
-            self.last_detail = f"threshold {st.threshold_px:.3g} px"
-        else:
-            from terrascape.lod import Geomipmap
-
-            if self._geo is None:
-                self._geo = Geomipmap(self.heightmap, patch_size=min(17, n))
-            self._geo.update(camera, viewport, float(tolerance_px), cull=True)
-            self._pending = False
-            tris = self._geo.triangles()
-            self.last_detail = f"levels {int(self._geo.levels.min())}–{int(self._geo.levels.max())}"
+        scheme = self._schemes.get(mode)
+        if scheme is None:
+            scheme = self._schemes[mode] = entry.build(self.heightmap)
+        st = scheme.update(camera, viewport, **kwargs)
+        self._pending = not st.settled
+        tris = scheme.triangles(visible_only=entry.draw_visible_only)
+        self.last_detail = st.summary
         self._key, self._mode = key, mode
         self.last_ms = (time.perf_counter() - t0) * 1000.0
         self.last_triangles = len(tris)
@@ -412,13 +394,11 @@ class ViewerSession:
         st = self.state
         try:
             tris, changed = self.lod.update(st.lod, camera, viewport,
-                                            triangle_target=st.triangle_target,
-                                            tolerance_px=st.tolerance_px)
+                                            st.lod_update_settings())
         except InvalidParameterError as exc:
             self._note(str(exc))
             st.lod = "none"
-            tris, changed = self.lod.update("none", camera, viewport, triangle_target=1,
-                                            tolerance_px=1.0)
+            tris, changed = self.lod.update("none", camera, viewport)
         if changed:
             self.renderer.set_indices(tris)
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from terrascape.bench import available_cases, get_case
-from terrascape.report_analysis import save_figure
+from terrascape.bench.report_analysis import save_figure
 
 
 @dataclass
@@ -169,8 +169,8 @@ def fractal_section(out: Path, *, quick: bool, tiny: bool = False) -> Section:
 def tables_section(title: str, cases: list[str], *, quick: bool,
                    out: Path | None = None) -> Section | None:
     """Run ``cases`` and lay out their tables, each followed by its plots and discussion
-    (:mod:`terrascape.report_analysis`)."""
-    from terrascape.report_analysis import ANALYSES
+    (:mod:`terrascape.bench.report_analysis`)."""
+    from terrascape.bench.report_analysis import ANALYSES
 
     present = [c for c in cases if c in available_cases()]
     if not present:
