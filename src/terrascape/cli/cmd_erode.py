@@ -1,43 +1,123 @@
-"""``terrascape erode``: thermal and hydraulic erosion of a heightmap file."""
+"""``terrascape erode``: erosion of a heightmap file, optionally with float32 masks."""
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import typer
 
-from terrascape.cli.app import app, timed
+from terrascape.cli.app import app, out, timed
 from terrascape.cli.cmd_generate import _FORCE, _QUIET, _SEED, _check_outputs, _finish
 from terrascape.errors import InvalidParameterError
+
+
+def _read_map(path: Path, name: str, shape: tuple[int, int]):
+    """A per-sample parameter map from any heightmap file, checked against the input."""
+    import numpy as np
+
+    from terrascape.io import read_heightmap
+
+    values = read_heightmap(path).heights
+    if values.shape != shape:
+        raise InvalidParameterError(
+            f"{name} {path.name} is {values.shape[1]}×{values.shape[0]}, the heightmap is "
+            f"{shape[1]}×{shape[0]}")
+    return np.asarray(values, dtype=np.float64)
 
 
 @app.command("erode")
 def erode_cmd(
     input_path: Path = typer.Argument(..., metavar="IN", help="Input heightmap file."),
     output: Path = typer.Argument(..., metavar="OUT", help="Output heightmap file."),
-    thermal: int = typer.Option(0, "--thermal", help="Thermal-erosion iterations (0 = off)."),
+    model: str = typer.Option(
+        None, "--model",
+        help="stream-power (default: valleys and river networks that drain like real "
+             "terrain), grid (virtual-pipe water), droplets, or thermal (talus).",
+        show_default="stream-power"),
+    iterations: int = typer.Option(
+        None, "--iterations", "-n",
+        help="Model steps (droplets: number of droplets).",
+        show_default="stream-power 30, grid 300, droplets 1 per sample, thermal 50"),
+    strength: float = typer.Option(
+        1.0, "--strength", help="Erosion rate relative to the model's default."),
+    masks: Path = typer.Option(
+        None, "--masks",
+        help="Folder for float32 .npy masks: flow, deposition, wear, water.",
+        show_default="none"),
+    rain_map: Path = typer.Option(
+        None, "--rain-map", help="Grid model: rain per sample from a heightmap file.",
+        show_default="uniform"),
+    talus_map: Path = typer.Option(
+        None, "--talus-map",
+        help="Thermal model: talus angle in degrees per sample from a heightmap file.",
+        show_default="--talus everywhere"),
+    thermal: int = typer.Option(
+        0, "--thermal", help="Thermal iterations after the model (0 = off)."),
     talus: float = typer.Option(30.0, "--talus", help="Talus angle for thermal erosion (deg)."),
-    hydraulic: int = typer.Option(0, "--hydraulic", help="Hydraulic droplets (0 = off)."),
+    hydraulic: int = typer.Option(
+        0, "--hydraulic",
+        help="Droplets before thermal (0 = off); without --model, these two alone run."),
     seed: int = _SEED,
     force: bool = _FORCE,
     quiet: bool = _QUIET,
 ) -> None:
-    """Erode a heightmap: thermal (talus) and/or droplet hydraulic erosion; mass conserved."""
+    """Erode a heightmap. With no options: stream-power river erosion (drained valleys)."""
     from terrascape._validate import check_int
-    from terrascape.filters import hydraulic_erosion, thermal_erosion
-    from terrascape.io import read_heightmap
+    from terrascape.filters import MASK_NAMES, MODELS, erode, hydraulic_erosion, thermal_erosion
+    from terrascape.io import atomic_output, check_output_path, read_heightmap
 
     thermal = check_int(thermal, "--thermal", minimum=0)
     hydraulic = check_int(hydraulic, "--hydraulic", minimum=0)
-    if thermal == 0 and hydraulic == 0:
-        raise InvalidParameterError("give --thermal N and/or --hydraulic N (both are 0)")
+    if iterations is not None:
+        check_int(iterations, "--iterations", minimum=0)
+    if model is not None and model not in MODELS:
+        raise InvalidParameterError(f"--model must be one of {', '.join(MODELS)}, got {model!r}")
+    legacy = model is None and (thermal > 0 or hydraulic > 0)
     _check_outputs(output, None, force)
+    mask_paths: dict[str, Path] = {}
+    if masks is not None:
+        if legacy:
+            raise InvalidParameterError("--masks needs a --model (or no --thermal/--hydraulic)")
+        if not masks.is_dir():
+            raise InvalidParameterError(f"--masks folder {masks} does not exist")
+        mask_paths = {name: masks / f"{name}.npy" for name in MASK_NAMES}
+        for path in mask_paths.values():
+            check_output_path(path, force=force)
     with timed("read", quiet=quiet):
         hm = read_heightmap(input_path)
-    if hydraulic:
-        with timed("hydraulic erosion", quiet=quiet):
-            hm = hydraulic_erosion(hm, droplets=hydraulic, seed=seed)
+    original = hm.heights
+    rain = _read_map(rain_map, "--rain-map", hm.shape) if rain_map is not None else None
+    talus_angle = (_read_map(talus_map, "--talus-map", hm.shape) if talus_map is not None
+                   else talus)
+    result_masks = {}
+    if legacy:
+        if hydraulic:
+            with timed("hydraulic erosion", quiet=quiet):
+                hm = hydraulic_erosion(hm, droplets=hydraulic, seed=seed)
+    else:
+        name = model or "stream-power"
+        with timed(f"{name} erosion", quiet=quiet):
+            result = erode(hm, model=name, iterations=iterations, strength=strength, seed=seed,
+                           talus_angle=talus_angle, rain=rain)
+        hm, result_masks = result.heightmap, result.masks
+    import numpy as np
+
     if thermal:
         with timed("thermal erosion", quiet=quiet):
-            hm = thermal_erosion(hm, iterations=thermal, talus_angle=talus)
-    _finish(hm, output, None, None, force, quiet)
+            hm = thermal_erosion(hm, iterations=thermal, talus_angle=talus_angle)
+        if result_masks:  # the height changes now include the slumping
+            dh = hm.heights.astype(np.float64) - original
+            result_masks["deposition"] = np.maximum(dh, 0.0).astype(np.float32)
+            result_masks["wear"] = np.maximum(-dh, 0.0).astype(np.float32)
+
+    # Masks go to temporary files first and are renamed only once the heightmap is written:
+    # an error anywhere leaves none of the outputs behind.
+    with contextlib.ExitStack() as stack:
+        for name, path in mask_paths.items():
+            tmp = stack.enter_context(atomic_output(path, force=force))
+            with open(tmp, "wb") as fh:
+                np.save(fh, np.ascontiguousarray(result_masks[name], dtype=np.float32))
+        _finish(hm, output, None, None, force, quiet)
+    if mask_paths:
+        out.print(f"masks {', '.join(str(p) for p in mask_paths.values())}")

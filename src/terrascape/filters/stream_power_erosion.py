@@ -11,14 +11,18 @@ so that one ``strength = K·dt`` gives the same landscape at any resolution, ``a
 drainage area as a share of the map and slopes are measured per map width ``W``. The
 step is unconditionally stable. Border samples are the base level (fixed).
 
-The first step routes over the depression-filled surface (Priority-Flood, as in
-:mod:`terrascape.analysis.drainage`): closed depressions are filled, as lakes fill with
-sediment. Each later step keeps the surface drained — every new height is a weighted mean
-of the sample's old height (plus uplift) and its receiver's new height, so it never sinks
-below the receiver — which lets the receivers be updated locally (steepest strictly
-downward neighbour, or the previous receiver on a flat) and the stack be rebuilt by a
-depth-first walk from the outlets in O(n), with no flood per step (Braun & Willett §2).
-Uniform uplift keeps that property; the outlets do not uplift.
+The first step drains the input's closed depressions (Priority-Flood, as in
+:mod:`terrascape.analysis.drainage`): each is filled by the share ``fill`` of its depth,
+as lakes fill with sediment, and the rest is cut as a channel from its bottom along the
+drowned valley floor to the spill point (hybrid breaching-filling,
+:func:`~terrascape.analysis.drainage.breach_depressions`); the later steps deepen those
+channels into valleys. Each later step keeps the surface drained — every new height is a
+weighted mean of the sample's old height (plus uplift) and its receiver's new height, so
+it never sinks below the receiver (the update is written as ``h_r + (h − h_r)/(1 + F)`` so
+rounding cannot break that) — which lets the receivers be updated locally (steepest
+strictly downward neighbour, or the previous receiver on a flat) and the stack be rebuilt
+by a depth-first walk from the outlets in O(n), with no flood per step (Braun & Willett
+§2). Uniform uplift keeps that property; the outlets do not uplift.
 
 Cordonnier et al. (2016) use the same solver for large-scale terrain from an uplift map;
 here it erodes an existing map (uplift 0 by default): valleys grow headward from the
@@ -115,15 +119,14 @@ def _build_stack(receivers, order):  # pragma: no cover - compiled
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _implicit_step(h, order, receivers, dist, area, strength, m, width, uplift):
-    # pragma: no cover - compiled
+def _implicit_step(h, order, receivers, coef, uplift):  # pragma: no cover - compiled
     flat = h.ravel()
     for t in range(order.shape[0]):
         i = order[t]
         r = receivers[i]
         if r < 0:
             continue
-        f = strength * area[i] ** m * width / dist[i]
+        f = coef[i]
         # Same value as (h + U + F·h_r) / (1 + F), written so that rounding can never put a
         # sample below its receiver (which would close a loop of receivers).
         hr = flat[r]
@@ -177,7 +180,7 @@ def stream_power_erosion(
     heightmap
         Input map (at least 3×3); border samples are the base level.
     iterations
-        Time steps (``>= 0``; 0 returns the depression-filled input).
+        Time steps (``>= 0``; 0 returns the drained input).
     strength
         ``K·dt`` per step, dimensionless (area as a share of the map, slope per map
         width), ``> 0``; larger cuts deeper. Unconditionally stable.
@@ -185,7 +188,11 @@ def stream_power_erosion(
         Area exponent, ``[0.1, 1]`` (``m/n = 0.5`` is typical of real rivers).
     uplift
         Uplift per step in world units (``>= 0``): a number, or a map of the input's shape
-        (Cordonnier et al.: rock uplift shapes the ranges); outlets excluded.
+        (Cordonnier et al.: rock uplift shapes the ranges); outlets excluded. Where the
+        uplift varies, new depressions are drained again by a flood.
+    fill
+        Share of each closed depression's depth that is filled before the rest is cut as a
+        channel, ``[0, 1]`` (1 = flat lakes, 0 = pure breaching).
 
     Returns
     -------
@@ -198,6 +205,7 @@ def stream_power_erosion(
     strength = check_positive(strength, "strength")
     m = check_range(m, "m", 0.1, 1.0)
     up = _uplift_map(uplift, heightmap.shape)
+    fill = check_range(fill, "fill", 0.0, 1.0)
     sx, sz = heightmap.spacing
     h0 = heightmap.heights.astype(np.float64)
     routing = _routing(h0, sx, sz)
@@ -225,7 +233,8 @@ def stream_power_erosion(
                 order = routing.order.copy()
                 floods += 1
             area = _accumulate(order, receivers, ones)
-        _implicit_step(h, order, receivers, dist, area / n, strength, m, width, up)
+        coef = strength * width * (area / n) ** m / dist
+        _implicit_step(h, order, receivers, coef, up)
     return StreamPowerResult(heightmap.with_heights(h.astype(np.float32)),
                              area.reshape(h.shape).astype(np.float32))
 
