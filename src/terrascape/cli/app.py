@@ -32,11 +32,6 @@ out = Console(highlight=False, soft_wrap=True)  # piped output stays one record 
 USAGE_EXIT = 2
 
 
-def fail(message: str) -> None:
-    """Print one red error line and exit with the usage-error code (no traceback)."""
-    raise TerrascapeError(message)
-
-
 def run_app(argv: list[str] | None = None) -> int:
     """Run the typer app; typed errors become one line on stderr and exit code 2.
 

@@ -64,6 +64,7 @@ import numpy as np
 
 from terrascape._numba import CACHE, FASTMATH, njit
 from terrascape._validate import check_finite, check_int, check_positive
+from terrascape.camera import Camera
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.lod._heap import _TIE_M, _TIE_S, _heapify, _hpop, _hpush
@@ -842,8 +843,6 @@ class RoamStats:
 
 
 def _check_camera(camera):
-    from terrascape.camera import Camera
-
     if not isinstance(camera, Camera):
         raise InvalidParameterError(
             f"camera must be a terrascape.camera.Camera, got {type(camera).__name__}"
