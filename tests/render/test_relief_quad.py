@@ -244,7 +244,7 @@ def test_linear_steps_default_resolution():
     assert st.uniforms(0.1)["u_linear_steps"] == 16
     # Only the clearance march is made denser; an explicit count always wins.
     assert ReliefSettings(march="fixed").resolved_linear_steps(walls=True) == 16
-    assert ReliefSettings(adaptive=True).resolved_linear_steps(walls=True) == 16
+    assert ReliefSettings(march="angle").resolved_linear_steps(walls=True) == 16
     assert ReliefSettings(linear_steps=20).resolved_linear_steps(walls=True) == 20
 
 
@@ -295,7 +295,7 @@ def test_runtime_uniforms_change_the_result(renderers, city):
     fine = renderers["city"].render(TILED, cam, "relief",
                                     settings=ReliefSettings(linear_steps=64))
     adaptive = renderers["city"].render(
-        TILED, cam, "relief", settings=ReliefSettings(adaptive=True, step_texels=0.5)
+        TILED, cam, "relief", settings=ReliefSettings(march="angle", step_texels=0.5)
     )
     e = {k: _errors(o, ref)[0].mean() for k, o in
          {"coarse": coarse, "fine": fine, "adaptive": adaptive}.items()}
@@ -349,9 +349,7 @@ def test_bad_technique_and_settings():
         ReliefSettings(linear_steps=0)
     with pytest.raises(InvalidParameterError, match="march"):
         ReliefSettings(march="sphere")
-    with pytest.raises(InvalidParameterError, match="adaptive"):
-        ReliefSettings(adaptive=True, march="fixed")
-    assert ReliefSettings(adaptive=True).uniforms(0.1)["u_adaptive"] == 1
+    assert ReliefSettings(march="angle").uniforms(0.1)["u_adaptive"] == 1
     assert ReliefSettings(march="fixed").uniforms(0.1)["u_adaptive"] == 0
     assert ReliefSettings().uniforms(0.1)["u_adaptive"] == 2
 

@@ -123,6 +123,10 @@ def test_lod_manager_recomputes_only_on_change():
     assert lod.update("roam", cam, SIZE, {"max_triangles": 500}) == (None, False)
     moved = cam.moved((5.0, 0.0, 0.0))
     assert lod.update("roam", moved, SIZE, {"max_triangles": 500})[1]
+    # ROAM's tolerance (the viewer's J + PgDn) reaches Roam.update: a coarse one stops early
+    coarse, changed = lod.update("roam", moved, SIZE, {"max_triangles": 500, "tolerance_px": 40})
+    assert changed and len(coarse) < 500 and lod.last_detail.endswith("(tolerance)")
+    assert lod.update("roam", moved, SIZE, {"max_triangles": 500})[1]
     geo, changed = lod.update("geomipmap", moved, SIZE, {"tolerance_px": 4.0})
     assert changed and len(geo) > 0
     turner, _ = lod.update("turner", moved, SIZE, {"max_triangles": 2000})

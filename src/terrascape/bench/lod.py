@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 from terrascape.bench import BenchTable, best_of
+from terrascape.camera import Camera
 
 FULL_GM_SIZES = (257, 513, 1025, 2049, 4097)
 QUICK_GM_SIZES = (257, 513)
@@ -38,8 +39,6 @@ def _terrain(n: int):
 def _flight(hm, frames: int, seed: int = 7):
     """A seeded camera flight: a loop at 150–400 m above the terrain's top, looking ahead
     and down 15–30°."""
-    from terrascape.camera import Camera
-
     rng = np.random.default_rng(seed)
     w, d = hm.extent
     phase = rng.uniform(0, 2 * math.pi)

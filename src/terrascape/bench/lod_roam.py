@@ -22,6 +22,7 @@ import time
 import numpy as np
 
 from terrascape.bench import BenchTable
+from terrascape.camera import Camera
 
 FULL_SIZES = (257, 513, 1025, 2049, 4097)
 QUICK_SIZES = (257, 513)
@@ -41,8 +42,6 @@ def _terrain(n: int):
 
 def _flight(hm, frames: int, seed: int = 11, step_m: float = 5.0):
     """Seeded smooth flight: a circle around the centre, heading along the tangent."""
-    from terrascape.camera import Camera
-
     rng = np.random.default_rng(seed)
     w, d = hm.extent
     radius = 0.3 * min(w, d)

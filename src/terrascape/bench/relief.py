@@ -24,6 +24,7 @@ import time
 import numpy as np
 
 from terrascape.bench import BenchTable, best_of
+from terrascape.camera import Camera, frame_terrain
 
 ANGLES = (30, 60, 70, 80)
 # The seed's relief mapping: 16 equal linear steps, 8 binary steps — the time baseline.
@@ -40,10 +41,10 @@ TECHNIQUES: list[tuple[str, str, dict]] = [
      "(1/32 on a field with walls), + 4 binary",
      "relief", {}),
     ("relief adaptive (1 texel, 16..256)+8", "relief",
-     {"adaptive": True, "step_texels": 1.0, "max_steps": 256, "binary_steps": 8}),
+     {"march": "angle", "step_texels": 1.0, "max_steps": 256, "binary_steps": 8}),
     # the grazing-angle setting: steps follow the ray's length, three texels each
     ("relief adaptive (3 texels, 16..96)+8", "relief",
-     {"adaptive": True, "step_texels": 3.0, "max_steps": 96, "binary_steps": 8}),
+     {"march": "angle", "step_texels": 3.0, "max_steps": 96, "binary_steps": 8}),
     ("interval 16+8", "interval", {"linear_steps": 16, "binary_steps": 8}),
     ("cone step 32+8", "cone", {"cone_steps": 32, "binary_steps": 8}),
     ("min/max exact", "minmax", {}),
@@ -51,8 +52,6 @@ TECHNIQUES: list[tuple[str, str, dict]] = [
 
 
 def _camera(theta: float, aspect: float = 1.0):
-    from terrascape.camera import Camera
-
     return Camera.orbit((0, 0, 0), 30.0, 90.0 - theta, 2.0, aspect=aspect, fov_y=40)
 
 
@@ -161,8 +160,6 @@ def _prewarp_row(heights, quad, cam, fb, tex):
 
 
 def _camera_from(cam, scale):
-    from terrascape.camera import Camera
-
     eye = cam.eye * scale
     return Camera.look_at(eye, (0, 0, 0), aspect=cam.aspect, fov_y=cam.fov_y,
                           near=cam.near * scale, far=cam.far)
@@ -307,7 +304,6 @@ def seed_table(ctx, *, size=(1280, 720), terrain=257, quick=False):
     """Seed 000 §2.7 on the terrain mesh: texture mapping vs parallax vs relief mapping for
     the seed's three textures, whole terrain in view, with the image error of each row
     against relief 16+8 and the height fetches per pixel."""
-    from terrascape.camera import frame_terrain
     from terrascape.generate import diamond_square
     from terrascape.render.relief_techniques import RELIEF_DEFAULTS, relief_variant
     from terrascape.render.terrain import TerrainRenderer

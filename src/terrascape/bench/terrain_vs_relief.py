@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from terrascape.bench import BenchTable
+from terrascape.errors import InvalidParameterError
 
 EXTENT = 1024.0  # world units per side for every grid size (quick mode only samples coarser)
 # Seed 000 §2.7 Test 4: addTerrainSceneNode scale (1, 0.11, 1) on an 8-bit heightmap of 1024
@@ -96,7 +97,6 @@ def terrain(size: int, kind: str = "seed", *, seed: int = 1):
     ``kind`` is a key of :data:`TERRAINS`: ``"seed"`` (smooth, the seed's height scale) or
     ``"mountains"`` (rougher, a quarter of the width high).
     """
-    from terrascape.errors import InvalidParameterError
     from terrascape.generate import diamond_square
 
     if kind not in TERRAINS:

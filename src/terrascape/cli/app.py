@@ -142,11 +142,6 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     console.print(f"[yellow]warning:[/] {escape(str(message))}")
 
 
-def fail(message: str) -> None:
-    """Print one red error line and exit with the usage-error code (no traceback)."""
-    raise TerrascapeError(message)
-
-
 def run_app(argv: list[str] | None = None) -> int:
     """Run the typer app; typed errors become one line on stderr and exit code 2.
 

@@ -30,6 +30,5 @@ def _make_command(name: str) -> None:
     bench_app.command(name=name)(command)
 
 
-for _name in available_cases():
-    if _name != "report":  # `bench report` has its own options (cli/cmd_report.py)
-        _make_command(_name)
+for _name in available_cases():  # `bench report` is cli/cmd_report.py (not a case)
+    _make_command(_name)

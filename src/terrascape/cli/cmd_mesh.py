@@ -18,6 +18,7 @@ from pathlib import Path
 
 import typer
 
+from terrascape.camera import Camera
 from terrascape.cli.app import app, out, timed
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
@@ -109,7 +110,6 @@ def mesh_command(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines."),
 ) -> None:
     """Export a terrain mesh and print its triangle count and MEASURED maximum error."""
-    from terrascape.camera import Camera
     from terrascape.io.atomic import check_output_path
     from terrascape.io.mesh import MESH_FORMATS, compact_mesh, write_mesh
     from terrascape.lod.mesh_checks import frustum_mask, max_vertical_error, screen_errors

@@ -6,7 +6,10 @@ from pathlib import Path
 
 import typer
 
+from terrascape._validate import check_range
+from terrascape.camera import Camera
 from terrascape.cli.app import app, console, timed
+from terrascape.errors import InvalidParameterError
 
 # {relief_techniques} is filled from the technique registry when help is shown (cli/app.py).
 TECHNIQUE_HELP = (
@@ -66,10 +69,7 @@ def relief_command(
     import numpy as np
     from PIL import Image
 
-    from terrascape._validate import check_range
-    from terrascape.camera import Camera
     from terrascape.cli.parsing import parse_floats, parse_size
-    from terrascape.errors import InvalidParameterError
     from terrascape.io.atomic import atomic_output, check_output_path
     from terrascape.lighting.sun import sun_direction
     from terrascape.relief.fields import city_field, fence_field, natural_field
@@ -110,8 +110,9 @@ def relief_command(
         from terrascape.render.relief_quad import ReliefQuadRenderer, ReliefSettings
 
         quad = ReliefQuad((-2, 0, -2), (4, 0, 0), (0, 0, 4), depth, (4.0, 4.0))
+        march = {"march": "angle"} if adaptive else {}  # --fixed: the default march
         settings = ReliefSettings(linear_steps=linear_steps, binary_steps=binary_steps,
-                                  adaptive=adaptive, step_texels=1.0, shadows=shadows)
+                                  step_texels=1.0, shadows=shadows, **march)
         ctx = create_headless_context()
         try:
             r = ReliefQuadRenderer(ctx, heights, size=(w, h), depth_hint=depth, bits=bits)

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import typer
 
+from terrascape.camera import Camera
 from terrascape.cli.app import app, out, progress, timed
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
@@ -91,8 +92,6 @@ def build_camera(hm, size, exaggeration, camera: str | None, target: str | None,
                  camera_height: float | None = None):
     """The CLI's camera: ``--camera/--target``, ``--orbit`` around the centre, or the
     default framing of the whole terrain (``None``)."""
-    from terrascape.camera import Camera
-
     aspect = size[0] / size[1]
     if orbit is not None and (camera is not None or target is not None):
         raise InvalidParameterError("use either --orbit or --camera/--target, not both")

@@ -14,6 +14,7 @@ import typer
 
 from terrascape.cli.app import app, out, timed
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
+from terrascape.heightmap import Heightmap
 from terrascape.io.atomic import atomic_output, check_output_path
 
 _FORCE = typer.Option(False, "--force", help="Overwrite the output file if it exists.")
@@ -141,7 +142,6 @@ def heightfromimage_cmd(
     quiet: bool = _QUIET,
 ) -> None:
     """Approximate a heightmap from a photo's brightness (bright = high)."""
-    from terrascape.heightmap import Heightmap
     from terrascape.io import write_png16
     from terrascape.lighting import height_from_image
 

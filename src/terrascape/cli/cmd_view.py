@@ -7,6 +7,7 @@ from pathlib import Path
 
 import typer
 
+from terrascape._validate import check_int, check_positive
 from terrascape.cli.app import app, console, timed
 from terrascape.errors import InvalidParameterError
 from terrascape.lod.schemes import SCHEMES
@@ -22,7 +23,6 @@ def generate_terrain(kind: str, size: int, seed: int, *, spacing: float = 2.0):
     Heights span ``[0, 0.2 · extent]`` (a 257-sample map on a 2 m grid: 512 m across, up to
     ~100 m high), so every size looks alike from the start camera.
     """
-    from terrascape._validate import check_int
     from terrascape.generate import diamond_square, fault_formation, hills
 
     size = check_int(size, "--gen-size", minimum=3, maximum=8193)
@@ -85,7 +85,6 @@ def view_cmd(
 
     Needs a display; for headless use render images with `terrascape render`.
     """
-    from terrascape._validate import check_positive
     from terrascape.cli.parsing import parse_size
     from terrascape.render.techniques import technique_names
     from terrascape.viewer.app import check_display, run_viewer

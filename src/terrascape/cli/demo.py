@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from terrascape.errors import GLUnavailableError, TerrascapeError
+from terrascape.camera import Camera
+from terrascape.errors import GLUnavailableError, InvalidParameterError, TerrascapeError
 from terrascape.heightmap import Heightmap
 
 
@@ -127,8 +128,6 @@ def texture_stage(out: Path, result: DemoResult, hm: Heightmap, *, force: bool) 
 
 def _close_up_camera(hm: Heightmap, aspect: float):
     """A low camera over the terrain's centre, where relief texturing is visible."""
-    from terrascape.camera import Camera
-
     w, d = hm.extent
     r, c = hm.rows // 2, hm.cols // 2
     ground = float(hm.heights[r, c])
@@ -154,13 +153,12 @@ def render_stage(
     """Render the terrain with every registered technique (headless), from an overview and a
     close-up camera, and time each frame (best of three, read-back included); then the
     view-dependent LOD meshes (ROAM, geomipmapping) as wireframe overlays."""
-    try:
-        from terrascape.render.context import create_headless_context, describe_context
-        from terrascape.render.offscreen import OffscreenRenderer
-        from terrascape.render.techniques import technique_names
-    except ImportError as exc:  # the [render] extra is not installed
-        result.skipped.append(f"rendering: {exc} (pip install 'terrascape[render]')")
-        return
+    # moderngl is imported only when a context is made: without the [render] extra that
+    # raises GLUnavailableError (with the install hint), handled below
+    from terrascape.render.context import create_headless_context, describe_context
+    from terrascape.render.offscreen import OffscreenRenderer
+    from terrascape.render.techniques import technique_names
+
     try:
         ctx = create_headless_context()
     except GLUnavailableError as exc:
@@ -235,8 +233,6 @@ def run_demo(
     stages: tuple[str, ...] = ("generate", "texture", "render"),
 ) -> DemoResult:
     """Run the demo stages into ``output`` (created if missing)."""
-    from terrascape.errors import InvalidParameterError
-
     if size < 17 or (size - 1) & (size - 2):
         raise InvalidParameterError(f"demo size must be 2**n + 1 and at least 17, got {size}")
     unknown = set(stages) - set(STAGES)

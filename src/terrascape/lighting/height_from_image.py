@@ -5,7 +5,9 @@ approximation of the height map by a specular (mirror) lighting filter" (Figures
 brightness stands in for height — lit roofs and ridges are bright, streets and gullies
 dark. This module implements that approximation on the photo's luminance:
 
-1. luminance ``Y = 0.2126 R + 0.7152 G + 0.0722 B`` (Rec. 709 weights on the stored values);
+1. luma ``Y' = 0.299 R + 0.587 G + 0.114 B`` on the stored (gamma-encoded) values
+   (:func:`terrascape.io.image.luminance`, the Rec. 601 weights every colour image read in
+   terrascape is reduced with);
 2. optional ``invert`` (``1 - Y``) for images where dark means high;
 3. optional Gaussian blur (``blur_sigma``, pixels) against texture noise;
 4. optional high-pass ``Y - G_σ * Y`` (``highpass_sigma``, pixels), which removes
@@ -25,8 +27,7 @@ from scipy import ndimage
 
 from terrascape._validate import check_positive
 from terrascape.errors import InvalidParameterError
-
-_REC709 = np.array([0.2126, 0.7152, 0.0722], dtype=np.float64)
+from terrascape.io.image import luminance
 
 
 def _to_unit_float(rgb: Any) -> np.ndarray:
@@ -62,17 +63,14 @@ def _to_unit_float(rgb: Any) -> np.ndarray:
     return out
 
 
-def luminance(rgb: Any) -> np.ndarray:
-    """Rec. 709 luminance of an RGB(A)/grey image as float64 ``(H, W)`` in [0, 1].
-
-    Alpha is ignored; a grey image is returned as is.
-    """
+def _brightness(rgb: Any) -> np.ndarray:
+    """Luma of an RGB(A) image, or a grey image as is: float64 ``(H, W)`` in [0, 1]."""
     img = _to_unit_float(rgb)
     if img.ndim == 2:
         return img
     if img.shape[2] == 1:
         return img[..., 0]
-    return img[..., :3] @ _REC709
+    return luminance(img)  # alpha ignored
 
 
 def height_from_image(
@@ -106,7 +104,7 @@ def height_from_image(
     """
     blur = check_positive(blur_sigma, "blur_sigma", allow_zero=True)
     gamma = check_positive(contrast, "contrast")
-    y = luminance(rgb)
+    y = _brightness(rgb)
     if invert:
         y = 1.0 - y
     if blur > 0.0:

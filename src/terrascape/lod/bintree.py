@@ -45,6 +45,7 @@ import numpy as np
 from terrascape._numba import CACHE, FASTMATH, njit
 from terrascape._validate import as_height_array, check_int, check_pow2_plus1_square
 from terrascape.errors import InvalidParameterError
+from terrascape.heightmap import Heightmap
 
 __all__ = [
     "ROOT_A",
@@ -245,8 +246,6 @@ def wedgie_errors(heights) -> np.ndarray:
 
 
 def _heights(heights, algorithm: str) -> np.ndarray:
-    from terrascape.heightmap import Heightmap
-
     if isinstance(heights, Heightmap):
         heights = heights.heights
     h = as_height_array(heights)

@@ -19,7 +19,9 @@ import numpy as np
 
 from terrascape._numba import CACHE, FASTMATH, njit
 from terrascape._validate import as_height_array
+from terrascape.camera import Camera
 from terrascape.errors import InvalidParameterError
+from terrascape.heightmap import Heightmap
 
 __all__ = [
     "ConformityReport",
@@ -71,8 +73,6 @@ def as_triangles(triangles, shape: tuple[int, int]) -> np.ndarray:
 
 def _heights_of(heightmap) -> tuple[np.ndarray, tuple[float, float]]:
     """Heights (float32 2-D) and spacing from a Heightmap or a plain 2-D array."""
-    from terrascape.heightmap import Heightmap
-
     if isinstance(heightmap, Heightmap):
         return heightmap.heights, heightmap.spacing
     return as_height_array(heightmap), (1.0, 1.0)
@@ -388,8 +388,6 @@ def _screen_errors(err, dx, dz, h, ex, ey, ez, k, near, out):
 def screen_errors(heightmap, triangles, camera, viewport) -> np.ndarray:
     """Per-sample screen-space error in pixels, float64 ``(rows, cols)``; see
     :func:`max_screen_error` for the metric."""
-    from terrascape.camera import Camera
-
     if not isinstance(camera, Camera):
         raise InvalidParameterError(f"camera must be a terrascape Camera, got {type(camera)}")
     _, height = _viewport(viewport)
@@ -408,8 +406,6 @@ def frustum_mask(heightmap, camera) -> np.ndarray:
     View-dependent LOD (ROAM's frustum flags, Duchaineau et al. 1997) only promises its
     screen-space tolerance where the terrain can be seen; use this mask to measure there.
     """
-    from terrascape.camera import Camera
-
     if not isinstance(camera, Camera):
         raise InvalidParameterError(f"camera must be a terrascape Camera, got {type(camera)}")
     h, (dx, dz) = _heights_of(heightmap)

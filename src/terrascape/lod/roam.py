@@ -64,6 +64,7 @@ import numpy as np
 
 from terrascape._numba import CACHE, FASTMATH, njit
 from terrascape._validate import check_finite, check_int, check_positive
+from terrascape.camera import Camera
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.lod._heap import _TIE_M, _TIE_S, _heapify, _hpop, _hpush
@@ -87,9 +88,24 @@ __all__ = ["Roam", "RoamStats", "roam_mesh"]
 
 ABSENT, LEAF, SPLIT = 0, 1, 2
 
-# camera parameter vector layout (one float64 array keeps the kernels' signatures short)
-_EYE, _FWD, _PLANES, _NEAR, _K, _STATIC, _DX, _DZ, _THETA = 0, 3, 6, 30, 31, 32, 33, 34, 35
-_NCAM = 36
+# The kernels take small named bundles instead of long positional lists:
+#
+# * ``view``: one record of :data:`VIEW` (a length-1 structured array; kernels read
+#   ``view[0]``) — the camera packed by :func:`camera_params` plus the grid spacing, the
+#   static flag (priorities in world units, for :func:`roam_mesh`) and the split queue's
+#   threshold θ (see :func:`_fill_split`);
+# * ``tree = (state, h, err, size, max_lvl)``: the bintree node states, heights, nested
+#   wedgie errors, cells per side and finest level;
+# * ``co = (ar, ac, r0, c0, r1, c1)``: a triangle's apex, v0 and v1 (row, col);
+# * ``split_q = (keys, ids)``, ``merge_q = (keys, ids)``: the queues' heap arrays (their
+#   lengths travel separately: the kernels return the new ones);
+# * ``recs = (leaves, diamonds, cnt)``: the two record sets (:mod:`terrascape.lod._records`)
+#   and their counts ``cnt = [leaves, diamonds, kept per operation]``.
+VIEW = np.dtype([
+    ("eye", np.float64, 3), ("forward", np.float64, 3), ("planes", np.float64, (6, 4)),
+    ("near", np.float64), ("k", np.float64), ("static", np.float64), ("dx", np.float64),
+    ("dz", np.float64), ("theta", np.float64),
+])  # fmt: skip
 
 # the per-frame split queue holds the leaves with priority >= a fraction of the previous
 # frame's maximum (_fill_split). Any fraction gives the same meshes; it only trades per-frame
@@ -108,11 +124,12 @@ _STOP_NAMES = {_TOLERANCE: "tolerance", _TRIANGLES: "triangles", _NO_MERGE: "tri
 # priorities
 # --------------------------------------------------------------------------------------------
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _wedgie_sphere(e, xa, ya, za, x0, y0, z0, x1, y1, z1):
+def _wedgie_sphere(e, pts):
     """Bounding sphere ``(cx, cy, cz, r)`` of the wedgie of thickness ``e`` over the triangle
-    with the given world corners: centred on the hypotenuse midpoint in x/z and on the
-    wedgie's height range in y. The priority's frustum short-cut and the leaf records'
-    refresh bound (:func:`_leaf_fill`) use the same sphere."""
+    with world corners ``pts = (xa, ya, za, x0, y0, z0, x1, y1, z1)``: centred on the
+    hypotenuse midpoint in x/z and on the wedgie's height range in y. The priority's frustum
+    short-cut and the leaf records' refresh bound (:func:`_leaf_fill`) use the same sphere."""
+    xa, ya, za, x0, y0, z0, x1, y1, z1 = pts
     cx = 0.5 * (x0 + x1)
     cz = 0.5 * (z0 + z1)
     ylo = min(ya, y0, y1) - e
@@ -127,17 +144,26 @@ def _wedgie_sphere(e, xa, ya, za, x0, y0, z0, x1, y1, z1):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _wedgie_priority(e, xa, ya, za, x0, y0, z0, x1, y1, z1,
-                     planes, ex, ey, ez, fx, fy, fz, near, kpx):  # fmt: skip
-    """Screen-space priority of a wedgie of thickness ``e > 0`` over the triangle with the
-    given world corners.
+def _corners(co, ya, y0, y1, dx, dz):
+    """World corners ``(xa, ya, za, x0, y0, z0, x1, y1, z1)`` of a triangle ``co`` with the
+    given corner heights."""
+    ar, ac, r0, c0, r1, c1 = co
+    return (ac * dx, ya, ar * dz, c0 * dx, y0, r0 * dz, c1 * dx, y1, r1 * dz)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _wedgie_priority(v, e, pts):
+    """Screen-space priority for the view record ``v`` of a wedgie of thickness ``e > 0``
+    over the triangle with world corners ``pts``.
 
     Frustum: exact "all six wedgie corners outside one plane" test, short-cut by the
     wedgie's bounding sphere (a sphere inside a plane needs no corner test). Exactness
     matters: culling must be nested like the wedgies so priorities stay monotonic. Depth:
     the exact minimum over the six wedgie corners.
     """
-    cx, cy, cz, rad = _wedgie_sphere(e, xa, ya, za, x0, y0, z0, x1, y1, z1)
+    xa, ya, za, x0, y0, z0, x1, y1, z1 = pts
+    cx, cy, cz, rad = _wedgie_sphere(e, pts)
+    planes = v.planes
     for k in range(6):
         a, b, c, d = planes[k, 0], planes[k, 1], planes[k, 2], planes[k, 3]
         if a * cx + b * cy + c * cz + d >= rad:
@@ -147,46 +173,54 @@ def _wedgie_priority(e, xa, ya, za, x0, y0, z0, x1, y1, z1,
         best = max(a * xa + b * ya + c * za, a * x0 + b * y0 + c * z0, a * x1 + b * y1 + c * z1)
         if best + d + e * abs(b) < 0.0:
             return 0.0  # entirely outside one plane: lowest priority
+    eye, fwd = v.eye, v.forward
+    ex, ey, ez = eye[0], eye[1], eye[2]
+    fx, fy, fz = fwd[0], fwd[1], fwd[2]
     da = (xa - ex) * fx + (ya - ey) * fy + (za - ez) * fz
     d0 = (x0 - ex) * fx + (y0 - ey) * fy + (z0 - ez) * fz
     d1 = (x1 - ex) * fx + (y1 - ey) * fy + (z1 - ez) * fz
     zmin = min(da, d0, d1) - e * abs(fy)
-    if zmin < near:
-        zmin = near
-    return e * kpx / zmin
+    if zmin < v.near:
+        zmin = v.near
+    return e * v.k / zmin
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _priority(cam, h, err, level, max_lvl, ar, ac, r0, c0, r1, c1):
-    """Projected wedgie thickness in pixels (module docstring); 0 outside the frustum or for
-    an exact triangle. In static mode (``cam[_STATIC] > 0``) the world-unit bound itself."""
+def _priority(view, tree, level, co):
+    """Projected wedgie thickness in pixels (module docstring) of the level-``level``
+    triangle ``co``; 0 outside the frustum or for an exact triangle. In static mode
+    (``static > 0``) the world-unit bound itself."""
+    _, h, err, _, max_lvl = tree
     if level >= max_lvl:
         return 0.0
+    ar, ac, r0, c0, r1, c1 = co
     e = np.float64(err[(r0 + r1) >> 1, (c0 + c1) >> 1])
     if e <= 0.0:
         return 0.0
-    if cam[_STATIC] > 0.0:
+    v = view[0]
+    if v.static > 0.0:
         return e
-    dx = cam[_DX]
-    dz = cam[_DZ]
-    planes = cam[_PLANES : _PLANES + 24].reshape((6, 4))
-    return _wedgie_priority(
-        e, ac * dx, np.float64(h[ar, ac]), ar * dz, c0 * dx, np.float64(h[r0, c0]), r0 * dz,
-        c1 * dx, np.float64(h[r1, c1]), r1 * dz, planes, cam[_EYE], cam[_EYE + 1],
-        cam[_EYE + 2], cam[_FWD], cam[_FWD + 1], cam[_FWD + 2], cam[_NEAR], cam[_K],
-    )  # fmt: skip
+    pts = _corners(co, np.float64(h[ar, ac]), np.float64(h[r0, c0]), np.float64(h[r1, c1]),
+                   v.dx, v.dz)
+    return _wedgie_priority(v, e, pts)
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _diamond_priority_at(cam, h, err, size, max_lvl, lvl, ar, ac, r0, c0, r1, c1):
-    """``max{p(T), p(T_B)}`` of the diamond of the level-``lvl`` triangle with the given
-    corners (either triangle of the pair: the maximum is symmetric; T_B's corners are the
-    mirrored apex with v0 and v1 swapped)."""
-    p = _priority(cam, h, err, lvl, max_lvl, ar, ac, r0, c0, r1, c1)
-    br = r0 + r1 - ar
-    bc = c0 + c1 - ac
-    if 0 <= br <= size and 0 <= bc <= size:
-        q = _priority(cam, h, err, lvl, max_lvl, br, bc, r1, c1, r0, c0)
+def _mirrored(co):
+    """The base neighbour's corners of a triangle ``co``: mirrored apex, v0 and v1 swapped."""
+    ar, ac, r0, c0, r1, c1 = co
+    return (r0 + r1 - ar, c0 + c1 - ac, r1, c1, r0, c0)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _diamond_priority_at(view, tree, lvl, co):
+    """``max{p(T), p(T_B)}`` of the diamond of the level-``lvl`` triangle ``co`` (either
+    triangle of the pair: the maximum is symmetric)."""
+    size = tree[3]
+    p = _priority(view, tree, lvl, co)
+    bco = _mirrored(co)
+    if 0 <= bco[0] <= size and 0 <= bco[1] <= size:
+        q = _priority(view, tree, lvl, bco)
         if q > p:
             p = q
     return p
@@ -204,31 +238,38 @@ _LEAF_FIELDS, _DIAMOND_FIELDS = 8, 5  # float32 values per record (widths of ``f
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _leaf_add(leaves, cnt, t, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1):
-    """Record leaf ``t`` (level ``lvl``): corners, heights, its wedgie thickness (0 at the
-    finest level, whose hypotenuse midpoint is not a grid vertex) and a bounding sphere of
-    its wedgie (grid spacing ``dx``, ``dz``).
+def _leaf_add(recs, t, lvl, tree, view, co):
+    """Record leaf ``t`` (level ``lvl``, corners ``co``): corners, heights, its wedgie
+    thickness (0 at the finest level, whose hypotenuse midpoint is not a grid vertex) and a
+    bounding sphere of its wedgie (grid spacing from ``view``).
 
     The sphere is the one :func:`_wedgie_priority` uses, stored in float32 with its radius
     enlarged by the centre's rounding and rounded up, so it still contains the wedgie: the
     refresh bounds the priority with it (:func:`_fill_split`)."""
+    leaves, _, cnt = recs
+    ar, ac, r0, c0, r1, c1 = co
     s = _rec_add(leaves, cnt[0], t, t, ar, ac, r0, c0, r1, c1)
     cnt[0] = s + 1
-    _leaf_fill(leaves[2], s, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1)
+    _leaf_fill(leaves[2], s, lvl, tree, view, co)
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _leaf_replace(leaves, old, t, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1):
+def _leaf_replace(recs, old, t, lvl, tree, view, co):
     """Turn the record of leaf ``old`` into one of leaf ``t`` in the same slot (a split's
     first child, a merge's parent): cheaper than a removal (which moves the last record)
     plus an append. Record order is free: the queues order ties by id."""
+    leaves = recs[0]
+    ar, ac, r0, c0, r1, c1 = co
     s = _rec_replace(leaves, _hfind(leaves[3], old), t, t, ar, ac, r0, c0, r1, c1)
-    _leaf_fill(leaves[2], s, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1)
+    _leaf_fill(leaves[2], s, lvl, tree, view, co)
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _leaf_fill(fl, s, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1):
+def _leaf_fill(fl, s, lvl, tree, view, co):
     """The float values of leaf record ``s`` (see :func:`_leaf_add`)."""
+    _, h, err, _, max_lvl = tree
+    v = view[0]
+    ar, ac, r0, c0, r1, c1 = co
     e = np.float64(err[(r0 + r1) >> 1, (c0 + c1) >> 1]) if lvl < max_lvl else 0.0
     ya = np.float64(h[ar, ac])
     y0 = np.float64(h[r0, c0])
@@ -237,8 +278,7 @@ def _leaf_fill(fl, s, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1):
     fl[s, 1] = ya
     fl[s, 2] = y0
     fl[s, 3] = y1
-    cx, cy, cz, rad = _wedgie_sphere(e, ac * dx, ya, ar * dz, c0 * dx, y0, r0 * dz,
-                                      c1 * dx, y1, r1 * dz)
+    cx, cy, cz, rad = _wedgie_sphere(e, _corners(co, ya, y0, y1, v.dx, v.dz))
     fl[s, 4] = cx
     fl[s, 5] = cy
     fl[s, 6] = cz
@@ -247,7 +287,8 @@ def _leaf_fill(fl, s, lvl, max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _leaf_remove(leaves, cnt, t):
+def _leaf_remove(recs, t):
+    leaves, _, cnt = recs
     cnt[0] = _rec_remove_at(leaves, cnt[0], _hfind(leaves[3], t))
 
 
@@ -259,32 +300,37 @@ def _vertex_key(r, c, size):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _diamond_drop(r, c, size, diamonds, cnt):
+def _diamond_drop(r, c, size, recs):
     """Delete the record of the diamond split at vertex ``(r, c)``, if any."""
+    _, diamonds, cnt = recs
     i = _hfind(diamonds[3], _vertex_key(r, c, size))
     if i >= 0:
         cnt[1] = _rec_remove_at(diamonds, cnt[1], i)
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _diamond_sync(t, state, h, err, size, diamonds, cnt):
+def _diamond_sync(t, tree, recs):
     """Make the diamond record of the diamond containing ``t`` agree with the bintree: present
     exactly when the diamond is mergeable (``t`` and its base neighbour split, all four
     children leaves). Found by its split vertex; its id is, as in the merge queue, the
     canonical (smaller) one."""
     if t < 2:
         return
-    ar, ac, r0, c0, r1, c1 = _tri_coords(t, size)
+    size = tree[3]
+    co = _tri_coords(t, size)
+    ar, ac, r0, c0, r1, c1 = co
     b = _partner_from_coords(_level(t), ar, ac, r0, c0, r1, c1, size)
-    _diamond_sync_known(t, b, ar, ac, r0, c0, r1, c1, state, h, err, size, diamonds, cnt)
+    _diamond_sync_known(t, b, co, tree, recs, False)
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _diamond_sync_known(t, b, ar, ac, r0, c0, r1, c1, state, h, err, size, diamonds, cnt,
-                        absent=False):  # fmt: skip
-    """:func:`_diamond_sync` with ``t``'s corners and base neighbour ``b`` already known.
-    ``absent``: the caller knows the diamond has no record (it was not mergeable before the
-    operation), which saves the hash lookup when it is not mergeable now either."""
+def _diamond_sync_known(t, b, co, tree, recs, absent):
+    """:func:`_diamond_sync` with ``t``'s corners ``co`` and base neighbour ``b`` already
+    known. ``absent``: the caller knows the diamond has no record (it was not mergeable
+    before the operation), which saves the hash lookup when it is not mergeable now
+    either."""
+    state, h, err, size, _ = tree
+    _, diamonds, cnt = recs
     mergeable = (
         state[t] == SPLIT
         and state[2 * t] == LEAF
@@ -294,11 +340,12 @@ def _diamond_sync_known(t, b, ar, ac, r0, c0, r1, c1, state, h, err, size, diamo
     if absent and not mergeable:
         return
     c = t if (b < 0 or t < b) else b
+    ar, ac, r0, c0, r1, c1 = co
     key = _vertex_key((r0 + r1) >> 1, (c0 + c1) >> 1, size)
     i = -1 if absent else _hfind(diamonds[3], key)
     if mergeable and i < 0:
-        if c != t:  # the base neighbour: mirrored apex, v0 and v1 swapped
-            ar, ac, r0, c0, r1, c1 = r0 + r1 - ar, c0 + c1 - ac, r1, c1, r0, c0
+        if c != t:  # the base neighbour
+            ar, ac, r0, c0, r1, c1 = _mirrored(co)
         s = _rec_add(diamonds, cnt[1], key, c, ar, ac, r0, c0, r1, c1)
         cnt[1] = s + 1
         fl = diamonds[2]
@@ -314,14 +361,16 @@ def _diamond_sync_known(t, b, ar, ac, r0, c0, r1, c1, state, h, err, size, diamo
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _records_reset(leaves, diamonds, cnt, h, err, size, max_lvl, dx, dz):
+def _records_reset(recs, tree, view):
     """Empty both record sets and record the two root triangles (the base mesh)."""
+    leaves, diamonds, cnt = recs
+    size = tree[3]
     leaves[3][:, 0] = -1
     diamonds[3][:, 0] = -1
     cnt[0] = 0
     cnt[1] = 0
-    _leaf_add(leaves, cnt, 2, 0, max_lvl, h, err, dx, dz, size, 0, size, size, 0, 0)
-    _leaf_add(leaves, cnt, 3, 0, max_lvl, h, err, dx, dz, 0, size, 0, 0, size, size)
+    _leaf_add(recs, 2, 0, tree, view, (size, 0, size, size, 0, 0))
+    _leaf_add(recs, 3, 0, tree, view, (0, size, 0, 0, size, size))
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -338,9 +387,10 @@ def _walk_roots(stack, size):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _walk_children(stack, sp, x, ar, ac, r0, c0, r1, c1):
+def _walk_children(stack, sp, x, co):
     """Push split triangle ``x``'s children ``T0 = (v_c, v_a, v_0)``, ``T1 = (v_c, v_1, v_a)``
     with their corners; returns the new stack height."""
+    ar, ac, r0, c0, r1, c1 = co
     mr = (r0 + r1) >> 1
     mc = (c0 + c1) >> 1
     stack[sp, 0] = 2 * x
@@ -353,10 +403,19 @@ def _walk_children(stack, sp, x, ar, ac, r0, c0, r1, c1):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _records_rebuild(state, h, err, size, max_lvl, dx, dz, leaves, diamonds, cnt, stack):
+def _popped(stack, sp):
+    """``(id, corners)`` of stack entry ``sp``."""
+    return stack[sp, 0], (stack[sp, 2], stack[sp, 3], stack[sp, 4], stack[sp, 5],
+                          stack[sp, 6], stack[sp, 7])
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _records_rebuild(tree, view, recs, stack):
     """Rebuild both record sets from the bintree in one walk (after a frame that ran with
     ``cnt[2] = 0``: building a mesh from the base triangulation takes tens of thousands of
     splits, and one walk at the end is cheaper than keeping the records per split)."""
+    state, size = tree[0], tree[3]
+    leaves, diamonds, cnt = recs
     leaves[3][:, 0] = -1
     diamonds[3][:, 0] = -1
     cnt[0] = 0
@@ -364,16 +423,14 @@ def _records_rebuild(state, h, err, size, max_lvl, dx, dz, leaves, diamonds, cnt
     sp = _walk_roots(stack, size)
     while sp > 0:
         sp -= 1
-        x = stack[sp, 0]
-        ar, ac, r0, c0 = stack[sp, 2], stack[sp, 3], stack[sp, 4], stack[sp, 5]
-        r1, c1 = stack[sp, 6], stack[sp, 7]
+        x, co = _popped(stack, sp)
         st = state[x]
         if st == LEAF:
-            _leaf_add(leaves, cnt, x, _level(x), max_lvl, h, err, dx, dz, ar, ac, r0, c0, r1, c1)
+            _leaf_add(recs, x, _level(x), tree, view, co)
         elif st == SPLIT:
             if state[2 * x] == LEAF and state[2 * x + 1] == LEAF:
-                _diamond_sync(x, state, h, err, size, diamonds, cnt)
-            sp = _walk_children(stack, sp, x, ar, ac, r0, c0, r1, c1)
+                _diamond_sync(x, tree, recs)
+            sp = _walk_children(stack, sp, x, co)
 
 
 # --------------------------------------------------------------------------------------------
@@ -401,48 +458,51 @@ def _canonical(t, size):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _split_one(t, b, ar, ac, r0, c0, r1, c1, state, h, err, cam, size, max_lvl, sk, si, ns,
-               leaves, diamonds, cnt):  # fmt: skip
-    """Replace leaf ``t`` (base neighbour ``b``, −1 on the border) by its children
-    ``T0 = (v_c, v_a, v_0)``, ``T1 = (v_c, v_1, v_a)``, queue them and update the records
-    (the leaf's, and the diamonds of ``t`` and its parent, the only ones whose mergeability
-    a split of ``t`` can change). ``ar … c1`` are ``t``'s corners (callers know them: an
-    O(level) :func:`_tri_coords` per triangle is a large part of an operation's cost)."""
+def _split_one(t, b, co, tree, view, split_q, ns, recs):
+    """Replace leaf ``t`` (corners ``co``, base neighbour ``b``, −1 on the border) by its
+    children ``T0 = (v_c, v_a, v_0)``, ``T1 = (v_c, v_1, v_a)``, queue them and update the
+    records (the leaf's, and the diamonds of ``t`` and its parent, the only ones whose
+    mergeability a split of ``t`` can change). Callers know ``co``: an O(level)
+    :func:`_tri_coords` per triangle is a large part of an operation's cost. Returns the
+    split queue's length."""
+    state, size = tree[0], tree[3]
+    sk, si = split_q
+    cnt = recs[2]
+    ar, ac, r0, c0, r1, c1 = co
     state[t] = SPLIT
     state[2 * t] = LEAF
     state[2 * t + 1] = LEAF
     mr = (r0 + r1) >> 1
     mc = (c0 + c1) >> 1
     lvl = _level(t) + 1
+    child0 = (mr, mc, ar, ac, r0, c0)
+    child1 = (mr, mc, r1, c1, ar, ac)
     if cnt[2]:  # records kept per operation (else rebuilt after the frame)
-        dx = cam[_DX]
-        dz = cam[_DZ]
-        _leaf_replace(leaves, t, 2 * t, lvl, max_lvl, h, err, dx, dz, mr, mc, ar, ac, r0, c0)
-        _leaf_add(leaves, cnt, 2 * t + 1, lvl, max_lvl, h, err, dx, dz, mr, mc, r1, c1, ar, ac)
+        _leaf_replace(recs, t, 2 * t, lvl, tree, view, child0)
+        _leaf_add(recs, 2 * t + 1, lvl, tree, view, child1)
         # t was a leaf: its diamond had no record
-        _diamond_sync_known(
-            t, b, ar, ac, r0, c0, r1, c1, state, h, err, size, diamonds, cnt, True
-        )  # fmt: skip
+        _diamond_sync_known(t, b, co, tree, recs, True)
         # the parent's diamond (split at t's apex) is no longer mergeable; it had a record
         # only if both its children were leaves
         if t >= 4 and state[t ^ 1] == LEAF:
-            _diamond_drop(ar, ac, size, diamonds, cnt)
+            _diamond_drop(ar, ac, size, recs)
     # the split queue holds the leaves with p > 0 and p >= theta (see _fill_split)
-    theta = cam[_THETA]
-    p = _priority(cam, h, err, lvl, max_lvl, mr, mc, ar, ac, r0, c0)
+    theta = view[0].theta
+    p = _priority(view, tree, lvl, child0)
     if p > 0.0 and p >= theta:
         ns = _hpush(sk, si, ns, p, 2 * t, _TIE_S)
-    p = _priority(cam, h, err, lvl, max_lvl, mr, mc, r1, c1, ar, ac)
+    p = _priority(view, tree, lvl, child1)
     if p > 0.0 and p >= theta:
         ns = _hpush(sk, si, ns, p, 2 * t + 1, _TIE_S)
     return ns
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _force_split(t, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, stack,
-                 leaves, diamonds, cnt):  # fmt: skip
+def _force_split(t, tree, view, split_q, ns, merge_q, nm, stack, recs):
     """Split leaf ``t`` together with its base neighbour; a coarser base neighbour is force
     split first, recursively (explicit stack). Returns ``(ns, nm, leaves_added)``."""
+    state, size = tree[0], tree[3]
+    mk, mi = merge_q
     added = 0
     stack[0] = t
     sp = 1
@@ -456,26 +516,21 @@ def _force_split(t, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, s
             stack[sp] = x >> 1
             sp += 1
             continue
-        ar, ac, r0, c0, r1, c1 = _tri_coords(x, size)
+        co = _tri_coords(x, size)
+        ar, ac, r0, c0, r1, c1 = co
         lvl = _level(x)
         b = _partner_from_coords(lvl, ar, ac, r0, c0, r1, c1, size)
         if b >= 0 and state[b] == ABSENT:  # T_B is coarser: its parent must split first
             stack[sp] = b >> 1
             sp += 1
             continue
-        ns = _split_one(
-            x, b, ar, ac, r0, c0, r1, c1, state, h, err, cam, size, max_lvl, sk, si, ns,
-            leaves, diamonds, cnt,
-        )  # fmt: skip
+        ns = _split_one(x, b, co, tree, view, split_q, ns, recs)
         added += 1
-        if b >= 0 and state[b] == LEAF:  # T_B's corners: mirrored apex, v0 and v1 swapped
-            ns = _split_one(
-                b, x, r0 + r1 - ar, c0 + c1 - ac, r1, c1, r0, c0, state, h, err, cam, size,
-                max_lvl, sk, si, ns, leaves, diamonds, cnt,
-            )  # fmt: skip
+        if b >= 0 and state[b] == LEAF:
+            ns = _split_one(b, x, _mirrored(co), tree, view, split_q, ns, recs)
             added += 1
         d = x if (b < 0 or x < b) else b
-        p = _diamond_priority_at(cam, h, err, size, max_lvl, lvl, ar, ac, r0, c0, r1, c1)
+        p = _diamond_priority_at(view, tree, lvl, co)
         nm = _hpush(mk, mi, nm, -p, d, _TIE_M)
         sp -= 1
     return ns, nm, added
@@ -499,13 +554,18 @@ def _split_cost(t, state, size):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _merge(d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, leaves, diamonds, cnt):
+def _merge(d, tree, view, split_q, ns, merge_q, nm, recs):
     """Merge the (mergeable) diamond of ``d``; queue the parents and any diamond one level up
     that became mergeable. Returns ``(ns, nm, leaves_removed)``."""
+    state, size = tree[0], tree[3]
+    sk, si = split_q
+    mk, mi = merge_q
+    cnt = recs[2]
     lvl = _level(d)
-    ar, ac, r0, c0, r1, c1 = _tri_coords(d, size)
+    dco = _tri_coords(d, size)
+    ar, ac, r0, c0, r1, c1 = dco
     b = _partner_from_coords(lvl, ar, ac, r0, c0, r1, c1, size)
-    dco = (ar, ac, r0, c0, r1, c1)
+    theta = view[0].theta
     removed = 0
     for k in range(2):
         x = d if k == 0 else b
@@ -515,43 +575,33 @@ def _merge(d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, leaves,
         state[2 * x + 1] = ABSENT
         state[x] = LEAF
         removed += 1
-        if k == 1:  # T_B's corners: mirrored apex, v0 and v1 swapped
-            ar, ac, r0, c0, r1, c1 = dco[2] + dco[4] - dco[0], dco[3] + dco[5] - dco[1], \
-                dco[4], dco[5], dco[2], dco[3]  # fmt: skip
+        co = dco if k == 0 else _mirrored(dco)
         if cnt[2]:
-            _leaf_replace(
-                leaves, 2 * x, x, lvl, max_lvl, h, err, cam[_DX], cam[_DZ], ar, ac, r0, c0, r1, c1
-            )
-            _leaf_remove(leaves, cnt, 2 * x + 1)
-        p = _priority(cam, h, err, lvl, max_lvl, ar, ac, r0, c0, r1, c1)
-        if p > 0.0 and p >= cam[_THETA]:
+            _leaf_replace(recs, 2 * x, x, lvl, tree, view, co)
+            _leaf_remove(recs, 2 * x + 1)
+        p = _priority(view, tree, lvl, co)
+        if p > 0.0 and p >= theta:
             ns = _hpush(sk, si, ns, p, x, _TIE_S)
     # the merged diamond's record goes; the parents' diamonds may have become mergeable
     if cnt[2]:
-        _diamond_drop((dco[2] + dco[4]) >> 1, (dco[3] + dco[5]) >> 1, size, diamonds, cnt)
+        _diamond_drop((dco[2] + dco[4]) >> 1, (dco[3] + dco[5]) >> 1, size, recs)
     for k in range(2):
         x = d if k == 0 else b
         if x < 4:  # roots have no parent
             continue
         par = x >> 1
-        ar, ac, r0, c0, r1, c1 = dco
-        if k == 1:
-            ar, ac, r0, c0, r1, c1 = r0 + r1 - ar, c0 + c1 - ac, r1, c1, r0, c0
+        ar, ac, r0, c0, r1, c1 = dco if k == 0 else _mirrored(dco)
         # the parent's corners from its child's: x = T0 = (v_c, v_a, v_0) or
         # T1 = (v_c, v_1, v_a) of the parent, and v_c is the midpoint of v_0 and v_1
         if x & 1 == 0:
-            pa_r, pa_c, p0_r, p0_c = r0, c0, r1, c1
-            p1_r, p1_c = 2 * ar - r1, 2 * ac - c1
+            pco = (r0, c0, r1, c1, 2 * ar - r1, 2 * ac - c1)
         else:
-            pa_r, pa_c, p1_r, p1_c = r1, c1, r0, c0
-            p0_r, p0_c = 2 * ar - r0, 2 * ac - c0
-        bp = _partner_from_coords(lvl - 1, pa_r, pa_c, p0_r, p0_c, p1_r, p1_c, size)
+            pco = (r1, c1, 2 * ar - r0, 2 * ac - c0, r0, c0)
+        bp = _partner_from_coords(lvl - 1, pco[0], pco[1], pco[2], pco[3], pco[4], pco[5],
+                                  size)
         if cnt[2]:
             # x was split: the parent's diamond had no record
-            _diamond_sync_known(
-                par, bp, pa_r, pa_c, p0_r, p0_c, p1_r, p1_c, state, h, err, size, diamonds,
-                cnt, True,
-            )  # fmt: skip
+            _diamond_sync_known(par, bp, pco, tree, recs, True)
         if (
             state[2 * par] == LEAF
             and state[2 * par + 1] == LEAF
@@ -561,9 +611,7 @@ def _merge(d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, leaves,
             )
         ):  # mergeable (par itself is split)
             dd = par if (bp < 0 or par < bp) else bp
-            p = _diamond_priority_at(
-                cam, h, err, size, max_lvl, lvl - 1, pa_r, pa_c, p0_r, p0_c, p1_r, p1_c
-            )
+            p = _diamond_priority_at(view, tree, lvl - 1, pco)
             nm = _hpush(mk, mi, nm, -p, dd, _TIE_M)
     return ns, nm, removed
 
@@ -572,11 +620,11 @@ def _merge(d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, leaves,
 # per-frame refresh, greedy loop, output
 # --------------------------------------------------------------------------------------------
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _fill_split(cam, leaves, cnt, sk, si):
+def _fill_split(view, recs, split_q):
     """Build the split queue for ``cam`` from the leaf records alone (no bintree walk, no
     height or error lookups). Returns its length.
 
-    Partial queue: only leaves with ``p > 0`` and ``p >= θ = cam[_THETA]`` are queued (θ = 0:
+    Partial queue: only leaves with ``p > 0`` and ``p >= θ = view.theta`` are queued (θ = 0:
     all with ``p > 0``). A leaf is skipped without computing its priority when the cheap
     bound ``e·K / max(near, depth(centre) − r)`` of its bounding sphere (which contains the
     wedgie, so no wedgie corner is nearer than that) is below θ. Every left-out leaf has a
@@ -587,14 +635,16 @@ def _fill_split(cam, leaves, cnt, sk, si):
     priorities. The exact priorities are those of :func:`_priority` (same formula, same
     float32 inputs).
     """
-    static = cam[_STATIC] > 0.0
-    theta = cam[_THETA]
+    v = view[0]
+    leaves, _, cnt = recs
+    sk, si = split_q
+    static = v.static > 0.0
+    theta = v.theta
     # a relative margin far above the float64 rounding of the bound's few operations
     theta_b = theta * (1.0 - 1e-9)
-    dx, dz, near, kpx = cam[_DX], cam[_DZ], cam[_NEAR], cam[_K]
-    ex, ey, ez = cam[_EYE], cam[_EYE + 1], cam[_EYE + 2]
-    fx, fy, fz = cam[_FWD], cam[_FWD + 1], cam[_FWD + 2]
-    planes = cam[_PLANES : _PLANES + 24].reshape((6, 4))
+    dx, dz, near, kpx = v.dx, v.dz, v.near, v.k
+    ex, ey, ez = v.eye[0], v.eye[1], v.eye[2]
+    fx, fy, fz = v.forward[0], v.forward[1], v.forward[2]
     lid, lco, lfl = leaves[0], leaves[1], leaves[2]
     ns = 0
     for i in range(cnt[0]):
@@ -615,14 +665,10 @@ def _fill_split(cam, leaves, cnt, sk, si):
                     zb = near
                 if e * kpx / zb < theta_b:
                     continue
-            ar, ac, r0, c0, r1, c1 = (
-                lco[i, 0], lco[i, 1], lco[i, 2], lco[i, 3], lco[i, 4], lco[i, 5]
-            )  # fmt: skip
-            p = _wedgie_priority(
-                e, ac * dx, np.float64(lfl[i, 1]), ar * dz, c0 * dx, np.float64(lfl[i, 2]),
-                r0 * dz, c1 * dx, np.float64(lfl[i, 3]), r1 * dz,
-                planes, ex, ey, ez, fx, fy, fz, near, kpx,
-            )  # fmt: skip
+            co = (lco[i, 0], lco[i, 1], lco[i, 2], lco[i, 3], lco[i, 4], lco[i, 5])
+            pts = _corners(co, np.float64(lfl[i, 1]), np.float64(lfl[i, 2]),
+                           np.float64(lfl[i, 3]), dx, dz)
+            p = _wedgie_priority(v, e, pts)
         if p > 0.0 and p >= theta:
             sk[ns] = p
             si[ns] = lid[i]
@@ -632,14 +678,14 @@ def _fill_split(cam, leaves, cnt, sk, si):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _fill_merge(cam, size, diamonds, cnt, mk, mi):
-    """Build the merge queue for ``cam`` from the diamond records: every mergeable diamond
+def _fill_merge(view, size, recs, merge_q):
+    """Build the merge queue for ``view`` from the diamond records: every mergeable diamond
     keyed by ``−max{p(T), p(T_B)}`` (as :func:`_diamond_priority_at`). Returns its length."""
-    static = cam[_STATIC] > 0.0
-    dx, dz, near, kpx = cam[_DX], cam[_DZ], cam[_NEAR], cam[_K]
-    ex, ey, ez = cam[_EYE], cam[_EYE + 1], cam[_EYE + 2]
-    fx, fy, fz = cam[_FWD], cam[_FWD + 1], cam[_FWD + 2]
-    planes = cam[_PLANES : _PLANES + 24].reshape((6, 4))
+    v = view[0]
+    _, diamonds, cnt = recs
+    mk, mi = merge_q
+    static = v.static > 0.0
+    dx, dz = v.dx, v.dz
     did, dco, dfl = diamonds[0], diamonds[1], diamonds[2]
     nm = 0
     for j in range(cnt[1]):
@@ -649,22 +695,14 @@ def _fill_merge(cam, size, diamonds, cnt, mk, mi):
             if static:
                 p = e
             else:
-                ar, ac, r0, c0, r1, c1 = (
-                    dco[j, 0], dco[j, 1], dco[j, 2], dco[j, 3], dco[j, 4], dco[j, 5]
-                )  # fmt: skip
+                co = (dco[j, 0], dco[j, 1], dco[j, 2], dco[j, 3], dco[j, 4], dco[j, 5])
                 y0 = np.float64(dfl[j, 2])
                 y1 = np.float64(dfl[j, 3])
-                p = _wedgie_priority(
-                    e, ac * dx, np.float64(dfl[j, 1]), ar * dz, c0 * dx, y0, r0 * dz,
-                    c1 * dx, y1, r1 * dz, planes, ex, ey, ez, fx, fy, fz, near, kpx,
-                )  # fmt: skip
-                br = r0 + r1 - ar
-                bc = c0 + c1 - ac
-                if 0 <= br <= size and 0 <= bc <= size:  # T_B: mirrored apex, v0 ↔ v1
+                p = _wedgie_priority(v, e, _corners(co, np.float64(dfl[j, 1]), y0, y1, dx, dz))
+                bco = _mirrored(co)
+                if 0 <= bco[0] <= size and 0 <= bco[1] <= size:  # T_B
                     q = _wedgie_priority(
-                        e, bc * dx, np.float64(dfl[j, 4]), br * dz, c1 * dx, y1, r1 * dz,
-                        c0 * dx, y0, r0 * dz, planes, ex, ey, ez, fx, fy, fz, near, kpx,
-                    )  # fmt: skip
+                        v, e, _corners(bco, np.float64(dfl[j, 4]), y1, y0, dx, dz))
                     if q > p:
                         p = q
         mk[nm] = -p
@@ -675,8 +713,7 @@ def _fill_merge(cam, size, diamonds, cnt, mk, mi):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _roam_ops(state, h, err, cam, size, max_lvl, sk, si, mk, mi, stack, ivars, tau, max_ops,
-              leaves, diamonds, cnt, per_op):  # fmt: skip
+def _roam_ops(tree, view, split_q, merge_q, stack, recs, ivars, tau, max_ops, per_op):
     """Greedy split/merge loop of seed §4.1.3, at most ``max_ops`` operations.
 
     ``ivars`` = [ns, nm, count, max_triangles, splits, merges, ops] is updated in place.
@@ -684,6 +721,11 @@ def _roam_ops(state, h, err, cam, size, max_lvl, sk, si, mk, mi, stack, ivars, t
     record array has less than ``per_op`` free entries — the caller grows it and resumes;
     ``_REFILL`` when a partial split queue ran empty — the caller rebuilds it with θ = 0).
     """
+    state, size = tree[0], tree[3]
+    sk, si = split_q
+    mk, mi = merge_q
+    leaves, diamonds, cnt = recs
+    theta = view[0].theta
     ns, nm, count, nmax = ivars[0], ivars[1], ivars[2], ivars[3]
     status = _MORE
     ops = 0
@@ -698,7 +740,7 @@ def _roam_ops(state, h, err, cam, size, max_lvl, sk, si, mk, mi, stack, ivars, t
         # lazy deletion: drop entries that are no longer leaves / mergeable diamonds
         while ns > 0 and state[si[0]] != LEAF:
             ns = _hpop(sk, si, ns, _TIE_S)
-        if ns == 0 and cam[_THETA] > 0.0:  # leaves were left out: need the full queue
+        if ns == 0 and theta > 0.0:  # leaves were left out: need the full queue
             status = _REFILL
             break
         while nm > 0 and not _mergeable(mi[0], state, size):
@@ -734,19 +776,13 @@ def _roam_ops(state, h, err, cam, size, max_lvl, sk, si, mk, mi, stack, ivars, t
         if do_merge:
             d = mi[0]
             nm = _hpop(mk, mi, nm, _TIE_M)
-            ns, nm, removed = _merge(
-                d, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm,
-                leaves, diamonds, cnt,
-            )  # fmt: skip
+            ns, nm, removed = _merge(d, tree, view, split_q, ns, merge_q, nm, recs)
             count -= removed
             ivars[5] += 1
         else:
             t = si[0]
             ns = _hpop(sk, si, ns, _TIE_S)
-            ns, nm, added = _force_split(
-                t, state, h, err, cam, size, max_lvl, sk, si, ns, mk, mi, nm, stack,
-                leaves, diamonds, cnt,
-            )  # fmt: skip
+            ns, nm, added = _force_split(t, tree, view, split_q, ns, merge_q, nm, stack, recs)
             count += added
             ivars[4] += 1
         ops += 1
@@ -763,17 +799,16 @@ def _roam_collect(state, size, out, stack):
     sp = _walk_roots(stack, size)
     while sp > 0:
         sp -= 1
-        x = stack[sp, 0]
-        ar, ac, r0, c0 = stack[sp, 2], stack[sp, 3], stack[sp, 4], stack[sp, 5]
-        r1, c1 = stack[sp, 6], stack[sp, 7]
+        x, co = _popped(stack, sp)
         st = state[x]
         if st == LEAF:
+            ar, ac, r0, c0, r1, c1 = co
             out[m, 0] = ar * n + ac
             out[m, 1] = r0 * n + c0
             out[m, 2] = r1 * n + c1
             m += 1
         elif st == SPLIT:
-            sp = _walk_children(stack, sp, x, ar, ac, r0, c0, r1, c1)
+            sp = _walk_children(stack, sp, x, co)
     return m
 
 
@@ -842,8 +877,6 @@ class RoamStats:
 
 
 def _check_camera(camera):
-    from terrascape.camera import Camera
-
     if not isinstance(camera, Camera):
         raise InvalidParameterError(
             f"camera must be a terrascape.camera.Camera, got {type(camera).__name__}"
@@ -869,24 +902,33 @@ def _check_viewport(viewport) -> tuple[int, int]:
     return width, height
 
 
+def _static_view(spacing) -> np.ndarray:
+    """A :data:`VIEW` record for world-unit priorities (no camera)."""
+    view = np.zeros(1, VIEW)
+    view["static"] = 1.0
+    view["dx"], view["dz"] = spacing  # for the records' bounding spheres
+    return view
+
+
 def camera_params(camera, viewport, spacing) -> np.ndarray:
-    """Pack a camera for the kernels: eye, forward, frustum planes, near, ``K`` (see the
-    module docstring), spacing. Raises :class:`InvalidParameterError` for NaN cameras."""
+    """Pack a camera for the kernels: a :data:`VIEW` record with eye, forward, frustum
+    planes, near, ``K`` (see the module docstring) and spacing. Raises
+    :class:`InvalidParameterError` for NaN cameras."""
     camera = _check_camera(camera)
     width, height = _check_viewport(viewport)
-    cam = np.zeros(_NCAM, np.float64)
-    cam[_EYE : _EYE + 3] = camera.eye
-    cam[_FWD : _FWD + 3] = camera.forward
+    view = np.zeros(1, VIEW)
+    view["eye"] = camera.eye
+    view["forward"] = camera.forward
     planes = camera.frustum_planes()
     if not np.isfinite(planes).all():
         raise InvalidParameterError("camera frustum planes are not finite (check the camera)")
-    cam[_PLANES : _PLANES + 24] = planes.reshape(-1)
-    cam[_NEAR] = camera.near
+    view["planes"] = planes
+    view["near"] = camera.near
     tan_y = math.tan(math.radians(camera.fov_y) / 2.0)
     k_px = max(height / (2.0 * tan_y), width / (2.0 * tan_y * camera.aspect))
-    cam[_K] = k_px * math.sqrt(1.0 + tan_y * tan_y * (1.0 + camera.aspect**2))
-    cam[_DX], cam[_DZ] = spacing
-    return cam
+    view["k"] = k_px * math.sqrt(1.0 + tan_y * tan_y * (1.0 + camera.aspect**2))
+    view["dx"], view["dz"] = spacing
+    return view
 
 
 class Roam:
@@ -944,12 +986,15 @@ class Roam:
         self._state[:] = ABSENT
         self._state[2] = self._state[3] = LEAF
         self._count = 2
-        dx, dz = self.heightmap.spacing
-        _records_reset(
-            self._leaves, self._diamonds, self._cnt, self._h, self._err,
-            np.int64(self.size), np.int64(self.max_level), float(dx), float(dz),
-        )  # fmt: skip
+        _records_reset(self._recs(), self._tree(), _static_view(self.heightmap.spacing))
         self.max_screen_error = math.inf
+
+    # the kernels' bundles (see "The kernels take small named bundles" above)
+    def _tree(self):
+        return (self._state, self._h, self._err, np.int64(self.size), np.int64(self.max_level))
+
+    def _recs(self):
+        return (self._leaves, self._diamonds, self._cnt)
 
     @property
     def triangle_count(self) -> int:
@@ -990,14 +1035,13 @@ class Roam:
     def _rebuild_split_queue(self, cam, nm: int) -> int:
         """Full split queue (θ = 0) for ``cam`` after a partial one ran empty; keeps the first
         ``nm`` merge queue entries. Returns the split queue's length."""
-        cam[_THETA] = 0.0
+        cam["theta"] = 0.0
         self._ensure(int(self._cnt[0]) + 64 * self._per_op, 0, 0, nm)
         self.rebuilds += 1
-        return int(_fill_split(cam, self._leaves, self._cnt, self._sk, self._si))
+        return int(_fill_split(cam, self._recs(), (self._sk, self._si)))
 
     def _run(self, cam, tau: float, nmax: int, budget_s: float | None, t0: float):
         """Refresh queues for ``cam`` and run the greedy loop. Returns (splits, merges, stop)."""
-        size, lvl = np.int64(self.size), np.int64(self.max_level)
         per_op = self._per_op
         if int(self._cnt[0]) != self._count:  # pragma: no cover - internal consistency
             raise RuntimeError(f"ROAM leaf records drifted: {self._cnt[0]} != {self._count}")
@@ -1005,15 +1049,16 @@ class Roam:
         # partial split queue (see _fill_split): the leaves that can still be split this
         # frame are, by frame coherence, near the top of last frame's queue
         prev = self.max_screen_error
-        dynamic = cam[_STATIC] == 0.0
+        dynamic = cam[0]["static"] == 0.0
         # from a (nearly) base mesh the frame is a build of many splits: records are rebuilt
         # once after it instead of per split (then the split queue must be full: a rebuild
         # of it would read the records)
         keep = self._count > _BUILD_FROM
-        cam[_THETA] = self._theta_frac * prev if keep and dynamic and 0.0 < prev < math.inf else 0.0
-        partial = cam[_THETA] > 0.0
-        ns = _fill_split(cam, self._leaves, self._cnt, self._sk, self._si)
-        nm = _fill_merge(cam, size, self._diamonds, self._cnt, self._mk, self._mi)
+        cam["theta"] = (self._theta_frac * prev if keep and dynamic and 0.0 < prev < math.inf
+                        else 0.0)
+        partial = cam[0]["theta"] > 0.0
+        ns = _fill_split(cam, self._recs(), (self._sk, self._si))
+        nm = _fill_merge(cam, np.int64(self.size), self._recs(), (self._mk, self._mi))
         ivars = np.array([ns, nm, self._count, nmax, 0, 0, 0], np.int64)
         self._cnt[2] = 1 if keep else 0
         try:
@@ -1023,21 +1068,17 @@ class Roam:
             if not keep:
                 self._leaves = _grow_records(self._leaves, 0, self._count + 64 * per_op)
                 self._diamonds = _grow_records(self._diamonds, 0, self._count + 64 * per_op)
-                dx, dz = self.heightmap.spacing
-                _records_rebuild(
-                    self._state, self._h, self._err, size, lvl, float(dx), float(dz),
-                    self._leaves, self._diamonds, self._cnt, self._stack8,
-                )  # fmt: skip
+                _records_rebuild(self._tree(), cam, self._recs(), self._stack8)
                 self._cnt[2] = 1
         # the split queue holds every leaf with a priority > max(0, θ), and left-out leaves
         # are below θ: its valid top is the maximum unless it ran empty
         ns = int(ivars[0])
         while ns > 0 and self._state[self._si[0]] != LEAF:
             ns = _hpop(self._sk, self._si, ns, _TIE_S)
-        if ns == 0 and cam[_THETA] > 0.0:
+        if ns == 0 and cam[0]["theta"] > 0.0:
             ns = self._rebuild_split_queue(cam, int(ivars[1]))
         if partial:
-            if cam[_THETA] == 0.0:  # rebuilt this frame
+            if cam[0]["theta"] == 0.0:  # rebuilt this frame
                 self._theta_frac = max(_THETA_MIN, self._theta_frac - _THETA_BACKOFF)
             else:
                 self._theta_frac = min(_THETA_MAX, self._theta_frac + _THETA_STEP_UP)
@@ -1046,7 +1087,6 @@ class Roam:
 
     def _loop(self, cam, tau: float, budget_s: float | None, t0: float, ivars) -> str:
         """The greedy loop in chunks of operations; returns the stop reason."""
-        size, lvl = np.int64(self.size), np.int64(self.max_level)
         per_op = self._per_op
         nmax = int(ivars[3])
         chunk = 64 if budget_s is not None else 4096
@@ -1060,11 +1100,10 @@ class Roam:
             # full; growing here and resuming is invisible to the result
             self._ensure(64 * per_op, 64 * per_op, int(ivars[0]), int(ivars[1]))
             status = _roam_ops(
-                self._state, self._h, self._err, cam, size, lvl, self._sk, self._si,
-                self._mk, self._mi, self._stack1, ivars, float(tau),
-                np.int64(min(chunk, op_cap - int(ivars[6]))),
-                self._leaves, self._diamonds, self._cnt, np.int64(per_op),
-            )  # fmt: skip
+                self._tree(), cam, (self._sk, self._si), (self._mk, self._mi), self._stack1,
+                self._recs(), ivars, float(tau), np.int64(min(chunk, op_cap - int(ivars[6]))),
+                np.int64(per_op),
+            )
             if status == _REFILL:
                 ivars[0] = self._rebuild_split_queue(cam, int(ivars[1]))
                 continue
@@ -1120,7 +1159,7 @@ class Roam:
         if time_budget_ms is not None:
             budget = check_positive(time_budget_ms, "time_budget_ms (milliseconds)") / 1000.0
         cam = camera_params(camera, viewport, self.heightmap.spacing)
-        self._planes = cam[_PLANES : _PLANES + 24].reshape(6, 4).copy()
+        self._planes = cam[0]["planes"].copy()
         splits, merges, stop = self._run(cam, tau, nmax, budget, t0)
         self.frame += 1
         return RoamStats(
@@ -1162,10 +1201,7 @@ class Roam:
         return out[:m]
 
     def _static_cam(self) -> np.ndarray:
-        cam = np.zeros(_NCAM, np.float64)
-        cam[_STATIC] = 1.0
-        cam[_DX], cam[_DZ] = self.heightmap.spacing  # for the records' bounding spheres
-        return cam
+        return _static_view(self.heightmap.spacing)
 
     def force_split(self, tri: int) -> int:
         """Split leaf ``tri`` with the forced splits that keep the mesh conforming.
@@ -1177,10 +1213,9 @@ class Roam:
             raise InvalidParameterError(f"triangle {tri} is at the finest level; cannot split")
         self._ensure(self._per_op, self._per_op)
         _, _, added = _force_split(
-            np.int64(tri), self._state, self._h, self._err, self._static_cam(),
-            np.int64(self.size), np.int64(self.max_level), self._sk, self._si, 0,
-            self._mk, self._mi, 0, self._stack1, self._leaves, self._diamonds, self._cnt,
-        )  # fmt: skip
+            np.int64(tri), self._tree(), self._static_cam(), (self._sk, self._si), 0,
+            (self._mk, self._mi), 0, self._stack1, self._recs(),
+        )
         self._count += int(added)
         return int(added)
 
@@ -1191,10 +1226,9 @@ class Roam:
             raise InvalidParameterError(f"diamond {diamond} is not mergeable in the current mesh")
         self._ensure(8, 8)
         _, _, removed = _merge(
-            np.int64(diamond), self._state, self._h, self._err, self._static_cam(),
-            np.int64(self.size), np.int64(self.max_level), self._sk, self._si, 0,
-            self._mk, self._mi, 0, self._leaves, self._diamonds, self._cnt,
-        )  # fmt: skip
+            np.int64(diamond), self._tree(), self._static_cam(), (self._sk, self._si), 0,
+            (self._mk, self._mi), 0, self._recs(),
+        )
         self._count -= int(removed)
         return int(removed)
 

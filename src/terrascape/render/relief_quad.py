@@ -60,7 +60,7 @@ class ReliefSettings:
 
     * ``"fixed"``: ``linear_steps`` equal steps from depth 0 to 1 (the seed's relief 16+8
       with ``binary_steps=8``);
-    * ``"angle"`` (or ``adaptive=True``): equal steps of ``step_texels`` texels of the ray's
+    * ``"angle"``: equal steps of ``step_texels`` texels of the ray's
       length, ``linear_steps`` … ``max_steps`` of them;
     * ``"clearance"`` (the default): at a sample the ray is ``g`` above the surface; the next
       step is ``g / (1 + clearance_slope · L)`` in depth (``L`` = ray length in texels from
@@ -83,7 +83,6 @@ class ReliefSettings:
 
     linear_steps: int | None = None
     binary_steps: int = 4
-    adaptive: bool = False
     step_texels: float = 2.0
     max_steps: int = 128
     march: str = "clearance"
@@ -112,11 +111,6 @@ class ReliefSettings:
         if self.march not in MARCHES:
             raise InvalidParameterError(
                 f"march must be one of {', '.join(MARCHES)}, got {self.march!r}")
-        if self.adaptive:  # the older spelling of march="angle"
-            if self.march == "fixed":
-                raise InvalidParameterError(
-                    "adaptive=True asks for angle-adaptive steps, march='fixed' for equal ones")
-            object.__setattr__(self, "march", "angle")
         if not self.clearance_slope >= 0.0:
             raise InvalidParameterError(
                 f"clearance_slope must be >= 0, got {self.clearance_slope!r}")

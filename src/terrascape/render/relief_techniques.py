@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.render.relief_quad import TECHNIQUES, relief_texture_data
 from terrascape.render.techniques import (
@@ -40,7 +41,6 @@ FIELDS = ("city", "natural")
 
 
 def _relief_heights(params: Mapping[str, Any]) -> np.ndarray:
-    from terrascape.errors import InvalidParameterError
     from terrascape.relief.fields import city_field, natural_field
 
     name = params["relief_field"]

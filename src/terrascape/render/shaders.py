@@ -227,14 +227,6 @@ def load_program(ctx, name: str, defines: Mapping | None = None):
     return program
 
 
-def clear_cache(ctx=None) -> None:
-    """Forget cached programs (of one context, or of all); does not release them."""
-    if ctx is None:
-        _CACHE.clear()
-    else:
-        _CACHE.pop(ctx, None)
-
-
 def _flatten(name: str, value, uniform) -> np.ndarray:
     arr = np.asarray(value)
     if arr.dtype == np.bool_:
@@ -297,7 +289,6 @@ __all__ = [
     "ShaderCompileError",
     "ShaderSourceError",
     "available_programs",
-    "clear_cache",
     "load_program",
     "load_source",
     "program_path",

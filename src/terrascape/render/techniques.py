@@ -302,13 +302,17 @@ def register_technique(technique: Technique, *, replace: bool = False) -> Techni
 
 
 def _discover() -> None:
-    """Import ``terrascape.render.tech_*`` modules once (they register their techniques)."""
+    """Import the relief family and the ``terrascape.render.tech_*`` modules once (they
+    register their techniques)."""
     global _DISCOVERED
     if _DISCOVERED:
         return
     _DISCOVERED = True
     import terrascape.render as pkg
 
+    # the relief mapping family is built in: registered by its own module, which imports
+    # this one (so it is imported here, not at the top)
+    importlib.import_module("terrascape.render.relief_techniques")
     for mod in pkgutil.iter_modules(pkg.__path__):
         if mod.name.startswith("tech_"):
             importlib.import_module(f"terrascape.render.{mod.name}")

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from terrascape.errors import GLUnavailableError
+from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.viewer.controls import Action
 from terrascape.viewer.session import KeyRepeat, ViewerSession
@@ -206,8 +206,6 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
     from terrascape.viewer.controls import LOD_MODES
 
     if lod not in LOD_MODES:
-        from terrascape.errors import InvalidParameterError
-
         raise InvalidParameterError(f"lod must be one of {', '.join(LOD_MODES)}, got {lod!r}")
     wnd = open_window(size, fullscreen=fullscreen)
     session = None

@@ -229,7 +229,7 @@ class ViewerState:
         if self.lod in SCHEMES:
             _, focus = self._focused()
             detail = "  " + "  ".join(
-                ("→" if p is focus and len(SCHEMES[self.lod].adjustable) > 1 else "")
+                ("→ " if p is focus and len(SCHEMES[self.lod].adjustable) > 1 else "")
                 + p.label(self.lod_settings[self.lod][p.name])
                 for p in SCHEMES[self.lod].adjustable)
         lines.append(f"LOD: {self.lod}{detail}")

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from terrascape.errors import GLUnavailableError
+from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.viewer.font import BitmapFont, build_font, layout_text, text_block_size
 
 SHADER = Path(__file__).resolve().parent / "shaders" / "hud.glsl"
@@ -54,8 +54,6 @@ def panel_origin(size: tuple[float, float], viewport: tuple[int, int], anchor: s
         vert, horiz = anchor.split("-")
         return (x[horiz], y[vert])
     except (ValueError, KeyError):
-        from terrascape.errors import InvalidParameterError
-
         raise InvalidParameterError(
             f"anchor must be top-left, top-right, bottom-left, bottom-right or center, "
             f"got {anchor!r}"

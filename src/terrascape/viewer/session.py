@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from terrascape._validate import check_positive
-from terrascape.camera import Camera
+from terrascape.camera import Camera, frame_terrain
 from terrascape.errors import InvalidParameterError, TerrascapeError
 from terrascape.heightmap import Heightmap
 from terrascape.lod.schemes import SCHEMES
@@ -154,8 +154,6 @@ def terrain_diagonal(hm: Heightmap) -> float:
 def start_camera(hm: Heightmap, size: tuple[int, int], *, exaggeration: float = 1.0) -> Camera:
     """Overlooking the whole terrain (``frame_terrain``), with near/far planes that also suit
     flying down to the ground and away from it."""
-    from terrascape.camera import frame_terrain
-
     scaled = hm if exaggeration == 1.0 else hm.scaled(exaggeration)
     cam = frame_terrain(scaled.extent, (scaled.min, scaled.max), azimuth=210.0,
                         elevation=35.0, fov_y=60.0, aspect=size[0] / size[1])
