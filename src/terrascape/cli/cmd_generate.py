@@ -9,7 +9,7 @@ from pathlib import Path
 
 import typer
 
-from terrascape.cli.app import app, out, progress, timed
+from terrascape.cli.app import app, console, out, progress, timed
 from terrascape.errors import FileFormatError, InvalidParameterError
 from terrascape.generate.registry import (
     GENERATORS,
@@ -127,10 +127,14 @@ def _param_option(param: Param) -> tuple[object, object]:
     return annotation, typer.Option(param.default, param.option, help=text, show_default=show)
 
 
-def _generator_command(gen: Generator) -> Callable[..., None]:
-    """A typer command for ``gen`` whose options are the registry's parameters."""
+def _generator_command(gen: Generator, alias: str | None = None) -> Callable[..., None]:
+    """A typer command for ``gen`` whose options are the registry's parameters (``alias``:
+    an old spelling that still works, with a note)."""
 
     def command(**kwargs: object) -> None:
+        if alias is not None:
+            console.print(f"[yellow]note:[/] '{alias}' is an old name, use "
+                          f"'terrascape generate {gen.name}'")
         size, seed, spacing = kwargs.pop("size"), kwargs.pop("seed"), kwargs.pop("spacing")
         height_scale, raw = kwargs.pop("height_scale"), kwargs.pop("raw")
         output, preview = kwargs.pop("output"), kwargs.pop("preview")
@@ -191,7 +195,7 @@ def _generator_command(gen: Generator) -> Callable[..., None]:
 for _gen in GENERATORS.values():
     generate_app.command(_gen.name)(_generator_command(_gen))
     for _alias in _gen.aliases:
-        generate_app.command(_alias, hidden=True, deprecated=True)(_generator_command(_gen))
+        generate_app.command(_alias, hidden=True)(_generator_command(_gen, _alias))
 
 
 @app.command("blur")

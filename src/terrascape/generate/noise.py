@@ -66,7 +66,7 @@ _GRAD_X = (np.cos(_ANGLES) * _SQRT2).astype(np.float32)
 _GRAD_Z = (np.sin(_ANGLES) * _SQRT2).astype(np.float32)
 _MAX_ORIGIN = 1 << 40
 _OFFSET_RANGE = 1024.0
-_RUN_MIN = 4
+_RUN_MIN = 8
 
 # splitmix64 constants (φ·2⁶⁴ and the two finaliser multipliers) and a second odd multiplier
 # for the lattice row.
@@ -263,7 +263,7 @@ def _column_tables(cols: int, x0: int, freqs: np.ndarray, offx: np.ndarray):
         lat = np.unique(np.concatenate([left_cells, left_cells + 1]))
         left = np.searchsorted(lat, left_cells)
         col_cell[o] = np.searchsorted(lat, cell)
-        # Runs of >= 4 samples pay for their per-run set-up; shorter ones use the look-up pass.
+        # Runs of >= 8 samples pay for their per-run set-up; shorter ones use the look-up pass.
         by_run[o] = cols >= _RUN_MIN * starts.size
         run_parts.append(np.stack([starts, ends, left]).astype(np.uint64))
         lat_parts.append(lat)

@@ -412,9 +412,13 @@ def generate(
     """
     gen = get_generator(name)
     shape = grid_shape(size_or_shape, algorithm=gen.name)
-    if gen.square_pow2 and shape[0] != shape[1]:
-        raise InvalidParameterError(
-            f"{gen.name} needs a square size N = 2**n + 1, got {shape[1]}x{shape[0]}")
+    if gen.square_pow2:
+        from terrascape._validate import check_size_pow2_plus1
+
+        if shape[0] != shape[1]:
+            raise InvalidParameterError(
+                f"{gen.name} needs a square size N = 2**n + 1, got {shape[1]}x{shape[0]}")
+        check_size_pow2_plus1(shape[0], algorithm=gen.name)
     values = resolve_params(gen, shape, params)
     if raw and relief is not None:
         raise InvalidParameterError("give either a relief (height scale) or raw heights, "
