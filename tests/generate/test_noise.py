@@ -141,3 +141,21 @@ def test_run_and_lookup_passes_give_the_same_bits(make, monkeypatch) -> None:
     monkeypatch.setattr(noise, "_RUN_MIN", 10**9)
     by_lookup = make((20, 150), **kw).heights
     assert by_run.tobytes() == by_lookup.tobytes()
+
+
+def test_same_bits_on_one_and_two_threads() -> None:
+    import numba
+
+    from terrascape.generate import square_square
+
+    saved = numba.get_num_threads()
+    try:
+        runs = []
+        for threads in (1, min(2, numba.config.NUMBA_NUM_THREADS)):
+            numba.set_num_threads(threads)
+            runs.append((fbm(97, scale=20.0, seed=4).heights.tobytes(),
+                         ridged(97, scale=20.0, seed=4).heights.tobytes(),
+                         square_square(129, seed=4).heights.tobytes()))
+    finally:
+        numba.set_num_threads(saved)
+    assert runs[0] == runs[1]
