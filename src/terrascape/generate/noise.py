@@ -29,12 +29,15 @@ Coordinates: sample ``(row z, col x)`` is at noise position ``((x0 + x), (z0 + z
 (plus the octave offset), i.e. ``scale`` is the base wavelength in samples.
 
 Speed: along a row, every run of samples that lies in one lattice cell shares its four
-gradients, so per octave and row the kernel hashes each needed lattice column once (two
-lattice rows), folds the row's ``fz`` and fade into four per-cell constants, and each sample
-costs three multiply-adds in float32 — a loop LLVM vectorises. Rows are independent
-(numba ``prange``; each row written by one thread, no reductions), and all octaves of a row
-are summed while the row stays in cache. No fused multiply-add contraction or reassociation
-is allowed, so vector and scalar code give the same bits on every machine.
+gradients, so per octave and row the kernel folds the gradients of each needed lattice
+column (two lattice rows) with the row's ``fz`` and fade into per-cell constants, and each
+sample of a run costs three multiply-adds in float32 — a loop LLVM vectorises. Octaves whose
+cells are narrower than 8 samples take one look-up pass over the row instead. Rows go in
+blocks of 16 to the threads (numba ``prange``; each row written by one thread, no
+reductions); within a block the hashed gradients of a lattice row are kept while the sample
+rows stay in it, and all octaves of a row are summed while the row stays in cache. No fused
+multiply-add contraction or reassociation is allowed, so vector and scalar code give the
+same bits on every machine.
 
 References
 ----------
@@ -67,6 +70,7 @@ _GRAD_Z = (np.sin(_ANGLES) * _SQRT2).astype(np.float32)
 _MAX_ORIGIN = 1 << 40
 _OFFSET_RANGE = 1024.0
 _RUN_MIN = 8
+_BLOCK_ROWS = 16
 
 # splitmix64 constants (φ·2⁶⁴ and the two finaliser multipliers) and a second odd multiplier
 # for the lattice row.
@@ -101,34 +105,34 @@ def _fade_array(t: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _lattice_directions(lat, cz, seed, d0, d1):  # pragma: no cover - compiled
-    # Integer-only loop (no table look-ups), so it vectorises on 64-bit lanes.
+def _lattice_row(lat, k, seed, gx, gz, out_x, out_z):  # pragma: no cover - compiled
+    """Gradients ``(out_x[m], out_z[m])`` of the lattice points ``(lat[m], k)``."""
     for m in range(np.uint64(lat.shape[0])):
-        d0[m] = _direction(lat[m], cz, seed)
-        d1[m] = _direction(lat[m], cz + 1, seed)
+        d = _direction(lat[m], k, seed)
+        out_x[m] = gx[d]
+        out_z[m] = gz[d]
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _row_octave(acc, weight, ridged, offset, amp, fx, u, runs, col_cell, by_run, lat, e1, e0,
-                d0, d1, pz, seed, gx, gz):  # pragma: no cover - compiled
-    """Add one octave of one row to ``acc`` (fBm) or the ridged sum (``ridged``).
+def _row_octave(acc, weight, ridged, offset, amp, fx, u, runs, col_cell, by_run, e1, e0,
+                g0x, g0z, g1x, g1z, pz):  # pragma: no cover - compiled
+    """Add one octave of one row to ``acc`` (fBm) or the ridged sum (``ridged``); ``g0*``
+    and ``g1*`` are the gradients of the needed lattice columns on the two lattice rows.
 
     Loops run over unsigned indices: numba then adds no negative-index wrap-around, which
     would keep LLVM from vectorising them.
     """
     czf = math.floor(pz)
-    cz = np.int64(czf)
     fz = np.float32(pz - czf)
     fz1 = fz - np.float32(1.0)
     v = _fade32(fz)
-    n_lat = np.uint64(lat.shape[0])
-    _lattice_directions(lat, cz, seed, d0, d1)
+    n_lat = np.uint64(g0x.shape[0])
     # Per needed lattice column: the gradients of its two lattice rows, folded with v and fz
     # into e1 (slope in fx) and e0 (value at fx = 0) of the v-interpolated corner term.
     for m in range(n_lat):
-        e1[m] = gx[d0[m]] + v * (gx[d1[m]] - gx[d0[m]])
-        b0 = gz[d0[m]] * fz
-        e0[m] = b0 + v * (gz[d1[m]] * fz1 - b0)
+        e1[m] = g0x[m] + v * (g1x[m] - g0x[m])
+        b0 = g0z[m] * fz
+        e0[m] = b0 + v * (g1z[m] * fz1 - b0)
     one = np.float32(1.0)
     two = np.float32(2.0)
     zero = np.float32(0.0)
@@ -181,20 +185,41 @@ def _noise_rows(out, z0, freqs, offz, seeds, amps, out_scale, ridged, offset, fx
     max_lat = 0
     for o in range(octaves):
         max_lat = max(max_lat, lat_ofs[o + 1] - lat_ofs[o])
-    for z in prange(rows):
-        acc = np.zeros(cols, dtype=np.float32)
-        weight = np.ones(cols, dtype=np.float32)
+    blocks = (rows + _BLOCK_ROWS - 1) // _BLOCK_ROWS
+    # Blocks of rows, each on one thread: the rows of a block that share a lattice row reuse
+    # its hashed gradient indices (one slot per lattice-row parity and octave). The values
+    # do not depend on the reuse, so any block split gives the same bits.
+    # Gradients are kept per lattice row (not recomputed per sample row) and per slot.
+    for b in prange(blocks):
+        acc = np.empty(cols, dtype=np.float32)
+        weight = np.empty(cols, dtype=np.float32)
         e1 = np.empty(max_lat, dtype=np.float32)
         e0 = np.empty(max_lat, dtype=np.float32)
-        d0 = np.empty(max_lat, dtype=np.int64)
-        d1 = np.empty(max_lat, dtype=np.int64)
-        for o in range(octaves):
-            pz = np.float64(z0 + z) * freqs[o] + offz[o]
-            _row_octave(acc, weight, ridged, offset, amps[o], fx[o], u[o],
-                        runs[:, run_ofs[o]:run_ofs[o + 1]], col_cell[o], by_run[o],
-                        lats[lat_ofs[o]:lat_ofs[o + 1]], e1, e0, d0, d1, pz, seeds[o], gx, gz)
-        for x in range(cols):
-            out[z, x] = acc[x] * out_scale
+        grad_x = np.empty((2, lat_ofs[octaves]), dtype=np.float32)
+        grad_z = np.empty((2, lat_ofs[octaves]), dtype=np.float32)
+        held = np.zeros((octaves, 2), dtype=np.int64)
+        valid = np.zeros((octaves, 2), dtype=np.bool_)
+        for z in range(b * _BLOCK_ROWS, min(rows, (b + 1) * _BLOCK_ROWS)):
+            acc[:] = 0.0
+            weight[:] = 1.0
+            for o in range(octaves):
+                l0, l1 = lat_ofs[o], lat_ofs[o + 1]
+                lat = lats[l0:l1]
+                pz = np.float64(z0 + z) * freqs[o] + offz[o]
+                cz = np.int64(math.floor(pz))
+                for k in (cz, cz + 1):
+                    slot = k & 1
+                    if not valid[o, slot] or held[o, slot] != k:
+                        _lattice_row(lat, k, seeds[o], gx, gz, grad_x[slot, l0:l1],
+                                     grad_z[slot, l0:l1])
+                        held[o, slot] = k
+                        valid[o, slot] = True
+                _row_octave(acc, weight, ridged, offset, amps[o], fx[o], u[o],
+                            runs[:, run_ofs[o]:run_ofs[o + 1]], col_cell[o], by_run[o],
+                            e1, e0, grad_x[cz & 1, l0:l1], grad_z[cz & 1, l0:l1],
+                            grad_x[(cz + 1) & 1, l0:l1], grad_z[(cz + 1) & 1, l0:l1], pz)
+            for x in range(cols):
+                out[z, x] = acc[x] * out_scale
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
