@@ -16,7 +16,8 @@ from terrascape.heightmap import Heightmap
 def test_diamond_square_cli_matches_library(tmp_path: Path) -> None:
     out = tmp_path / "ds.npy"
     code = run_app(["generate", "diamond-square", "--size", "65", "--seed", "4", "--roughness",
-                    "2.5", "--decay", "hurst", "--hurst", "0.7", "-o", str(out), "-q"])
+                    "2.5", "--decay", "hurst", "--hurst", "0.7", "--variant", "classic",
+                    "--raw", "-o", str(out), "-q"])
     assert code == 0
     ref = diamond_square(65, roughness=2.5, decay="hurst", hurst=0.7, seed=4)
     assert np.load(out).tobytes() == ref.heights.tobytes()
@@ -25,7 +26,7 @@ def test_diamond_square_cli_matches_library(tmp_path: Path) -> None:
 def test_height_scale_and_corners(tmp_path: Path) -> None:
     out = tmp_path / "ds.npy"
     assert run_app(["generate", "diamond-square", "--size", "33", "--corners", "1,2,3,4",
-                    "--height-scale", "250", "-o", str(out), "-q"]) == 0
+                    "--variant", "classic", "--height-scale", "250", "-o", str(out), "-q"]) == 0
     h = np.load(out)
     assert h.min() == pytest.approx(0.0) and h.max() == pytest.approx(250.0)
     ref = diamond_square(33, corners=(1, 2, 3, 4)).normalised(0.0, 250.0)
@@ -35,7 +36,7 @@ def test_height_scale_and_corners(tmp_path: Path) -> None:
 def test_fault_cli_preview_and_force(tmp_path: Path) -> None:
     out, prev = tmp_path / "f.npy", tmp_path / "f.png"
     argv = ["generate", "fault", "--size", "48x32", "--iterations", "70", "--falloff", "sine",
-            "--width", "6", "--seed", "2", "-o", str(out), "--preview", str(prev), "-q"]
+            "--width", "6", "--seed", "2", "--raw", "-o", str(out), "--preview", str(prev), "-q"]
     assert run_app(argv) == 0
     ref = fault_formation((32, 48), iterations=70, falloff="sine", width=6.0, seed=2)
     assert np.load(out).tobytes() == ref.heights.tobytes()
@@ -51,7 +52,7 @@ def test_hills_cli(tmp_path: Path) -> None:
     out = tmp_path / "h.npy"
     assert run_app(["generate", "hills", "--size", "40", "--count", "30", "--radius-min", "2",
                     "--radius-max", "6", "--height", "3", "--seed", "8", "--spacing", "2",
-                    "-o", str(out), "-q"]) == 0
+                    "--floor", "--raw", "-o", str(out), "-q"]) == 0
     ref = hills(40, count=30, radius_range=(2.0, 6.0), height=3.0, seed=8)
     assert np.load(out).tobytes() == ref.heights.tobytes()
 
@@ -70,6 +71,10 @@ def test_hills_cli(tmp_path: Path) -> None:
         ["generate", "hills", "--size", "33", "--radius-min", "-1"],
         ["generate", "hills", "--size", "33", "--height-scale", "-5"],
         ["generate", "hills", "--size", "33", "--count", "x"],
+        ["generate", "hills", "--size", "33", "--height-scale", "9", "--raw"],
+        ["generate", "diamond-square", "--size", "33", "--variant", "midpoint"],
+        ["generate", "diamond-square", "--size", "33", "--integer", "--variant", "square-square"],
+        ["generate", "fbm", "--size", "33", "--octaves", "0"],
     ],
 )
 def test_bad_input_exit_2_and_no_file(tmp_path: Path, argv: list[str]) -> None:
@@ -109,11 +114,11 @@ def test_noise_cli(tmp_path: Path) -> None:
 
     f, r = tmp_path / "f.npy", tmp_path / "r.npy"
     assert run_app(["generate", "fbm", "--size", "40x24", "--scale", "16", "--octaves", "4",
-                    "--seed", "3", "-o", str(f), "-q"]) == 0
+                    "--seed", "3", "--raw", "-o", str(f), "-q"]) == 0
     ref = fbm((24, 40), scale=16.0, octaves=4, seed=3)
     assert np.load(f).tobytes() == ref.heights.tobytes()
     assert run_app(["generate", "ridged", "--size", "33", "--offset", "1.2", "--seed", "3",
-                    "-o", str(r), "-q"]) == 0
+                    "--scale", "128", "--octaves", "6", "--raw", "-o", str(r), "-q"]) == 0
     assert np.load(r).tobytes() == ridged(33, offset=1.2, seed=3).heights.tobytes()
     assert run_app(["generate", "fbm", "--size", "33", "--gain", "2", "-o",
                     str(tmp_path / "x.npy")]) == 2
@@ -133,3 +138,24 @@ def test_erode_cli(tmp_path: Path) -> None:
     assert run_app(["erode", str(src), str(tmp_path / "o2.npy")]) == 2
     assert run_app(["erode", str(src), str(tmp_path / "o2.npy"), "--thermal", "-1"]) == 2
     assert not (tmp_path / "o2.npy").exists()
+
+
+def test_default_relief_is_a_fifth_of_the_extent(tmp_path: Path) -> None:
+    # No --height-scale: heights span 0 … 20 % of the map's extent, in world units.
+    out = tmp_path / "n.npy"
+    assert run_app(["generate", "ridged", "--size", "65x33", "--spacing", "3", "-o", str(out),
+                    "-q"]) == 0
+    h = np.load(out)
+    assert h.min() == pytest.approx(0.0, abs=1e-4)
+    assert h.max() == pytest.approx(0.2 * 64 * 3.0, rel=1e-5)
+
+
+def test_cli_equals_registry_with_defaults(tmp_path: Path) -> None:
+    from terrascape.generate.registry import generate, generator_names
+
+    for name in generator_names():
+        out = tmp_path / f"{name}.npy"
+        assert run_app(["generate", name, "--size", "33", "--seed", "5", "--spacing", "2",
+                        "-o", str(out), "-q"]) == 0
+        ref = generate(name, 33, seed=5, spacing=2.0)
+        assert np.load(out).tobytes() == ref.heights.tobytes(), name

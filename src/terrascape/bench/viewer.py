@@ -107,11 +107,11 @@ class _Surface:
 _PROBE_CODE = """
 import sys, time
 from terrascape.bench.viewer import PROBE_SIZE, SIZE, flight
-from terrascape.cli.cmd_view import generate_terrain
+from terrascape.generate.registry import generate
 from terrascape.render.context import create_headless_context
 from terrascape.viewer.session import ViewerSession
 n, frames, tech = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
-hm = generate_terrain("diamond-square", n, seed=1)
+hm = generate("diamond-square", n, seed=1, spacing=2.0)
 ctx = create_headless_context()
 s = ViewerSession(ctx, hm, size=SIZE, hud=False, warn=lambda m: None)
 s.camera = flight(hm, frames)[0]
@@ -171,13 +171,13 @@ def _measure(session, surface, cams) -> dict:
 
 
 def run(quick: bool = False) -> list[BenchTable]:
-    from terrascape.cli.cmd_view import generate_terrain
+    from terrascape.generate.registry import VIEW_SPACING, generate
     from terrascape.render.techniques import technique_names
     from terrascape.viewer.session import ViewerSession, ordered_techniques
 
     n = 257 if quick else 513
     frames = 10 if quick else 24
-    hm = generate_terrain("diamond-square", n, seed=1)
+    hm = generate("diamond-square", n, seed=1, spacing=VIEW_SPACING)
     techniques = QUICK_TECHNIQUES if quick else ordered_techniques(technique_names())
     cams = flight(hm, frames)
     surface = _Surface(SIZE)

@@ -1,22 +1,29 @@
-"""``terrascape generate diamond-square|fault|hills`` and ``terrascape blur`` (H3–H6)."""
+"""``terrascape generate NAME`` (one sub-command per registered generator) and
+``terrascape blur``."""
 
 from __future__ import annotations
 
+import inspect
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import typer
 
-from terrascape.cli.app import app, out, progress, timed
+from terrascape.cli.app import app, console, out, progress, timed
 from terrascape.errors import FileFormatError, InvalidParameterError
-
-if TYPE_CHECKING:
-    from collections.abc import Callable
-
-    from terrascape.heightmap import Heightmap
+from terrascape.generate.registry import (
+    GENERATORS,
+    Generator,
+    Param,
+    generate,
+    names_help,
+    progress_total,
+)
+from terrascape.heightmap import Heightmap
 
 generate_app = typer.Typer(
-    help="Generate a heightmap (diamond-square, fault formation, cosine hills) and write it.",
+    help=f"Generate a heightmap ({names_help()}) and write it. Heights span 0 … 20 % of the "
+    "map's extent unless --height-scale or --raw says otherwise.",
     no_args_is_help=True,
 )
 app.add_typer(generate_app, name="generate")
@@ -32,8 +39,8 @@ def _size_option(default: str) -> str:
 _SEED = typer.Option(0, "--seed", help="Random seed (same seed → same bytes).")
 _HEIGHT_SCALE = typer.Option(
     None, "--height-scale",
-    help="Rescale heights to [0, METRES] (world units); default: the generator's raw heights.",
-    show_default="raw",
+    help="Heights span [0, METRES] (world units, the relief).",
+    show_default="20 % of the map's extent",
 )
 _SPACING = typer.Option(1.0, "--spacing", help="Sample spacing in world units (metres).")
 _OUTPUT = typer.Option(..., "--output", "-o",
@@ -104,114 +111,91 @@ def _run_with_bar(label: str, total: int, quiet: bool,
         return make(update)
 
 
-# --- commands ----------------------------------------------------------------------------------
-@generate_app.command("diamond-square")
-def diamond_square_cmd(
-    size: str = _size_option("513"),
-    seed: int = _SEED,
-    roughness: float = typer.Option(
-        1.0, "--roughness", help="Offset amplitude of the first level (world units)."),
-    decay: str = typer.Option(
-        "halve", "--decay", help="Roughness decay per level: linear, halve, sqrt, hurst."),
-    decay_step: float = typer.Option(
-        None, "--decay-step", help="Decrement of the linear law (world units).",
-        show_default="roughness / levels"),
-    hurst: float = typer.Option(0.8, "--hurst", help="Hurst exponent H in [0, 1] (decay hurst)."),
-    corners: str = typer.Option(
-        None, "--corners", help="Fixed corner heights TL,TR,BL,BR (world units).",
-        show_default="random"),
-    integer: bool = typer.Option(
-        False, "--integer", help="Seed 001's integer arithmetic (integer roughness/step)."),
-    height_scale: float = _HEIGHT_SCALE,
-    spacing: float = _SPACING,
-    output: Path = _OUTPUT,
-    preview: Path = _PREVIEW,
-    force: bool = _FORCE,
-    quiet: bool = _QUIET,
-) -> None:
-    """Diamond-square fractal terrain on a (2**n + 1)² grid."""
-    from terrascape.cli.parsing import parse_floats
-    from terrascape.generate import diamond_square
-
-    rows, cols = parse_grid_size(size)
-    if rows != cols:
-        raise InvalidParameterError(
-            f"diamond-square needs a square size N = 2**n + 1, got {cols}x{rows}")
-    corner_values = parse_floats(corners, 4, name="--corners") if corners else None
-    _check_outputs(output, preview, force)
-    with timed("diamond-square", quiet=quiet):
-        hm = diamond_square(rows, roughness=roughness, decay=decay, decay_step=decay_step,
-                            hurst=hurst, seed=seed, spacing=spacing, corners=corner_values,
-                            integer=integer)
-    _finish(hm, output, preview, height_scale, force, quiet)
+# --- commands: one per registered generator ---------------------------------------------------
+_RAW = typer.Option(False, "--raw", help="Keep the generator's own heights (no relief scaling).")
 
 
-@generate_app.command("fault")
-def fault_cmd(
-    size: str = _size_option("513"),
-    seed: int = _SEED,
-    iterations: int = typer.Option(1000, "--iterations", help="Number of fault lines."),
-    start_displacement: float = typer.Option(
-        1.0, "--start-displacement", help="Displacement of the first fault (world units)."),
-    end_displacement: float = typer.Option(
-        0.1, "--end-displacement", help="Displacement of the last fault (linear in between)."),
-    falloff: str = typer.Option(
-        "step", "--falloff", help="Profile across the line: step, sine, cosine."),
-    width: float = typer.Option(
-        8.0, "--width", help="Transition width across the line (samples; sine/cosine)."),
-    height_scale: float = _HEIGHT_SCALE,
-    spacing: float = _SPACING,
-    output: Path = _OUTPUT,
-    preview: Path = _PREVIEW,
-    force: bool = _FORCE,
-    quiet: bool = _QUIET,
-) -> None:
-    """Fault-formation terrain: random lines raise one side and lower the other."""
-    from terrascape._validate import check_int
-    from terrascape.generate import fault_formation
-
-    shape = parse_grid_size(size)
-    total = check_int(iterations, "--iterations", minimum=1)
-    _check_outputs(output, preview, force)
-    hm = _run_with_bar("fault formation", total, quiet, lambda cb: fault_formation(
-        shape, iterations=iterations, start_displacement=start_displacement,
-        end_displacement=end_displacement, falloff=falloff, width=width, seed=seed,
-        spacing=spacing, progress=cb))
-    _finish(hm, output, preview, height_scale, force, quiet)
+def _param_option(param: Param) -> tuple[object, object]:
+    """(annotation, typer.Option) for a registry parameter."""
+    text = param.help
+    if param.choices:
+        text += f" One of: {', '.join(param.choices)}."
+    show = param.auto if param.default is None and param.auto else True
+    if param.type is bool:
+        return bool, typer.Option(bool(param.default), param.option, help=text)
+    annotation = str if param.count > 1 else param.type
+    return annotation, typer.Option(param.default, param.option, help=text, show_default=show)
 
 
-@generate_app.command("hills")
-def hills_cmd(
-    size: str = _size_option("513"),
-    seed: int = _SEED,
-    count: int = typer.Option(1000, "--count", help="Number of hills."),
-    radius_min: float = typer.Option(
-        None, "--radius-min", help="Smallest hill radius (samples).", show_default="side/64"),
-    radius_max: float = typer.Option(
-        None, "--radius-max", help="Largest hill radius (samples).", show_default="side/16"),
-    height: float = typer.Option(
-        1.0, "--height", help="Hill height, the seed's 'odmak' (world units)."),
-    height_scale: float = _HEIGHT_SCALE,
-    spacing: float = _SPACING,
-    output: Path = _OUTPUT,
-    preview: Path = _PREVIEW,
-    force: bool = _FORCE,
-    quiet: bool = _QUIET,
-) -> None:
-    """Cosine-hills terrain: random round hills, each h += d/2 + cos(pd·π)·d/2."""
-    from terrascape._validate import check_int
-    from terrascape.generate import hills
-    from terrascape.generate.hills import default_radius_range
+def _generator_command(gen: Generator, alias: str | None = None) -> Callable[..., None]:
+    """A typer command for ``gen`` whose options are the registry's parameters (``alias``:
+    an old spelling that still works, with a note)."""
 
-    shape = parse_grid_size(size)
-    total = check_int(count, "--count", minimum=1)
-    lo, hi = default_radius_range(*shape)
-    radius = (lo if radius_min is None else radius_min, hi if radius_max is None else radius_max)
-    _check_outputs(output, preview, force)
-    hm = _run_with_bar("hills", total, quiet, lambda cb: hills(
-        shape, count=count, radius_range=radius, height=height, seed=seed, spacing=spacing,
-        progress=cb))
-    _finish(hm, output, preview, height_scale, force, quiet)
+    def command(**kwargs: object) -> None:
+        if alias is not None:
+            console.print(f"[yellow]note:[/] '{alias}' is an old name, use "
+                          f"'terrascape generate {gen.name}'")
+        size, seed, spacing = kwargs.pop("size"), kwargs.pop("seed"), kwargs.pop("spacing")
+        height_scale, raw = kwargs.pop("height_scale"), kwargs.pop("raw")
+        output, preview = kwargs.pop("output"), kwargs.pop("preview")
+        force, quiet = kwargs.pop("force"), kwargs.pop("quiet")
+        params = {}
+        for param in gen.params:
+            value = kwargs[param.name]
+            if param.count > 1 and value is not None:
+                value = param.parse(value)
+            params[param.name] = value
+        shape = parse_grid_size(size)
+        if gen.square_pow2 and shape[0] != shape[1]:
+            raise InvalidParameterError(
+                f"{gen.name} needs a square size N = 2**n + 1, got {shape[1]}x{shape[0]}")
+        if height_scale is not None and raw:
+            raise InvalidParameterError("give either --height-scale or --raw, not both")
+        if height_scale is not None:
+            from terrascape._validate import check_positive
+
+            check_positive(height_scale, "--height-scale")
+        total = progress_total(gen.name, shape, **params)
+        _check_outputs(output, preview, force)
+
+        def make(callback: Callable[[int, int], None] | None) -> Heightmap:
+            return generate(gen.name, shape, seed=seed, spacing=spacing, relief=height_scale,
+                            raw=raw, progress=callback, **params)
+
+        if total is None:
+            with timed(gen.name, quiet=quiet):
+                hm = make(None)
+        else:
+            hm = _run_with_bar(gen.name, total, quiet, make)
+        _finish(hm, output, preview, None, force, quiet)
+
+    options: list[tuple[str, object, object]] = [
+        ("size", str, _size_option("513")),
+        ("seed", int, _SEED),
+        *[(p.name, *_param_option(p)) for p in gen.params],
+        ("height_scale", float, _HEIGHT_SCALE),
+        ("raw", bool, _RAW),
+        ("spacing", float, _SPACING),
+        ("output", Path, _OUTPUT),
+        ("preview", Path, _PREVIEW),
+        ("force", bool, _FORCE),
+        ("quiet", bool, _QUIET),
+    ]
+    command.__signature__ = inspect.Signature([  # type: ignore[attr-defined]
+        inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=option,
+                          annotation=annotation)
+        for name, annotation, option in options
+    ])
+    command.__annotations__ = {name: annotation for name, annotation, _ in options}
+    command.__doc__ = gen.summary
+    command.__name__ = gen.name.replace("-", "_") + "_cmd"
+    return command
+
+
+for _gen in GENERATORS.values():
+    generate_app.command(_gen.name)(_generator_command(_gen))
+    for _alias in _gen.aliases:
+        generate_app.command(_alias, hidden=True)(_generator_command(_gen, _alias))
 
 
 @app.command("blur")
@@ -240,46 +224,3 @@ def blur_cmd(
         hm = gaussian_blur(hm, sigma, mode=mode) if sigma is not None else box_blur(
             hm, box, mode=mode)
     _finish(hm, output, None, None, force, quiet)
-
-
-def _noise_command(kind: str) -> None:
-    """Register ``generate fbm`` / ``generate ridged`` (same options; ridged adds --offset)."""
-
-    def command(
-        size: str = _size_option("513"),
-        seed: int = _SEED,
-        scale: float = typer.Option(128.0, "--scale", help="First-octave wavelength (samples)."),
-        octaves: int = typer.Option(6, "--octaves", help="Number of octaves (1–24)."),
-        lacunarity: float = typer.Option(2.0, "--lacunarity",
-                                         help="Frequency ratio between octaves."),
-        gain: float = typer.Option(0.5, "--gain", help="Amplitude ratio between octaves."),
-        offset: float = typer.Option(1.0, "--offset",
-                                     help="Ridge offset (ridged only, 0.5–2)."),
-        amplitude: float = typer.Option(1.0, "--amplitude",
-                                        help="Height amplitude (world units)."),
-        height_scale: float = _HEIGHT_SCALE,
-        spacing: float = _SPACING,
-        output: Path = _OUTPUT,
-        preview: Path = _PREVIEW,
-        force: bool = _FORCE,
-        quiet: bool = _QUIET,
-    ) -> None:
-        from terrascape.generate import fbm, ridged
-
-        shape = parse_grid_size(size)
-        _check_outputs(output, preview, force)
-        kw = {"scale": scale, "octaves": octaves, "lacunarity": lacunarity, "gain": gain,
-              "amplitude": amplitude, "seed": seed, "spacing": spacing}
-        with timed(kind, quiet=quiet):
-            hm = fbm(shape, **kw) if kind == "fbm" else ridged(shape, offset=offset, **kw)
-        _finish(hm, output, preview, height_scale, force, quiet)
-
-    command.__doc__ = (
-        "Gradient-noise fBm terrain (sum of octaves; beyond the seeds)." if kind == "fbm"
-        else "Ridged multifractal terrain (Musgrave; sharp ridges, smooth valleys)."
-    )
-    generate_app.command(kind)(command)
-
-
-_noise_command("fbm")
-_noise_command("ridged")

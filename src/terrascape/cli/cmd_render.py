@@ -14,27 +14,22 @@ from terrascape.camera import Camera
 from terrascape.cli.app import app, out, progress, timed
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
+from terrascape.generate.registry import generator_names, names_help
 
-GENERATORS = ("diamond-square", "fault", "hills")
 
-
-def _load(heightmap: Path | None, generate: str | None, gen_size: int, seed: int):
+def _load(heightmap: Path | None, generate: str | None, gen_size: int, seed: int,
+          gen_param: list[str] | None = None):
     if (heightmap is None) == (generate is None):
         raise InvalidParameterError(
-            "give either a HEIGHTMAP file or --generate diamond-square|fault|hills (not both)"
+            f"give either a HEIGHTMAP file or --generate {'|'.join(generator_names())} "
+            "(not both)"
         )
     if generate is not None:
-        from terrascape import generate as gen
+        from terrascape.generate.registry import VIEW_SPACING, parse_params
+        from terrascape.generate.registry import generate as make
 
-        if generate == "diamond-square":
-            return gen.diamond_square(gen_size, seed=seed)
-        if generate == "fault":
-            return gen.fault_formation(gen_size, seed=seed)
-        if generate == "hills":
-            return gen.hills(gen_size, seed=seed)
-        raise InvalidParameterError(
-            f"--generate must be one of {', '.join(GENERATORS)}, got {generate!r}"
-        )
+        return make(generate, gen_size, seed=seed, spacing=VIEW_SPACING,
+                    **parse_params(generate, gen_param))
     from terrascape.io import read_heightmap
 
     try:
@@ -184,7 +179,15 @@ def render_command(
     generate: str = typer.Option(
         None,
         "--generate",
-        help="Generate the terrain instead of reading a file: diamond-square, fault or hills.",
+        help=f"Generate the terrain instead of reading a file: {names_help()} (2 m grid, "
+        "relief 20 % of the extent).",
+        show_default=False,
+    ),
+    gen_param: list[str] = typer.Option(
+        None,
+        "--gen-param",
+        help="A generator parameter NAME=VALUE, repeatable (e.g. octaves=8); the names are "
+        "the options of `terrascape generate NAME`.",
         show_default=False,
     ),
     gen_size: int = typer.Option(
@@ -222,7 +225,7 @@ def render_command(
     params = {"lighting": lighting, "wireframe": wireframe, "seed": seed}
 
     with timed("load", quiet=quiet):
-        hm = _load(heightmap, generate, gen_size, seed)
+        hm = _load(heightmap, generate, gen_size, seed, gen_param)
     with contextlib.ExitStack() as stack:
         with timed("GL context", quiet=quiet):
             ctx = stack.enter_context(headless_context())

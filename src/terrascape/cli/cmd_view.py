@@ -10,34 +10,21 @@ import typer
 from terrascape._validate import check_int, check_positive
 from terrascape.cli.app import app, console, timed
 from terrascape.errors import InvalidParameterError
+from terrascape.generate.registry import VIEW_SPACING, generator_names, get_generator, names_help
 from terrascape.lod.schemes import SCHEMES
 
 LOD_CHOICES = ("none", *SCHEMES)
 
-GENERATORS = ("diamond-square", "fault", "hills")
 
-
-def generate_terrain(kind: str, size: int, seed: int, *, spacing: float = 2.0):
-    """A terrain from one of the seed 001 generators, scaled to look like landscape.
-
-    Heights span ``[0, 0.2 · extent]`` (a 257-sample map on a 2 m grid: 512 m across, up to
-    ~100 m high), so every size looks alike from the start camera.
-    """
-    from terrascape.generate import diamond_square, fault_formation, hills
+def generate_terrain(kind: str, size: int, seed: int, *, spacing: float = VIEW_SPACING,
+                     params: dict | None = None):
+    """The registry's terrain ``kind`` (:func:`terrascape.generate.registry.generate`) with
+    its defaults: heights span ``[0, 0.2 · extent]`` (a 257-sample map on a 2 m grid: 512 m
+    across, up to ~100 m high), so every size looks alike from the start camera."""
+    from terrascape.generate.registry import generate
 
     size = check_int(size, "--gen-size", minimum=3, maximum=8193)
-    top = 0.2 * (size - 1) * spacing
-    if kind == "diamond-square":
-        hm = diamond_square(size, roughness=0.55, seed=seed, spacing=spacing)
-    elif kind == "fault":
-        hm = fault_formation(size, iterations=400, falloff="cosine",
-                             width=max(2.0, 24.0 * size / 513), seed=seed, spacing=spacing)
-    elif kind == "hills":
-        hm = hills(size, count=max(20, int(300 * (size / 257) ** 2)), seed=seed, spacing=spacing)
-    else:
-        raise InvalidParameterError(
-            f"--generate must be one of {', '.join(GENERATORS)}, got {kind!r}")
-    return hm.normalised(0.0, top)
+    return generate(kind, size, seed=seed, spacing=spacing, **(params or {}))
 
 
 @app.command("view")
@@ -46,8 +33,12 @@ def view_cmd(
         None, help="Heightmap file (.png/.bmp/.jpg, .r16/.raw/.r32, .tif, .npy, .ter).",
         show_default="none: use --generate"),
     generate: str = typer.Option(
-        None, "--generate", help="Generate the terrain instead: diamond-square, fault or hills.",
+        None, "--generate", help=f"Generate the terrain instead: {names_help()}.",
         show_default="none"),
+    gen_param: list[str] = typer.Option(
+        None, "--gen-param", help="A generator parameter NAME=VALUE, repeatable (e.g. "
+        "octaves=8); the names are the options of `terrascape generate NAME`.",
+        show_default="the generator's defaults"),
     gen_size: int = typer.Option(
         257, "--gen-size", help="Samples per side of a generated terrain (2^n+1 for "
         "diamond-square)."),
@@ -92,10 +83,14 @@ def view_cmd(
     # Cheap checks first, so a wrong option never waits for a terrain to be generated.
     if (heightmap is None) == (generate is None):
         raise InvalidParameterError(
-            "give either a HEIGHTMAP file or --generate diamond-square|fault|hills (not both)")
-    if generate is not None and generate not in GENERATORS:
-        raise InvalidParameterError(
-            f"--generate must be one of {', '.join(GENERATORS)}, got {generate!r}")
+            f"give either a HEIGHTMAP file or --generate {'|'.join(generator_names())} "
+            "(not both)")
+    gen_params: dict = {}
+    if generate is not None:
+        from terrascape.generate.registry import parse_params
+
+        get_generator(generate)
+        gen_params = parse_params(generate, gen_param)
     from terrascape.render.techniques import canonical_technique_name
 
     technique = canonical_technique_name(technique)  # old spellings, with a note
@@ -115,8 +110,8 @@ def view_cmd(
 
     if generate is not None:
         with timed(f"generate {generate} {gen_size}×{gen_size}"):
-            hm = generate_terrain(generate, gen_size, seed,
-                                  spacing=2.0 if spacing is None else check_positive(
+            hm = generate_terrain(generate, gen_size, seed, params=gen_params,
+                                  spacing=VIEW_SPACING if spacing is None else check_positive(
                                       spacing, "--spacing"))
     else:
         from terrascape.io import read_heightmap

@@ -1,5 +1,9 @@
-"""Heightmap generators: diamond-square, fault formation, cosine hills (MISSION H3–H5) and
-gradient-noise fBm / ridged multifractal (H7)."""
+"""Heightmap generators: diamond-square (and Miller's square-square), fault formation, cosine
+hills and tileable gradient-noise fBm / ridged multifractal.
+
+:mod:`terrascape.generate.registry` lists them by name with typed parameters and defaults;
+``generate("fbm", 513, seed=1)`` is what the command line, the viewer and the benchmarks
+call."""
 
 from terrascape.generate.diamond_square import (
     DECAY_LAWS,
@@ -10,16 +14,23 @@ from terrascape.generate.diamond_square import (
 from terrascape.generate.fault import FALLOFFS, fault_formation
 from terrascape.generate.hills import hills
 from terrascape.generate.noise import fbm, gradient_noise, ridged
+from terrascape.generate.registry import GENERATORS, generate, generator_names, get_generator
+from terrascape.generate.square_square import square_square
 
 __all__ = [
     "DECAY_LAWS",
     "FALLOFFS",
+    "GENERATORS",
     "detail_depth",
     "diamond_square",
     "fault_formation",
     "fbm",
+    "generate",
+    "generator_names",
+    "get_generator",
     "gradient_noise",
     "hills",
     "ridged",
     "roughness_schedule",
+    "square_square",
 ]

@@ -47,11 +47,14 @@ def draw_hills(
     cols: int,
     radius_range: tuple[float, float],
     height_range: tuple[float, float],
+    margin: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Random hills in one bulk draw: ``(cx, cz, radius, height)`` float64 arrays."""
+    """Random hills in one bulk draw: ``(cx, cz, radius, height)`` float64 arrays.
+
+    Centres are uniform over the grid widened by ``margin`` samples on every side."""
     u = rng.random((count, 4))
-    cx = u[:, 0] * (cols - 1)
-    cz = u[:, 1] * (rows - 1)
+    cx = u[:, 0] * (cols - 1 + 2 * margin) - margin
+    cz = u[:, 1] * (rows - 1 + 2 * margin) - margin
     radius = radius_range[0] + u[:, 2] * (radius_range[1] - radius_range[0])
     height = height_range[0] + u[:, 3] * (height_range[1] - height_range[0])
     return cx, cz, radius, height
@@ -70,8 +73,8 @@ def _hills_kernel(acc, cx, cz, radius, height):  # pragma: no cover - compiled
                 continue
             chord = math.sqrt(max(r * r - dz * dz, 0.0))
             # +-1 margin: the exact test below decides; this only bounds the loop.
-            x0 = max(math.floor(cx[k] - chord) - 1, 0)
-            x1 = min(math.ceil(cx[k] + chord) + 1, cols - 1)
+            x0 = min(max(math.floor(cx[k] - chord) - 1, 0), cols)
+            x1 = max(min(math.ceil(cx[k] + chord) + 1, cols - 1), -1)
             half_d = 0.5 * height[k]
             for x in range(x0, x1 + 1):
                 dx = x - cx[k]
@@ -103,6 +106,7 @@ def hills(
     seed: int | np.random.Generator | None = 0,
     spacing: float | Sequence[float] = 1.0,
     progress: Callable[[int, int], None] | None = None,
+    margin: float = 0.0,
 ) -> Heightmap:
     """Heightmap made of ``count`` cosine hills (seed 001 §2.4).
 
@@ -123,6 +127,10 @@ def hills(
         Sample spacing ``dx`` or ``(dx, dz)`` in world units.
     progress
         Optional callback ``progress(done, total)`` after every chunk of hills.
+    margin
+        Centres are drawn over the grid widened by this many samples on every side (``>= 0``;
+        the seed: 0). A margin of the largest radius lets hills cut by the border cover the
+        edge as densely as the middle.
 
     Returns
     -------
@@ -135,8 +143,9 @@ def hills(
         radius_range = default_radius_range(rows, cols)
     rr = _pair(radius_range, "radius_range", allow_zero=False)
     hr = _pair(height, "height", allow_zero=True)
+    margin = check_positive(margin, "margin", allow_zero=True)
     rng = make_rng(seed)
-    cx, cz, radius, hgt = draw_hills(rng, count, rows, cols, rr, hr)
+    cx, cz, radius, hgt = draw_hills(rng, count, rows, cols, rr, hr, margin)
     acc = np.zeros((rows, cols), dtype=np.float64)
     for lo in range(0, count, CHUNK):
         hi = min(lo + CHUNK, count)
@@ -148,6 +157,7 @@ def hills(
         "count": count,
         "radius_range": rr,
         "height": hr,
+        "margin": margin,
         "seed": seed_meta(seed),
     }
     return Heightmap(acc.astype(np.float32), spacing_pair(spacing), meta)
