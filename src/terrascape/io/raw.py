@@ -8,11 +8,16 @@ vertical_scale`` (default 1.0); a float32 file holds world heights.
 terrascape also writes a small JSON **sidecar** ``<file>.json`` (e.g. ``dem.r16.json``)
 holding cols/rows, the height ``offset``/``scale`` of the 16-bit quantisation and the
 spacing; when present next to a RAW file it is used to restore size, world units and
-spacing. Other tools simply ignore it.
+spacing, plus the SHA-256 of the RAW bytes it describes. The two files are committed as one
+unit (:func:`terrascape.io.atomic.atomic_outputs`); a reader that finds a sidecar whose hash
+does not match the RAW bytes (a pair mixed by another program, a RAW file edited after the
+fact) refuses it with a clear error instead of reading wrong heights. Other tools simply
+ignore the sidecar.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 from pathlib import Path
@@ -33,7 +38,7 @@ from terrascape.io._common import (
     parse_meta,
     quantise,
 )
-from terrascape.io.atomic import atomic_output, check_output_path
+from terrascape.io.atomic import atomic_outputs, check_output_path, commit_lock
 
 _DTYPES = {"r16": np.dtype("<u2"), "r32": np.dtype("<f4")}
 
@@ -58,6 +63,16 @@ def _read_sidecar(path: Path, kind: str) -> dict | None:
             f"sidecar {side} describes dtype {meta.get('dtype')!r}, expected "
             f"{_DTYPES[kind].str!r} for a {path.suffix} file"
         )
+    digest = meta.get("sha256")
+    hexdigits = "0123456789abcdef"
+    if digest is not None and not (
+        isinstance(digest, str) and len(digest) == 64 and all(c in hexdigits for c in digest)
+    ):
+        raise FileFormatError(f"bad 'sha256' in sidecar {side}: {str(digest)[:80]!r}")
+    for key in ("cols", "rows"):
+        if key in meta and (isinstance(meta[key], bool) or not isinstance(meta[key], int)
+                            or meta[key] < 2):
+            raise FileFormatError(f"bad {key!r} in sidecar {side}: {meta[key]!r}")
     return meta
 
 
@@ -106,12 +121,23 @@ def _read_raw(
     size_t = normalise_size(size)
     spacing_t = normalise_spacing(spacing)
     vscale = check_vertical_scale(vertical_scale)
-    meta = _read_sidecar(p, kind)
     dtype = _DTYPES[kind]
-    try:
-        data = p.read_bytes()
-    except OSError as exc:
-        raise FileFormatError(f"cannot read {p}: {exc}") from None
+    # A shared lock of the folder: a terrascape writer commits RAW + sidecar under the
+    # exclusive lock, so the two are never read half-way through a commit.
+    with commit_lock([p.parent], shared=True):
+        meta = _read_sidecar(p, kind)
+        try:
+            data = p.read_bytes()
+        except OSError as exc:
+            raise FileFormatError(f"cannot read {p}: {exc.strerror or exc}") from None
+    if meta is not None and "sha256" in meta:
+        digest = hashlib.sha256(data).hexdigest()
+        if digest != meta["sha256"]:
+            raise FileFormatError(
+                f"{p} does not match its sidecar {sidecar_path(p).name} (the sidecar was "
+                "written for other data: SHA-256 differs); the pair was mixed or the RAW file "
+                "changed. Write both again, or delete the sidecar to read the RAW file alone"
+            )
     rows, cols = _grid_shape(p, len(data), dtype.itemsize, size_t, meta)
     values = np.frombuffer(data, dtype=dtype).reshape(rows, cols)
 
@@ -212,21 +238,30 @@ def _write_raw(
     else:
         payload = heightmap.heights.astype(dtype)
         offset, scale = 0.0, 1.0
-    with atomic_output(path, force=force) as tmp:
-        tmp.write_bytes(payload.tobytes(order="C"))
-    if sidecar:
-        record = meta_json(
-            dtype=dtype.str,
-            cols=heightmap.cols,
-            rows=heightmap.rows,
-            offset=offset,
-            scale=scale,
-            spacing=list(heightmap.spacing),
-        )
-        with atomic_output(side, force=force) as tmp:
-            tmp.write_text(record + "\n", encoding="utf-8")
-    elif side.exists():
-        side.unlink()
+    data = payload.tobytes(order="C")
+    del payload
+    if not sidecar:
+        with atomic_outputs([path], force=force) as (tmp,):
+            tmp.write_bytes(data)
+        if side.exists():
+            with commit_lock([side.parent]):
+                side.unlink(missing_ok=True)
+        return Path(path)
+    record = meta_json(
+        dtype=dtype.str,
+        cols=heightmap.cols,
+        rows=heightmap.rows,
+        offset=offset,
+        scale=scale,
+        spacing=list(heightmap.spacing),
+        sha256=hashlib.sha256(data).hexdigest(),
+    )
+    # Sidecar first: a reader that does not lock (another program) between the two renames
+    # sees the new sidecar with the old RAW bytes, which the hash check refuses, never new
+    # RAW bytes with an old (or no) sidecar, which would read as wrong heights.
+    with atomic_outputs([side, path], force=force) as (tmp_side, tmp_raw):
+        tmp_side.write_text(record + "\n", encoding="utf-8")
+        tmp_raw.write_bytes(data)
     return Path(path)
 
 
