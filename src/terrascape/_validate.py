@@ -45,7 +45,9 @@ def check_pow2_plus1_square(shape: tuple[int, ...], *, algorithm: str) -> int:
     if rows != cols or not is_pow2_plus1(rows):
         raise HeightmapSizeError(
             f"{algorithm} needs a square (2**n + 1)-sized grid (e.g. 257, 513, 1025), "
-            f"got {cols}×{rows}; use Heightmap.to_pow2_plus1() or the --pad/--resample option"
+            f"got {cols}×{rows}; pad or resample it first: Heightmap.to_pow2_plus1('pad'|"
+            "'resample'), on the command line `--fit pad` or `--fit resample` (mesh) or "
+            "`--pad` (view)"
         )
     return rows
 

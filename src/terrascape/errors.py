@@ -48,6 +48,11 @@ class OutputWriteError(EnvironmentFailure, OSError):
     a parent that is a file, a name too long. Nothing was written (the old file, if any, is
     unchanged)."""
 
+    def __init__(self, message: str, errno: int | None = None) -> None:
+        super().__init__(message)  # one argument: str() is the message, not "[Errno n] …"
+        if errno is not None:
+            self.errno = errno
+
 
 class MemoryLimitError(EnvironmentFailure, MemoryError):
     """The estimated peak memory of an operation exceeds the limit (``--max-memory``), or an

@@ -66,6 +66,22 @@ def fail(message: str) -> None:
     raise TerrascapeError(message)
 
 
+#: ``--max-memory`` for commands that estimate their peak memory before allocating.
+MAX_MEMORY = typer.Option(
+    None, "--max-memory", metavar="SIZE",
+    help="Refuse to start when the estimated peak memory exceeds SIZE (4G, 512M, 50%); "
+         "default 80% of the memory available now (or $TERRASCAPE_MAX_MEMORY).",
+    show_default=False,
+)
+
+
+def use_max_memory(value: str | None) -> None:
+    """Apply a command's ``--max-memory`` (``None``: the default limit)."""
+    from terrascape.memory import set_limit
+
+    set_limit(value)
+
+
 _SIGNALS = tuple(s for s in (getattr(signal, n, None) for n in ("SIGINT", "SIGTERM", "SIGHUP"))
                  if s is not None)
 
@@ -116,6 +132,7 @@ def run_app(argv: list[str] | None = None) -> int:
     """
     from terrascape.io.atomic import describe_os_error
 
+    use_max_memory(None)  # a previous in-process run's --max-memory does not carry over
     try:
         with _signals_raise():
             try:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from terrascape.cli.app import app, timed
+from terrascape.cli.app import MAX_MEMORY, app, timed, use_max_memory
 from terrascape.cli.cmd_generate import _FORCE, _QUIET, _SEED, _check_outputs, _finish
 from terrascape.errors import InvalidParameterError
 
@@ -21,6 +21,7 @@ def erode_cmd(
     seed: int = _SEED,
     force: bool = _FORCE,
     quiet: bool = _QUIET,
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Erode a heightmap: thermal (talus) and/or droplet hydraulic erosion; mass conserved."""
     from terrascape._validate import check_int
@@ -34,6 +35,10 @@ def erode_cmd(
     _check_outputs(output, None, force)
     with timed("read", quiet=quiet):
         hm = read_heightmap(input_path)
+    from terrascape.memory import check_grid
+
+    use_max_memory(max_memory)
+    check_grid("erode", hm.rows, hm.cols, hint="erode a smaller map (or raise --max-memory)")
     if hydraulic:
         with timed("hydraulic erosion", quiet=quiet):
             hm = hydraulic_erosion(hm, droplets=hydraulic, seed=seed)

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from terrascape.cli.app import app, out, progress, timed
+from terrascape.cli.app import MAX_MEMORY, app, out, progress, timed, use_max_memory
 from terrascape.errors import FileFormatError, InvalidParameterError
 
 if TYPE_CHECKING:
@@ -74,6 +74,14 @@ def _check_outputs(output: Path, preview: Path | None, force: bool) -> None:
         check_output_path(preview, force=force)
 
 
+def _check_memory(command: str, shape: tuple[int, int], max_memory: str | None) -> None:
+    """Refuse a grid whose estimated peak memory exceeds --max-memory, before allocating."""
+    from terrascape.memory import check_grid
+
+    use_max_memory(max_memory)
+    check_grid(command, shape[0], shape[1], hint="use a smaller --size (or raise --max-memory)")
+
+
 def _finish(hm: Heightmap, output: Path, preview: Path | None, height_scale: float | None,
             force: bool, quiet: bool) -> None:
     from terrascape._validate import check_positive
@@ -128,6 +136,7 @@ def diamond_square_cmd(
     preview: Path = _PREVIEW,
     force: bool = _FORCE,
     quiet: bool = _QUIET,
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Diamond-square fractal terrain on a (2**n + 1)² grid (seed 001 §2.2, §5.3.1)."""
     from terrascape.cli.parsing import parse_floats
@@ -139,6 +148,7 @@ def diamond_square_cmd(
             f"diamond-square needs a square size N = 2**n + 1, got {cols}x{rows}")
     corner_values = parse_floats(corners, 4, name="--corners") if corners else None
     _check_outputs(output, preview, force)
+    _check_memory("diamond-square", (rows, cols), max_memory)
     with timed("diamond-square", quiet=quiet):
         hm = diamond_square(rows, roughness=roughness, decay=decay, decay_step=decay_step,
                             hurst=hurst, seed=seed, spacing=spacing, corners=corner_values,
@@ -165,6 +175,7 @@ def fault_cmd(
     preview: Path = _PREVIEW,
     force: bool = _FORCE,
     quiet: bool = _QUIET,
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Fault-formation terrain: random lines raise one side and lower the other (§2.3)."""
     from terrascape._validate import check_int
@@ -173,6 +184,7 @@ def fault_cmd(
     shape = parse_grid_size(size)
     total = check_int(iterations, "--iterations", minimum=1)
     _check_outputs(output, preview, force)
+    _check_memory("fault", shape, max_memory)
     hm = _run_with_bar("fault formation", total, quiet, lambda cb: fault_formation(
         shape, iterations=iterations, start_displacement=start_displacement,
         end_displacement=end_displacement, falloff=falloff, width=width, seed=seed,
@@ -197,6 +209,7 @@ def hills_cmd(
     preview: Path = _PREVIEW,
     force: bool = _FORCE,
     quiet: bool = _QUIET,
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Cosine-hills terrain: h += d/2 + cos(pd·π)·d/2 inside each circle (§2.4)."""
     from terrascape._validate import check_int
@@ -208,6 +221,7 @@ def hills_cmd(
     lo, hi = default_radius_range(*shape)
     radius = (lo if radius_min is None else radius_min, hi if radius_max is None else radius_max)
     _check_outputs(output, preview, force)
+    _check_memory("hills", shape, max_memory)
     hm = _run_with_bar("hills", total, quiet, lambda cb: hills(
         shape, count=count, radius_range=radius, height=height, seed=seed, spacing=spacing,
         progress=cb))
@@ -226,16 +240,25 @@ def blur_cmd(
         "reflect", "--mode", help="Border mode: reflect, nearest, mirror, wrap, constant."),
     force: bool = _FORCE,
     quiet: bool = _QUIET,
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Smooth a heightmap on float heights (no 8-bit quantisation): --sigma S or --box N."""
     from terrascape.filters import box_blur, gaussian_blur
     from terrascape.io import read_heightmap
+    from terrascape.memory import check_grid
 
     if (sigma is None) == (box is None):
         raise InvalidParameterError("give exactly one of --sigma S (Gaussian) or --box N (box)")
     _check_outputs(output, None, force)
     with timed("read", quiet=quiet):
         hm = read_heightmap(input_path)
+    if sigma is not None:
+        from terrascape.memory import gaussian_kernel_bytes
+
+        use_max_memory(max_memory)
+        check_grid("blur", hm.rows, hm.cols, extra=gaussian_kernel_bytes(sigma),
+                   hint="a Gaussian much wider than the map only averages it: use a smaller "
+                        "--sigma (or raise --max-memory)")
     with timed("blur", quiet=quiet):
         hm = gaussian_blur(hm, sigma, mode=mode) if sigma is not None else box_blur(
             hm, box, mode=mode)
@@ -263,11 +286,13 @@ def _noise_command(kind: str) -> None:
         preview: Path = _PREVIEW,
         force: bool = _FORCE,
         quiet: bool = _QUIET,
+        max_memory: str = MAX_MEMORY,
     ) -> None:
         from terrascape.generate import fbm, ridged
 
         shape = parse_grid_size(size)
         _check_outputs(output, preview, force)
+        _check_memory(kind, shape, max_memory)
         kw = {"scale": scale, "octaves": octaves, "lacunarity": lacunarity, "gain": gain,
               "amplitude": amplitude, "seed": seed, "spacing": spacing}
         with timed(kind, quiet=quiet):

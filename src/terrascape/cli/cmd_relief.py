@@ -68,6 +68,10 @@ def relief_command(
     from terrascape.relief.fields import city_field, natural_field
     from terrascape.relief.reference import ReliefQuad
 
+    if output.suffix.lower() != ".png":
+        raise InvalidParameterError(
+            f"relief writes PNG images: the output must end in .png, got {output.name!r}"
+        )
     check_output_path(output, force=force)
     w, h = parse_size(size)
     check_range(angle, "angle (degrees)", 0.0, 85.0)

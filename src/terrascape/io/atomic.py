@@ -82,7 +82,7 @@ def os_error_to_terrascape(exc: OSError, path: str | os.PathLike | None = None) 
     message = describe_os_error(exc, path)
     if exc.errno in _USAGE_ERRNOS:
         return FileFormatError(message)
-    return OutputWriteError(exc.errno or 0, message)
+    return OutputWriteError(message, exc.errno)
 
 
 def _name_max(folder: Path) -> int:
@@ -101,13 +101,28 @@ def check_output_path(path: str | os.PathLike, *, force: bool = False) -> Path:
     writable (permissions or a read-only file system).
     """
     p = Path(path)
+    try:
+        return _check_output_path(p, force)
+    except TerrascapeError:
+        raise
+    except OSError as exc:  # e.g. a path longer than PATH_MAX: stat() itself fails
+        raise os_error_to_terrascape(exc, p) from None
+
+
+def _check_output_path(p: Path, force: bool) -> Path:
+    parent = p.parent
+    limit = _name_max(parent) if parent.is_dir() else 255
+    if len(os.fsencode(p.name)) > limit:
+        raise FileFormatError(
+            f"cannot write {p}: the file name is {len(os.fsencode(p.name))} bytes, this file "
+            f"system allows {limit}; use a shorter name"
+        )
     if p.is_dir():
         example = p / ("out" + (p.suffix or ".png"))
         raise FileFormatError(f"{p} is a folder; the output must be a file path, e.g. {example}")
     if os.path.lexists(p) and not force:
         what = "is a symlink (to a missing file)" if p.is_symlink() and not p.exists() else "exists"
         raise OutputExistsError(f"{p} {what}; pass --force (force=True) to overwrite it")
-    parent = p.parent
     if not parent.exists():
         # A parent that is a file makes exists() false for everything below it.
         for ancestor in p.parents:
@@ -120,17 +135,11 @@ def check_output_path(path: str | os.PathLike, *, force: bool = False) -> Path:
         raise FileFormatError(f"output folder {parent} does not exist; create it first")
     if not parent.is_dir():
         raise FileFormatError(f"cannot write {p}: {parent} is a file, not a folder")
-    limit = _name_max(parent)
-    if len(os.fsencode(p.name)) > limit:
-        raise FileFormatError(
-            f"cannot write {p}: the file name is {len(os.fsencode(p.name))} bytes, this file "
-            f"system allows {limit}; use a shorter name"
-        )
     if not os.access(parent, os.W_OK | os.X_OK):
         raise OutputWriteError(
-            errno.EACCES,
             f"cannot write {p}: folder {parent} is not writable (permission denied or a "
             "read-only file system); write somewhere else",
+            errno.EACCES,
         )
     return p
 
