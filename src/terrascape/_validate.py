@@ -24,7 +24,7 @@ def as_height_array(heights: Any, *, name: str = "heights", allow_nan: bool = Fa
         bad = int(np.count_nonzero(~np.isfinite(array)))
         raise InvalidParameterError(
             f"{name} contain {bad} NaN/infinite value(s); fill them first "
-            "(terrascape.io fills GeoTIFF nodata automatically)"
+            "(terrascape.io.fill_nodata; files read by terrascape.io have NaN filled already)"
         )
     return array
 

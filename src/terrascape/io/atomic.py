@@ -72,6 +72,8 @@ def describe_os_error(
         errno.ENAMETOOLONG: "; use a shorter file name",
         errno.ENOTDIR: "; a parent of this path is a file, not a folder",
     }.get(exc.errno or 0, "")
+    if exc.errno is None:  # e.g. tifffile's "N requested and M written"
+        hint = " (the write stopped short: the disk is probably full)"
     return f"{verb} {where}: {reason}{hint}"
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from terrascape.errors import FileFormatError, InvalidParameterError
+from terrascape.errors import FileFormatError
 from terrascape.heightmap import Heightmap
 from terrascape.io._common import (
     check_heightmap,
@@ -21,6 +21,7 @@ from terrascape.io._common import (
     normalise_spacing,
 )
 from terrascape.io.atomic import atomic_output
+from terrascape.io.fill import fill_non_finite
 
 
 def read_npy(
@@ -37,8 +38,9 @@ def read_npy(
     ------
     FileFormatError
         Missing/truncated/corrupt file, pickled data, not 2-D, non-numeric dtype.
-    InvalidParameterError
-        NaN or infinite samples (``.npy`` has no nodata convention; fill them yourself).
+
+    NaN/infinite samples are nodata, as in every float format terrascape reads: they are
+    filled from the nearest valid sample with a warning (``metadata["filled"]`` counts them).
     """
     p = check_input_path(path)
     spacing_t = normalise_spacing(spacing)
@@ -53,16 +55,11 @@ def read_npy(
         raise FileFormatError(f"expected a 2-D array in {p}, got shape {array.shape}")
     if not (np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)):
         raise FileFormatError(f"expected integer or float heights in {p}, got dtype {array.dtype}")
-    heights = array.astype(np.float64)
-    finite = np.isfinite(heights)
-    if not finite.all():
-        raise InvalidParameterError(
-            f"{p} contains {int(np.count_nonzero(~finite))} NaN/infinite sample(s); expected "
-            "finite heights (fill them, e.g. with terrascape.io.fill_nodata, and save again)"
-        )
+    # NaN/inf are nodata, filled with a warning, as in GeoTIFF and .r32 files.
+    heights, filled = fill_non_finite(array, p.name)
     if vscale is not None:
         heights = heights * vscale
-    md = file_metadata(p, "npy", str(array.dtype), step=0.0)
+    md = file_metadata(p, "npy", str(array.dtype), step=0.0, filled=filled)
     return Heightmap(heights.astype(np.float32), spacing_t or (1.0, 1.0), md)
 
 

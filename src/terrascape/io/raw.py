@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from terrascape.errors import FileFormatError, InvalidParameterError
+from terrascape.errors import FileFormatError
 from terrascape.heightmap import Heightmap
 from terrascape.io._common import (
     check_heightmap,
@@ -39,6 +39,7 @@ from terrascape.io._common import (
     quantise,
 )
 from terrascape.io.atomic import atomic_outputs, check_output_path, commit_lock
+from terrascape.io.fill import fill_non_finite
 
 _DTYPES = {"r16": np.dtype("<u2"), "r32": np.dtype("<f4")}
 
@@ -142,6 +143,7 @@ def _read_raw(
     values = np.frombuffer(data, dtype=dtype).reshape(rows, cols)
 
     units = meta is not None and "offset" in meta and "scale" in meta
+    filled = 0
     if kind == "r16":
         if units:
             scale = float(meta["scale"])
@@ -155,12 +157,9 @@ def _read_raw(
             heights = (values.astype(np.float64) * (v / 65535.0)).astype(np.float32)
             step = v / 65535.0
     else:
-        heights = values.astype(np.float32)
-        if not np.isfinite(heights).all():
-            bad = int(np.count_nonzero(~np.isfinite(heights)))
-            raise InvalidParameterError(
-                f"{p} contains {bad} NaN/infinite sample(s); expected finite float32 heights"
-            )
+        # NaN/inf are nodata, filled with a warning, as in GeoTIFF and .npy files.
+        heights, filled = fill_non_finite(values, p.name)
+        heights = heights.astype(np.float32)
         if vscale is not None:
             heights = heights * np.float32(vscale)
         step = 0.0
@@ -171,6 +170,7 @@ def _read_raw(
         kind,
         f"{dtype.name} little-endian",
         step=step,
+        filled=filled,
         units_restored=units,
         sidecar=str(sidecar_path(p)) if meta else None,
     )
@@ -214,8 +214,9 @@ def read_raw32(
 ) -> Heightmap:
     """Read a little-endian float32 RAW heightmap (``.r32``); heights are world units.
 
-    ``vertical_scale`` multiplies the heights. Non-finite samples raise
-    :class:`InvalidParameterError`. Size/spacing rules as :func:`read_raw16`.
+    ``vertical_scale`` multiplies the heights. NaN/infinite samples are nodata: filled from
+    the nearest valid sample with a warning, as in GeoTIFF and ``.npy``. Size/spacing rules
+    as :func:`read_raw16`.
     """
     return _read_raw(path, "r32", size, spacing, vertical_scale)
 
