@@ -8,38 +8,21 @@ line "interrupted …; nothing was written".
 
 from __future__ import annotations
 
-import os
+import contextlib
 import signal
-import sys
+import time
+from collections.abc import Iterator
 
-
-def _exit_during_startup(signum: int, _frame: object) -> None:
-    # Until run_app takes over, nothing can have been written: leave at once, no traceback.
-    os.write(2, f"interrupted ({signal.Signals(signum).name}) while starting; "
-                "nothing was written\n".encode())
-    os._exit(128 + signum)
-
-
-# Installed before the slow imports (typer, rich, numpy) so that a Ctrl-C in the first half
-# second is one line, not a traceback. Only when running as the CLI, never on `import`.
-if os.path.basename(sys.argv[0] if sys.argv else "") == "terrascape":
-    for _sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-        signal.signal(_sig, _exit_during_startup)
-
-import contextlib  # noqa: E402
-import time  # noqa: E402
-from collections.abc import Iterator  # noqa: E402
-
-import typer  # noqa: E402
+import typer
 
 try:  # typer >= 0.20 vendors click; its exceptions are the ones raised
     from typer._click import exceptions as click_errors
 except ImportError:  # pragma: no cover - older typer on the real click
     from click import exceptions as click_errors
-from rich.console import Console  # noqa: E402
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn  # noqa: E402
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from terrascape.errors import Interrupted, TerrascapeError  # noqa: E402
+from terrascape.errors import Interrupted, TerrascapeError
 
 app = typer.Typer(
     name="terrascape",

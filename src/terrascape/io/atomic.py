@@ -30,6 +30,7 @@ import contextlib
 import errno
 import os
 import re
+import signal
 import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -255,11 +256,29 @@ def _link_new(tmp: Path, final: Path) -> None:
         os.replace(tmp, final)
 
 
+_DEFERRED_SIGNALS = {getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP")
+                     if hasattr(signal, n)}
+
+
+@contextlib.contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """Block SIGINT/SIGTERM/SIGHUP during a commit (a few renames): a signal then arrives
+    after it, so a unit is never left half-renamed with its rollback cut short."""
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - Windows
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _DEFERRED_SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 def _commit(pairs: list[tuple[Path, Path]], force: bool) -> None:
     """Rename every ``tmp`` to its ``final`` under the folder locks; all or nothing."""
     done: list[tuple[Path, Path | None]] = []  # (final, backup of the old file or None)
     backups: list[Path] = []
-    with commit_lock([final.parent for _tmp, final in pairs]):
+    with _signals_deferred(), commit_lock([final.parent for _tmp, final in pairs]):
         try:
             for tmp, final in pairs:
                 if force:
