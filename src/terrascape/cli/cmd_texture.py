@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 from pathlib import Path
 
 import numpy as np
@@ -164,7 +163,8 @@ def splat_cmd(
     Without --materials, layers are the default regions: 0 water, 1 sand, 2 grass, 3 rock,
     4 snow. Either every file is written or none is.
     """
-    from terrascape.io import atomic_output, check_output_path
+    from terrascape.io import check_output_path
+    from terrascape.io.atomic import atomic_outputs
     from terrascape.texture import (
         check_material_map,
         default_regions,
@@ -198,11 +198,10 @@ def splat_cmd(
         bar.advance(task)
         images = pack_splat_maps(splat_weights(ids, n_layers, block=block))
         bar.advance(task)
-        # Every file goes to a temporary first; the renames happen only after all writes
-        # succeeded, so a failure leaves no new file behind.
-        with contextlib.ExitStack() as stack:
-            for img, p in zip(images, paths, strict=True):
-                tmp = stack.enter_context(atomic_output(p, force=force))
+        # One unit: every file goes to a temporary first and all are committed together
+        # (rolled back if any rename fails), so a reader sees all new maps or none.
+        with atomic_outputs(paths, force=force) as tmps:
+            for img, tmp, p in zip(images, tmps, paths, strict=True):
                 _save_rgb(img, tmp, p)
         bar.advance(task)
     if not quiet:
