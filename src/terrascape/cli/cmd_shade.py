@@ -229,8 +229,12 @@ def shade_cmd(
             hm, sun_azimuth, sun_elevation, ambient=ambient, shadows=not no_shadows, soft=soft,
             method=method,
         )
-    codes = np.rint(light * 255.0).astype(np.uint8)
+    mean = float(light.mean())
+    light *= np.float32(255.0)  # in place: the 8-bit codes are the only new array
+    np.rint(light, out=light)
+    codes = light.astype(np.uint8)
+    del light
     with timed("write", quiet=quiet), atomic_output(output, force=force) as tmp:
         Image.fromarray(codes).save(tmp, format="PNG")
     if not quiet:
-        out.print(f"{output}  {hm.cols}×{hm.rows} lightmap, mean {float(light.mean()):.3f}")
+        out.print(f"{output}  {hm.cols}×{hm.rows} lightmap, mean {mean:.3f}")

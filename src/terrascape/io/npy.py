@@ -58,9 +58,10 @@ def read_npy(
     # NaN/inf are nodata, filled with a warning, as in GeoTIFF and .r32 files.
     heights, filled = fill_non_finite(array, p.name)
     if vscale is not None:
-        heights = heights * vscale
+        heights = heights.astype(np.float64) * vscale
     md = file_metadata(p, "npy", str(array.dtype), step=0.0, filled=filled)
-    return Heightmap(heights.astype(np.float32), spacing_t or (1.0, 1.0), md)
+    # asarray: a float32 file is not copied again (the read peak stays at one map).
+    return Heightmap(np.asarray(heights, dtype=np.float32), spacing_t or (1.0, 1.0), md)
 
 
 def write_npy(heightmap: Heightmap, path: str | os.PathLike, *, force: bool = False) -> Path:
