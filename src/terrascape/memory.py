@@ -179,14 +179,12 @@ PEAK_BYTES_PER_SAMPLE: dict[str, float] = {
     "ridged": 23.0,
     "blur": 23.0,
     "erode": 30.0,
-    "shade": 30.0,
+    "shade": 13.0,
     "normalmap": 74.0,
     "texture regions": 40.0,
     "texture material": 100.0,
-    "texture splat": 16.0,
     "heightfromimage": 48.0,
     "render": 200.0,
-    "mesh": 120.0,
 }
 
 
