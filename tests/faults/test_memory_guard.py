@@ -110,3 +110,16 @@ def test_bad_max_memory_is_usage_error(tmp_path, capsys):
     code = run_app(["generate", "diamond-square", "--size", "65", "-o", str(tmp_path / "x.npy"),
                     "--max-memory", "lots"])
     assert code == 2 and "--max-memory must look like" in capsys.readouterr().err
+
+
+def test_a_memory_error_that_still_happens_is_one_line(tmp_path, capsys, monkeypatch):
+    import terrascape.generate
+
+    def exhausted(*_args, **_kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(terrascape.generate, "diamond_square", exhausted)
+    code = run_app(["generate", "diamond-square", "--size", "65", "-o", str(tmp_path / "x.png")])
+    line = _one_error_line(capsys.readouterr().err)
+    assert code == 1 and line.startswith("error: out of memory") and "nothing was written" in line
+    assert list(tmp_path.iterdir()) == []
