@@ -180,7 +180,7 @@ PEAK_BYTES_PER_SAMPLE: dict[str, float] = {
     "blur": 23.0,
     "erode": 30.0,
     "shade": 13.0,
-    "normalmap": 74.0,
+    "normalmap": 16.0,
     "texture regions": 40.0,
     "texture material": 100.0,
     "heightfromimage": 48.0,
