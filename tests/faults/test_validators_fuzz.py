@@ -74,3 +74,35 @@ def test_parse_memory_units(text, expected):
 def test_parse_memory_refuses(text):
     with pytest.raises(InvalidParameterError, match="--max-memory"):
         parse_memory(text)
+
+
+# --- the CLI end to end: any option text → exit 0/1/2 and one line, never a traceback ----
+OPTION_TEXT = st.one_of(
+    st.sampled_from(["33", "17", "0", "-5", "1e9", "nan", "inf", "-inf", "", "3x3", "17x9",
+                     "4G", "1", "0.5", "1,2", "1,2,3", "abc", "65537", "2**5+1"]),
+    st.text(alphabet="0123456789.-+exX,na ", max_size=8),
+)
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(size=OPTION_TEXT, roughness=OPTION_TEXT, spacing=OPTION_TEXT, memory=OPTION_TEXT)
+def test_generate_options_never_crash(tmp_path_factory, size, roughness, spacing, memory):
+    import contextlib
+    import io
+
+    from terrascape.cli.app import run_app
+
+    out = tmp_path_factory.mktemp("cli") / "o.npy"
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = run_app(["generate", "diamond-square", "--size", size, "--roughness", roughness,
+                        "--spacing", spacing, "--max-memory", memory, "-o", str(out), "-q"])
+    assert code in (0, 1, 2), err.getvalue()
+    assert "Traceback" not in err.getvalue()
+    if code == 0:
+        import numpy as np
+
+        assert np.isfinite(np.load(out)).all()
+    else:
+        assert not out.exists()
+        assert err.getvalue().count("error:") == 1
