@@ -24,7 +24,7 @@ def as_height_array(heights: Any, *, name: str = "heights", allow_nan: bool = Fa
         bad = int(np.count_nonzero(~np.isfinite(array)))
         raise InvalidParameterError(
             f"{name} contain {bad} NaN/infinite value(s); fill them first "
-            "(terrascape.io fills GeoTIFF nodata automatically)"
+            "(terrascape.io.fill_nodata; files read by terrascape.io have NaN filled already)"
         )
     return array
 
@@ -45,7 +45,9 @@ def check_pow2_plus1_square(shape: tuple[int, ...], *, algorithm: str) -> int:
     if rows != cols or not is_pow2_plus1(rows):
         raise HeightmapSizeError(
             f"{algorithm} needs a square (2**n + 1)-sized grid (e.g. 257, 513, 1025), "
-            f"got {cols}×{rows}; use Heightmap.to_pow2_plus1() or the --pad/--resample option"
+            f"got {cols}×{rows}; pad or resample it first: Heightmap.to_pow2_plus1('pad'|"
+            "'resample'), on the command line `--fit pad` or `--fit resample` (mesh) or "
+            "`--pad` (view)"
         )
     return rows
 

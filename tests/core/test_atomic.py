@@ -49,3 +49,116 @@ def test_output_gets_umask_permissions(tmp_path):
     finally:
         os.umask(mask)
     assert (tmp_path / "p.txt").stat().st_mode & 0o777 == 0o644
+
+
+# --- races, symlinks, groups, stale temporaries --------------------------------------------
+import errno  # noqa: E402
+import os  # noqa: E402
+
+from terrascape.errors import OutputWriteError  # noqa: E402
+from terrascape.io.atomic import (  # noqa: E402
+    atomic_outputs,
+    check_output_path,
+    remove_stale_temporaries,
+)
+
+
+def test_race_loser_gets_clear_error(tmp_path):
+    target = tmp_path / "o.bin"
+    outer = atomic_output(target)
+    tmp_a = outer.__enter__()
+    tmp_a.write_bytes(b"A")
+    with atomic_output(target) as tmp_b:
+        tmp_b.write_bytes(b"B")
+    with pytest.raises(OutputExistsError, match="created by someone else"):
+        outer.__exit__(None, None, None)
+    assert target.read_bytes() == b"B"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o.bin"]
+
+
+def test_dangling_symlink_needs_force(tmp_path):
+    link = tmp_path / "o.png"
+    link.symlink_to(tmp_path / "missing.png")
+    with pytest.raises(OutputExistsError, match="symlink"):
+        check_output_path(link)
+    with atomic_output(link, force=True) as tmp:
+        tmp.write_bytes(b"new")
+    assert not link.is_symlink() and link.read_bytes() == b"new"
+    assert not (tmp_path / "missing.png").exists()
+
+
+def test_directory_parent_file_and_long_name_messages(tmp_path):
+    (tmp_path / "adir").mkdir()
+    with pytest.raises(FileFormatError, match="is a folder; the output must be a file path"):
+        check_output_path(tmp_path / "adir")
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(FileFormatError, match="is a file, not a folder"):
+        check_output_path(tmp_path / "f" / "o.png")
+    with pytest.raises(FileFormatError, match="use a shorter name"):
+        check_output_path(tmp_path / ("x" * 300 + ".png"))
+    # A name near the limit still gets a valid temporary name.
+    near = tmp_path / ("y" * 250 + ".png")
+    with atomic_output(near) as tmp:
+        tmp.write_bytes(b"ok")
+    assert near.read_bytes() == b"ok"
+
+
+def test_group_commit_is_all_or_nothing(tmp_path, monkeypatch):
+    a, b = tmp_path / "a.bin", tmp_path / "b.bin"
+    a.write_bytes(b"old a")
+    b.write_bytes(b"old b")
+    real_replace = os.replace
+    calls = []
+
+    def failing_replace(src, dst, *args, **kwargs):
+        calls.append(dst)
+        if str(dst) == str(b):  # the second rename: the disk "fills up"
+            raise OSError(errno.ENOSPC, "No space left on device", str(dst))
+        return real_replace(src, dst, *args, **kwargs)
+
+    monkeypatch.setattr(os, "replace", failing_replace)
+    with pytest.raises(OutputWriteError, match="No space left on device"), atomic_outputs(
+        [a, b], force=True
+    ) as (ta, tb):
+        ta.write_bytes(b"new a")
+        tb.write_bytes(b"new b")
+    monkeypatch.setattr(os, "replace", real_replace)
+    assert a.read_bytes() == b"old a" and b.read_bytes() == b"old b"  # a was rolled back
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.bin", "b.bin"]
+
+
+def test_group_commit_without_force_removes_its_first_file_on_failure(tmp_path):
+    a, b = tmp_path / "a.bin", tmp_path / "b.bin"
+    with pytest.raises(OutputExistsError), atomic_outputs([a, b]) as (ta, tb):
+        ta.write_bytes(b"a")
+        tb.write_bytes(b"b")
+        b.write_bytes(b"someone else")  # b appears while we write
+    assert not a.exists() and b.read_bytes() == b"someone else"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b.bin"]
+
+
+def test_stale_temporary_of_dead_process_is_removed(tmp_path):
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True)
+    dead = int(proc.stdout)
+    stale = tmp_path / f".o.{dead}-abcd1234.part.png"
+    stale.write_bytes(b"half")
+    alive = tmp_path / f".o.{os.getpid()}-zzzz9999.part.png"  # ours: still running
+    alive.write_bytes(b"mine")
+    other = tmp_path / f".p.{dead}-abcd1234.part.png"  # another output's: not touched
+    other.write_bytes(b"x")
+    assert remove_stale_temporaries(tmp_path / "o.png") == [stale]
+    with atomic_output(tmp_path / "o.png") as tmp:
+        tmp.write_bytes(b"new")
+    assert not stale.exists() and alive.exists() and other.exists()
+
+
+def test_writer_oserror_becomes_typed_error_naming_the_output(tmp_path):
+    target = tmp_path / "o.bin"
+    with pytest.raises(OutputWriteError, match=r"cannot write .*o\.bin: No space left"), \
+            atomic_output(target) as tmp:
+        raise OSError(errno.ENOSPC, "No space left on device", str(tmp))
+    assert list(tmp_path.iterdir()) == []

@@ -29,13 +29,19 @@ def test_integer_arrays_and_vertical_scale(tmp_path):
     assert hm.metadata["dtype"] == "int64"
 
 
-def test_nan_is_rejected_not_filled(tmp_path):
+def test_nan_is_filled_with_a_warning_like_tiff(tmp_path):
     a = np.zeros((3, 3))
     a[0, 2] = np.nan
     a[1, 1] = np.inf
+    a[2, 2] = 7.0
     np.save(tmp_path / "n.npy", a)
-    with pytest.raises(InvalidParameterError, match="2 NaN/infinite"):
-        read_npy(tmp_path / "n.npy")
+    with pytest.warns(UserWarning, match="filled 2 NaN/infinite"):
+        hm = read_npy(tmp_path / "n.npy")
+    assert np.isfinite(hm.heights).all() and hm.metadata["filled"] == 2
+    assert hm.heights[0, 2] == 0.0 and hm.heights[2, 2] == 7.0
+    np.save(tmp_path / "all.npy", np.full((2, 2), np.nan))
+    with pytest.raises(FileFormatError, match="all 4 samples are NaN"):
+        read_npy(tmp_path / "all.npy")
 
 
 def test_bad_arrays_and_files(tmp_path):

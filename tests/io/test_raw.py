@@ -75,12 +75,14 @@ def test_r32_round_trip_is_exact(rng, tmp_path):
     np.testing.assert_array_equal(read_raw32(tmp_path / "n.r32", size=(9, 5)).heights, hm.heights)
 
 
-def test_r32_nan_is_rejected(tmp_path):
+def test_r32_nan_is_filled_with_a_warning_like_tiff(tmp_path):
     a = np.ones((3, 3), "<f4")
     a[1, 1] = np.nan
     (tmp_path / "n.r32").write_bytes(a.tobytes())
-    with pytest.raises(InvalidParameterError, match="1 NaN"):
-        read_raw32(tmp_path / "n.r32")
+    with pytest.warns(UserWarning, match="filled 1 NaN/infinite"):
+        hm = read_raw32(tmp_path / "n.r32")
+    np.testing.assert_array_equal(hm.heights, np.ones((3, 3)))
+    assert hm.metadata["filled"] == 1
 
 
 def test_sidecar_is_part_of_overwrite_protection(rng, tmp_path):

@@ -1,20 +1,32 @@
-"""The typer application, shared helpers for commands, and error → exit-code mapping."""
+"""The typer application, shared helpers for commands, and error → exit-code mapping.
+
+Exit codes (``docs/reliability.md``): 0 success; 2 usage error (bad option or value, bad
+input file, output exists); 1 environment failure (disk full, read-only, permission denied,
+not enough memory); 128 + N for signal N (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP), after the
+line "interrupted …; nothing was written".
+"""
 
 from __future__ import annotations
 
 import contextlib
+import signal
 import time
 import warnings
 from collections.abc import Callable, Iterator
 
 import typer
+
+try:  # typer >= 0.20 vendors click; its exceptions are the ones raised
+    from typer._click import exceptions as click_errors
+except ImportError:  # pragma: no cover - older typer on the real click
+    from click import exceptions as click_errors
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from typer.core import TyperOption
 
 from terrascape import __version__
 from terrascape._output import LineProgress, make_console
-from terrascape.errors import TerrascapeError
+from terrascape.errors import Interrupted, TerrascapeError
 
 app = typer.Typer(
     name="terrascape",
@@ -142,31 +154,115 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     console.print(f"[yellow]warning:[/] {escape(str(message))}")
 
 
-def run_app(argv: list[str] | None = None) -> int:
-    """Run the typer app; typed errors become one line on stderr and exit code 2.
+#: ``--max-memory`` for commands that estimate their peak memory before allocating.
+MAX_MEMORY = typer.Option(
+    None, "--max-memory", metavar="SIZE",
+    help="Refuse to start when the estimated peak memory exceeds SIZE (4G, 512M, 50%); "
+         "default 80% of the memory available now (or $TERRASCAPE_MAX_MEMORY).",
+    show_default=False,
+)
 
-    Usage errors (unknown option, bad value) are click's own and also exit with 2.
+
+def use_max_memory(value: str | None) -> None:
+    """Apply a command's ``--max-memory`` (``None``: the default limit)."""
+    from terrascape.memory import set_limit
+
+    set_limit(value)
+
+
+_SIGNALS = tuple(s for s in (getattr(signal, n, None) for n in ("SIGINT", "SIGTERM", "SIGHUP"))
+                 if s is not None)
+
+
+def _raise_interrupted(signum: int, _frame: object) -> None:
+    raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def _signals_raise() -> Iterator[None]:
+    """Turn SIGINT/SIGTERM/SIGHUP into :class:`Interrupted` while a command runs.
+
+    The exception unwinds through every ``finally``, so unfinished outputs' temporary files
+    are removed (``io.atomic``); the previous handlers come back afterwards.
     """
+    previous = {}
     try:
-        with warnings.catch_warnings():
-            warnings.showwarning = _show_warning
-            app(args=argv, prog_name="terrascape")
+        for sig in _SIGNALS:
+            with contextlib.suppress(ValueError, OSError):  # not the main thread
+                previous[sig] = signal.signal(sig, _raise_interrupted)
+        yield
+    finally:
+        for sig, handler in previous.items():
+            with contextlib.suppress(ValueError, OSError, TypeError):
+                signal.signal(sig, handler)
+
+
+def _usage_line(exc: click_errors.ClickException) -> str:
+    """Click's usage error as one line: the message and where to read the help."""
+    message = " ".join(exc.format_message().split())
+    ctx = getattr(exc, "ctx", None)
+    if ctx is not None and isinstance(exc, click_errors.UsageError):
+        return f"{message} (see '{ctx.command_path} --help')"
+    return message
+
+
+def _error(message: str) -> None:
+    console.print(f"[bold red]error:[/] {escape(message)}", markup=True, highlight=False)
+
+
+def run_app(argv: list[str] | None = None) -> int:
+    """Run the typer app and map every failure to one line on stderr and an exit code.
+
+    ``TerrascapeError`` → its ``exit_code`` (2 usage, 1 environment); click's usage errors
+    (unknown option, value out of range) → 2; an ``OSError`` or ``MemoryError`` no command
+    turned into a typed error → 1; SIGINT/SIGTERM/SIGHUP → 128 + signal number, after the
+    temporary files of unfinished outputs were removed.
+    """
+    from terrascape.io.atomic import describe_os_error
+
+    use_max_memory(None)  # a previous in-process run's --max-memory does not carry over
+    try:
+        with _signals_raise():
+            try:
+                with warnings.catch_warnings():
+                    warnings.showwarning = _show_warning
+                    result = app(args=argv, prog_name="terrascape", standalone_mode=False)
+            except KeyboardInterrupt:  # raised by code that installs its own SIGINT handler
+                raise Interrupted(signal.SIGINT) from None
+    except Interrupted as exc:
+        console.print(f"[red]interrupted ({exc.signal_name}); nothing was written[/] "
+                      "(unfinished outputs were removed)")
+        return exc.exit_code
     except TerrascapeError as exc:
-        console.print(f"[bold red]error:[/] {escape(str(exc))}")
-        return USAGE_EXIT
+        _error(str(exc))
+        return exc.exit_code
     except ModuleNotFoundError as exc:
         message = missing_module_message(exc)
         if message is None:
             raise
-        console.print(f"[bold red]error:[/] {escape(message)}")
+        _error(message)
         return USAGE_EXIT
+    except click_errors.NoArgsIsHelpError as exc:
+        if exc.ctx is not None:  # a group without its command: show its help, as before
+            out.print(exc.ctx.get_help())
+        return exc.exit_code
+    except click_errors.ClickException as exc:
+        _error(_usage_line(exc))
+        return exc.exit_code
+    except typer.Abort:
+        _error("aborted; nothing was written")
+        return 1
+    except MemoryError:
+        _error("out of memory: the machine could not allocate what this command needs; "
+               "nothing was written. Use a smaller size, or free memory and try again")
+        return 1
+    except OSError as exc:
+        _error(describe_os_error(exc, verb="cannot access"))
+        return 1
     except SystemExit as exc:
         code = exc.code
         return code if isinstance(code, int) else (0 if code is None else 1)
-    except KeyboardInterrupt:
-        console.print("[red]interrupted[/]")
-        return 130
-    return 0
+    return result if isinstance(result, int) and not isinstance(result, bool) else 0
 
 
 @contextlib.contextmanager

@@ -25,6 +25,13 @@ def demo(
     from terrascape.cli.demo import run_demo
     from terrascape.cli.parsing import parse_size
 
+    if output.exists() and not output.is_dir():
+        from terrascape.errors import FileFormatError
+
+        raise FileFormatError(
+            f"--output must be a folder (created if missing), but {output} is a file; "
+            "give another folder name"
+        )
     chosen = tuple(s.strip() for s in stages.split(",") if s.strip())
     result = run_demo(output, size=size, render_size=parse_size(render_size), force=force,
                       stages=chosen)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from terrascape.cli.app import app, out, timed
+from terrascape.cli.app import MAX_MEMORY, app, out, timed, use_max_memory
 from terrascape.cli.cmd_generate import _FORCE, _QUIET, _SEED, _check_outputs, _finish
 from terrascape.errors import InvalidParameterError
 
@@ -61,6 +61,7 @@ def erode_cmd(
     seed: int = _SEED,
     force: bool = _FORCE,
     quiet: bool = _QUIET,
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Erode a heightmap. With no options: stream-power river erosion (drained valleys)."""
     from terrascape._validate import check_int
@@ -86,6 +87,10 @@ def erode_cmd(
             check_output_path(path, force=force)
     with timed("read", quiet=quiet):
         hm = read_heightmap(input_path)
+    from terrascape.memory import check_grid
+
+    use_max_memory(max_memory)
+    check_grid("erode", hm.rows, hm.cols, hint="erode a smaller map (or raise --max-memory)")
     original = hm.heights
     rain = _read_map(rain_map, "--rain-map", hm.shape) if rain_map is not None else None
     talus_angle = (_read_map(talus_map, "--talus-map", hm.shape) if talus_map is not None

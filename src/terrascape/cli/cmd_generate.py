@@ -9,7 +9,7 @@ from pathlib import Path
 
 import typer
 
-from terrascape.cli.app import app, console, out, progress, timed
+from terrascape.cli.app import MAX_MEMORY, app, console, out, progress, timed, use_max_memory
 from terrascape.errors import FileFormatError, InvalidParameterError
 from terrascape.generate.registry import (
     GENERATORS,
@@ -81,6 +81,15 @@ def _check_outputs(output: Path, preview: Path | None, force: bool) -> None:
         check_output_path(preview, force=force)
 
 
+def _check_memory(command: str, shape: tuple[int, int], max_memory: str | None) -> None:
+    """Refuse a grid whose estimated peak memory exceeds --max-memory, before allocating."""
+    from terrascape.memory import PEAK_BYTES_PER_SAMPLE, check_grid
+
+    use_max_memory(max_memory)
+    name = command if command in PEAK_BYTES_PER_SAMPLE else "fbm"
+    check_grid(name, shape[0], shape[1], hint="use a smaller --size (or raise --max-memory)")
+
+
 def _finish(hm: Heightmap, output: Path, preview: Path | None, height_scale: float | None,
             force: bool, quiet: bool) -> None:
     from terrascape._validate import check_positive
@@ -139,6 +148,7 @@ def _generator_command(gen: Generator, alias: str | None = None) -> Callable[...
         height_scale, raw = kwargs.pop("height_scale"), kwargs.pop("raw")
         output, preview = kwargs.pop("output"), kwargs.pop("preview")
         force, quiet = kwargs.pop("force"), kwargs.pop("quiet")
+        max_memory = kwargs.pop("max_memory")
         params = {}
         for param in gen.params:
             value = kwargs[param.name]
@@ -157,6 +167,7 @@ def _generator_command(gen: Generator, alias: str | None = None) -> Callable[...
             check_positive(height_scale, "--height-scale")
         total = progress_total(gen.name, shape, **params)
         _check_outputs(output, preview, force)
+        _check_memory(gen.name, shape, max_memory)
 
         def make(callback: Callable[[int, int], None] | None) -> Heightmap:
             return generate(gen.name, shape, seed=seed, spacing=spacing, relief=height_scale,
@@ -180,6 +191,7 @@ def _generator_command(gen: Generator, alias: str | None = None) -> Callable[...
         ("preview", Path, _PREVIEW),
         ("force", bool, _FORCE),
         ("quiet", bool, _QUIET),
+        ("max_memory", str, MAX_MEMORY),
     ]
     command.__signature__ = inspect.Signature([  # type: ignore[attr-defined]
         inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=option,
@@ -210,17 +222,27 @@ def blur_cmd(
         "reflect", "--mode", help="Border mode: reflect, nearest, mirror, wrap, constant."),
     force: bool = _FORCE,
     quiet: bool = _QUIET,
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Smooth a heightmap on float heights (no 8-bit quantisation): --sigma S or --box N."""
     from terrascape.filters import box_blur, gaussian_blur
     from terrascape.io import read_heightmap
+    from terrascape.memory import check_grid
 
     if (sigma is None) == (box is None):
         raise InvalidParameterError("give exactly one of --sigma S (Gaussian) or --box N (box)")
     _check_outputs(output, None, force)
     with timed("read", quiet=quiet):
         hm = read_heightmap(input_path)
+    if sigma is not None:
+        from terrascape.memory import gaussian_kernel_bytes
+
+        use_max_memory(max_memory)
+        check_grid("blur", hm.rows, hm.cols, extra=gaussian_kernel_bytes(sigma),
+                   hint="a Gaussian much wider than the map only averages it: use a smaller "
+                        "--sigma (or raise --max-memory)")
     with timed("blur", quiet=quiet):
         hm = gaussian_blur(hm, sigma, mode=mode) if sigma is not None else box_blur(
             hm, box, mode=mode)
     _finish(hm, output, None, None, force, quiet)
+

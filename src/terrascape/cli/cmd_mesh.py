@@ -151,6 +151,11 @@ def mesh_command(
                 n for n, s in SCHEMES.items() if "patch_size" in s.options) + ")")
     if fit not in _FITS:
         raise InvalidParameterError(f"--fit must be one of {', '.join(_FITS)}, got {fit!r}")
+    if max_triangles_roam is not None and not (view_mode and lod == "roam"):
+        raise InvalidParameterError(
+            "--roam-max-triangles applies only to the view-dependent ROAM mesh: add --lod roam "
+            "with --camera/--target, or drop it (static meshes take --triangles N)"
+        )
 
     with timed("read", quiet=quiet):
         hm = _read(heightmap, spacing, vertical_scale)

@@ -75,6 +75,10 @@ def relief_command(
     from terrascape.relief.fields import city_field, fence_field, natural_field
     from terrascape.relief.reference import ReliefQuad
 
+    if output.suffix.lower() != ".png":
+        raise InvalidParameterError(
+            f"relief writes PNG images: the output must end in .png, got {output.name!r}"
+        )
     check_output_path(output, force=force)
     quad_name = technique
     if technique not in ("prewarp", "auto"):

@@ -11,10 +11,13 @@ import numpy as np
 import typer
 
 from terrascape.camera import Camera
-from terrascape.cli.app import app, out, progress, timed
+from terrascape.cli.app import MAX_MEMORY, app, out, progress, timed, use_max_memory
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
 from terrascape.generate.registry import generator_names, names_help
+
+#: Largest --turntable: frame files are numbered with four digits.
+MAX_TURNTABLE_FRAMES = 10_000
 
 
 def _load(heightmap: Path | None, generate: str | None, gen_size: int, seed: int,
@@ -198,6 +201,7 @@ def render_command(
     seed: int = typer.Option(0, "--seed", help="Seed of the generator and built-in materials."),
     force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines or progress bar."),
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Render a heightmap with OpenGL (headless EGL) to a PNG, a PNG sequence or an MP4."""
     from terrascape.io.atomic import atomic_output, check_output_path
@@ -210,8 +214,11 @@ def render_command(
     sun_az, sun_el = parse_floats(sun, 2, name="--sun AZ,EL")
     if not math.isfinite(exaggeration) or exaggeration <= 0:
         raise InvalidParameterError(f"--exaggeration must be > 0, got {exaggeration}")
-    if turntable < 0:
-        raise InvalidParameterError(f"--turntable must be >= 0, got {turntable}")
+    if not 0 <= turntable <= MAX_TURNTABLE_FRAMES:
+        # Frames are numbered NAME_0000.png … NAME_9999.png: more would stop sorting by name.
+        raise InvalidParameterError(
+            f"--turntable must be in [0, {MAX_TURNTABLE_FRAMES}] frames, got {turntable}"
+        )
     if fmt not in ("png", "mp4"):
         raise InvalidParameterError(f"--format must be png or mp4, got {fmt!r}")
     technique = get_technique(technique).name  # fail fast on a typo; old names → new
@@ -224,8 +231,19 @@ def render_command(
         check_output_path(output, force=force)
     params = {"lighting": lighting, "wireframe": wireframe, "seed": seed}
 
+    use_max_memory(max_memory)
+    if generate is not None:
+        from terrascape.memory import PEAK_BYTES_PER_SAMPLE, check_grid, estimate_peak
+
+        gen_name = generate if generate in PEAK_BYTES_PER_SAMPLE else "fbm"
+        check_grid("render", gen_size, gen_size, extra=estimate_peak(gen_name, gen_size, gen_size),
+                   hint="use a smaller --gen-size (or raise --max-memory)")
     with timed("load", quiet=quiet):
         hm = _load(heightmap, generate, gen_size, seed, gen_param)
+    if generate is None:
+        from terrascape.memory import check_grid
+
+        check_grid("render", hm.rows, hm.cols, hint="render a smaller map (or raise --max-memory)")
     with contextlib.ExitStack() as stack:
         with timed("GL context", quiet=quiet):
             ctx = stack.enter_context(headless_context())

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from terrascape.cli.app import app, out, timed
+from terrascape.cli.app import MAX_MEMORY, app, out, timed, use_max_memory
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
 from terrascape.heightmap import Heightmap
 from terrascape.io.atomic import atomic_output, check_output_path
@@ -38,6 +38,15 @@ def _read_heightmap(path: Path):
         raise
     except (OSError, ValueError) as exc:  # a reader's own low-level error: still a bad file
         raise FileFormatError(f"cannot read heightmap {path}: {exc}") from exc
+
+
+def _check_memory(command: str, rows: int, cols: int, max_memory: str | None, *,
+                  extra: float = 0.0, hint: str = "use a smaller map (or raise --max-memory)"
+                  ) -> None:
+    from terrascape.memory import check_grid
+
+    use_max_memory(max_memory)
+    check_grid(command, rows, cols, extra=extra, hint=hint)
 
 
 def _png_chunk(kind: bytes, data: bytes) -> bytes:
@@ -90,10 +99,14 @@ def _read_photo(path: Path) -> np.ndarray:
                 lo, hi = float(arr.min()), float(arr.max())
                 return (arr - lo) / (hi - lo) if hi > lo else np.zeros_like(arr)
             return np.array(im.convert("RGBA" if "A" in im.mode else "RGB"), dtype=np.uint8)
-    except UnidentifiedImageError as exc:
-        raise FileFormatError(f"{path} is not an image Pillow can read") from exc
-    except OSError as exc:
-        raise FileFormatError(f"cannot read image {path}: {exc}") from exc
+    except UnidentifiedImageError:
+        raise FileFormatError(f"{path} is not an image Pillow can read") from None
+    except Image.DecompressionBombError as exc:
+        raise FileFormatError(
+            f"cannot read image {path}: {exc} (refused as a possible decompression bomb)"
+        ) from None
+    except (OSError, SyntaxError, ValueError, EOFError) as exc:
+        raise FileFormatError(f"cannot read image {path}: {exc}") from None
 
 
 # --- commands ----------------------------------------------------------------------------------
@@ -107,6 +120,7 @@ def normalmap_cmd(
     bits: int = typer.Option(8, "--bits", help="Bits per channel: 8 or 16."),
     force: bool = _FORCE,
     quiet: bool = _QUIET,
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Write the packed normal + height texture: RGB = tangent-space normal, A = height."""
     from terrascape.lighting import pack_normal_height
@@ -114,9 +128,17 @@ def normalmap_cmd(
     _require_png(output)
     if bits not in (8, 16):
         raise InvalidParameterError(f"--bits must be 8 or 16, got {bits}")
+    if not (np.isfinite(height_scale) and 0 < abs(height_scale) <= 1e6):
+        # Beyond ~1e6 every slope is so steep that the normals are horizontal to float32
+        # precision (and inf·0 gives NaN): the texture would be flat grey, silently.
+        raise InvalidParameterError(
+            f"--height-scale must be a non-zero factor with |F| <= 1e6, got {height_scale!r}; "
+            "larger exaggerations make every normal horizontal"
+        )
     check_output_path(output, force=force)
     with timed("read", quiet=quiet):
         hm = _read_heightmap(heightmap)
+    _check_memory("normalmap", hm.rows, hm.cols, max_memory)
     with timed("normals", quiet=quiet):
         packed = pack_normal_height(hm, height_scale=height_scale, bits=bits)
     with timed("write", quiet=quiet):
@@ -140,6 +162,7 @@ def heightfromimage_cmd(
     invert: bool = typer.Option(False, "--invert", help="Dark means high."),
     force: bool = _FORCE,
     quiet: bool = _QUIET,
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Approximate a heightmap from a photo's brightness (bright = high)."""
     from terrascape.io import write_png16
@@ -151,6 +174,13 @@ def heightfromimage_cmd(
         raise InvalidParameterError(f"--highpass must be >= 0 pixels, got {highpass}")
     with timed("read", quiet=quiet):
         rgb = _read_photo(image)
+    from terrascape.memory import gaussian_kernel_bytes
+
+    kernels = max(gaussian_kernel_bytes(blur) if blur > 0 else 0.0,
+                  gaussian_kernel_bytes(highpass) if highpass > 0 else 0.0)
+    _check_memory("heightfromimage", rgb.shape[0], rgb.shape[1], max_memory, extra=kernels,
+                  hint="a blur or high-pass much wider than the image only averages it: use a "
+                       "smaller --blur/--highpass (or raise --max-memory)")
     with timed("height", quiet=quiet):
         h = height_from_image(
             rgb, blur_sigma=blur, highpass_sigma=highpass or None, contrast=contrast,
@@ -182,6 +212,7 @@ def shade_cmd(
     ),
     force: bool = _FORCE,
     quiet: bool = _QUIET,
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Lightmap with cast shadows: ambient + 0.5·(1 + N·L) where the sun is seen, ambient in
     shadow."""
@@ -205,13 +236,18 @@ def shade_cmd(
     check_output_path(output, force=force)
     with timed("read", quiet=quiet):
         hm = _read_heightmap(heightmap)
+    _check_memory("shade", hm.rows, hm.cols, max_memory)
     with timed("lightmap", quiet=quiet):
         light = lightmap(
             hm, sun_az, sun_el, ambient=ambient, shadows=not no_shadows, soft=soft,
             method=method,
         )
-    codes = np.rint(light * 255.0).astype(np.uint8)
+    mean = float(light.mean())
+    light *= np.float32(255.0)  # in place: the 8-bit codes are the only new array
+    np.rint(light, out=light)
+    codes = light.astype(np.uint8)
+    del light
     with timed("write", quiet=quiet), atomic_output(output, force=force) as tmp:
         Image.fromarray(codes).save(tmp, format="PNG")
     if not quiet:
-        out.print(f"{output}  {hm.cols}×{hm.rows} lightmap, mean {float(light.mean()):.3f}")
+        out.print(f"{output}  {hm.cols}×{hm.rows} lightmap, mean {mean:.3f}")

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import contextlib
 from pathlib import Path
 
 import numpy as np
 import typer
 
-from terrascape.cli.app import app, console, progress
+from terrascape.cli.app import MAX_MEMORY, app, console, progress, use_max_memory
 from terrascape.errors import FileFormatError
 
 texture_app = typer.Typer(
@@ -67,6 +66,13 @@ def _read_material_ids(path: Path) -> np.ndarray:
         raise FileFormatError(f"{path} is not a readable image file ({exc})") from None
 
 
+def _check_memory(command: str, rows: int, cols: int, max_memory: str | None, hint: str) -> None:
+    from terrascape.memory import check_grid
+
+    use_max_memory(max_memory)
+    check_grid(command, rows, cols, hint=hint)
+
+
 def _image_format(final: Path) -> str:
     fmt = {".png": "PNG", ".bmp": "BMP", ".tif": "TIFF", ".tiff": "TIFF", ".jpg": "JPEG",
            ".jpeg": "JPEG"}.get(final.suffix.lower())
@@ -107,6 +113,7 @@ def regions_cmd(
                                     show_default="32 × sample spacing"),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress output."),
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Procedural colour texture from height bands, with rock on slopes and jitter."""
     from terrascape.io import atomic_output, check_output_path
@@ -117,6 +124,8 @@ def regions_cmd(
     with progress(quiet=quiet) as bar:
         task = bar.add_task("texture regions", total=3)
         hm = _read_heightmap(heightmap)
+        _check_memory("texture regions", hm.rows * scale, hm.cols * scale,
+                      max_memory, "use a smaller --scale or map (or raise --max-memory)")
         light = _read_lightmap(lightmap) if lightmap is not None else None
         bar.advance(task)
         tex = region_texture(hm, scale=scale, jitter=jitter, seed=seed, slope_rule=slope_rule,
@@ -194,7 +203,8 @@ def splat_cmd(
     Without --materials, layers are the default regions: 0 water, 1 sand, 2 grass, 3 rock,
     4 snow. Either every file is written or none is.
     """
-    from terrascape.io import atomic_output, check_output_path
+    from terrascape.io import check_output_path
+    from terrascape.io.atomic import atomic_outputs
     from terrascape.texture import (
         check_material_map,
         default_regions,
@@ -234,11 +244,11 @@ def splat_cmd(
         preview = splat_preview(
             weights, [layer_colour(k, name) for k, name in enumerate(layer_names)])
         bar.advance(task)
-        # Every file goes to a temporary first; the renames happen only after all writes
-        # succeeded, so a failure leaves no new file behind.
-        with contextlib.ExitStack() as stack:
-            for img, p in zip((*images, preview), (*paths, preview_path), strict=True):
-                tmp = stack.enter_context(atomic_output(p, force=force))
+        # One unit: every file goes to a temporary first and all are committed together
+        # (rolled back if any rename fails), so a reader sees all new maps or none.
+        outputs = [*paths, preview_path]
+        with atomic_outputs(outputs, force=force) as tmps:
+            for img, tmp, p in zip((*images, preview), tmps, outputs, strict=True):
                 _save_rgb(img, tmp, p)
         bar.advance(task)
     if not quiet:
@@ -253,11 +263,16 @@ def material_cmd(
     size: int = typer.Option(256, "--size", min=4, max=8192, help="Side in pixels."),
     seed: int = typer.Option(0, "--seed", min=0, help="Noise seed."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Write a seamlessly tiling built-in material texture."""
-    from terrascape.io import atomic_output
+    from terrascape.io import atomic_output, check_output_path
     from terrascape.texture import builtin_material
 
+    check_output_path(output, force=force)  # fail before the work, not after
+    _image_format(output)
+    _check_memory("texture material", size, size, max_memory,
+                  "use a smaller --size (or raise --max-memory)")
     img = builtin_material(name, size, seed=seed)
     with atomic_output(output, force=force) as tmp:
         _save_rgb(img, tmp, output)

@@ -1,28 +1,149 @@
-"""Atomic file output: write to a temporary file in the same folder, then rename.
+"""Atomic file output: write to temporary files in the same folder, then commit them as a unit.
 
-A failure at any point leaves no partial file and never touches an existing one.
+Guarantees (tested in ``tests/faults`` and ``tests/core/test_atomic.py``):
+
+* **Never a partial file.** Every output is written to a hidden temporary file next to it
+  (``.NAME.PID-XXXXXXXX.part.EXT``) and only then given its final name.
+* **Never an unasked-for overwrite, even under races.** Without ``force`` the final name is
+  created with :func:`os.link` (fails if the name exists, atomically), so of two concurrent
+  writers exactly one wins and the other gets :class:`~terrascape.errors.OutputExistsError`.
+  A dangling symlink counts as existing.
+* **One unit per command.** :func:`atomic_outputs` commits several files (a RAW file and its
+  sidecar, a set of splat maps) together: all appear or none does. The commit holds an
+  exclusive :func:`fcntl.flock` on each output folder, so two terrascape writers never
+  interleave their renames, and a failure half-way rolls the already renamed files back
+  (with ``force`` the previous files are restored from hard-link backups).
+* **Cleanup.** Temporary files are removed on any exception, including
+  :class:`~terrascape.errors.Interrupted` (the CLI turns SIGINT, SIGTERM and SIGHUP into it).
+  A temporary file left by a killed process (SIGKILL, power loss) carries its process id and
+  is removed by the next write of the same output once that process no longer runs.
+* **Clear errors.** An :class:`OSError` while writing becomes
+  :class:`~terrascape.errors.OutputWriteError` (disk full, read-only, permission denied:
+  exit code 1) or :class:`~terrascape.errors.FileFormatError` (a path that cannot exist:
+  missing folder, a parent that is a file, a name too long: exit code 2), naming the path
+  and the reason.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
+import re
+import signal
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
-from terrascape.errors import FileFormatError, OutputExistsError
+from terrascape.errors import (
+    FileFormatError,
+    OutputExistsError,
+    OutputWriteError,
+    TerrascapeError,
+)
+
+try:  # POSIX only; on other systems the commit is still atomic per file, just not locked.
+    import fcntl
+except ImportError:  # pragma: no cover - Windows
+    fcntl = None  # type: ignore[assignment]
+
+#: Errors caused by the path the user gave (exit 2); every other OSError is the machine's.
+_USAGE_ERRNOS = {errno.ENOENT, errno.ENOTDIR, errno.ENAMETOOLONG, errno.EISDIR, errno.EINVAL,
+                 errno.ELOOP}
+#: The temporary name keeps at most this many characters of the final stem, so that a final
+#: name near the file-system limit (255 bytes) still has a valid temporary name.
+_STEM_CHARS = 80
+_TEMP_RE = re.compile(r"^\.(?P<stem>.*)\.(?P<pid>\d+)-[A-Za-z0-9_]+\.(?:part|bak)(?P<ext>.*)$")
+
+
+def describe_os_error(
+    exc: OSError, path: str | os.PathLike | None = None, *, verb: str = "cannot write"
+) -> str:
+    """``"cannot write PATH: REASON"`` with a hint for the common causes."""
+    where = exc.filename if exc.filename is not None else path
+    if where is None:
+        where = "a file"
+    reason = exc.strerror or str(exc)
+    hint = {
+        errno.ENOSPC: "; free some space or write to another disk",
+        errno.EDQUOT: "; the disk quota is exhausted, free some space",
+        errno.EROFS: "; the file system is read-only, write somewhere else",
+        errno.EACCES: "; check the folder's permissions or write somewhere else",
+        errno.EPERM: "; check the folder's permissions or write somewhere else",
+        errno.ENAMETOOLONG: "; use a shorter file name",
+        errno.ENOTDIR: "; a parent of this path is a file, not a folder",
+    }.get(exc.errno or 0, "")
+    if exc.errno is None:  # e.g. tifffile's "N requested and M written"
+        hint = " (the write stopped short: the disk is probably full)"
+    return f"{verb} {where}: {reason}{hint}"
+
+
+def os_error_to_terrascape(exc: OSError, path: str | os.PathLike | None = None) -> TerrascapeError:
+    """The typed error for an OSError on an output path (see the module docstring)."""
+    if isinstance(exc, TerrascapeError):
+        return exc
+    message = describe_os_error(exc, path)
+    if exc.errno in _USAGE_ERRNOS:
+        return FileFormatError(message)
+    return OutputWriteError(message, exc.errno)
+
+
+def _name_max(folder: Path) -> int:
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (OSError, ValueError, AttributeError):
+        return 255
 
 
 def check_output_path(path: str | os.PathLike, *, force: bool = False) -> Path:
-    """Refuse to overwrite without ``force``; refuse a missing parent folder."""
+    """Refuse an output that cannot or must not be written, before any work is done.
+
+    Raises :class:`OutputExistsError` if ``path`` exists (also a dangling symlink) and
+    ``force`` is false; :class:`FileFormatError` for a directory, a missing folder, a parent
+    that is a file or a name that is too long; :class:`OutputWriteError` if the folder is not
+    writable (permissions or a read-only file system).
+    """
     p = Path(path)
-    if p.exists() and not force:
-        raise OutputExistsError(f"{p} exists; pass force=True (CLI: --force) to overwrite it")
+    try:
+        return _check_output_path(p, force)
+    except TerrascapeError:
+        raise
+    except OSError as exc:  # e.g. a path longer than PATH_MAX: stat() itself fails
+        raise os_error_to_terrascape(exc, p) from None
+
+
+def _check_output_path(p: Path, force: bool) -> Path:
+    parent = p.parent
+    limit = _name_max(parent) if parent.is_dir() else 255
+    if len(os.fsencode(p.name)) > limit:
+        raise FileFormatError(
+            f"cannot write {p}: the file name is {len(os.fsencode(p.name))} bytes, this file "
+            f"system allows {limit}; use a shorter name"
+        )
     if p.is_dir():
-        raise OutputExistsError(f"{p} is a directory, expected a file path")
-    if not p.parent.exists():
-        raise FileFormatError(f"output folder {p.parent} does not exist")
+        example = p / ("out" + (p.suffix or ".png"))
+        raise FileFormatError(f"{p} is a folder; the output must be a file path, e.g. {example}")
+    if os.path.lexists(p) and not force:
+        what = "is a symlink (to a missing file)" if p.is_symlink() and not p.exists() else "exists"
+        raise OutputExistsError(f"{p} {what}; pass --force (force=True) to overwrite it")
+    if not parent.exists():
+        # A parent that is a file makes exists() false for everything below it.
+        for ancestor in p.parents:
+            if ancestor.exists():
+                if not ancestor.is_dir():
+                    raise FileFormatError(
+                        f"cannot write {p}: {ancestor} is a file, not a folder"
+                    )
+                break
+        raise FileFormatError(f"output folder {parent} does not exist; create it first")
+    if not parent.is_dir():
+        raise FileFormatError(f"cannot write {p}: {parent} is a file, not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputWriteError(
+            f"cannot write {p}: folder {parent} is not writable (permission denied or a "
+            "read-only file system); write somewhere else",
+            errno.EACCES,
+        )
     return p
 
 
@@ -32,26 +153,228 @@ def _current_umask() -> int:
     return mask
 
 
-@contextlib.contextmanager
-def atomic_output(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path]:
-    """Yield a temporary path next to ``path``; on success rename it over ``path``.
+def _temp_prefix(final: Path) -> str:
+    return f".{final.stem[:_STEM_CHARS]}.{os.getpid()}-"
 
-    The temporary name keeps the final suffix, so writers that pick a format by extension
-    (Pillow, tifffile) behave the same.
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    except OSError:
+        return True
+    return True
+
+
+def remove_stale_temporaries(final: str | os.PathLike) -> list[Path]:
+    """Remove temporary files of ``final`` left by processes that no longer run.
+
+    A SIGKILL or a power cut leaves ``.NAME.PID-XXXXXXXX.part.EXT`` behind; it is never read
+    (hidden, never the final name) and is removed here, by the next write of the same output.
+    Temporaries of running processes are left alone. Returns the removed paths.
     """
-    final = check_output_path(path, force=force)
-    fd, tmp_name = tempfile.mkstemp(
-        prefix=f".{final.stem}.", suffix=f".part{final.suffix}", dir=final.parent
+    final = Path(final)
+    stem = final.stem[:_STEM_CHARS]
+    removed = []
+    try:
+        entries = list(os.scandir(final.parent))
+    except OSError:
+        return removed
+    for entry in entries:
+        m = _TEMP_RE.match(entry.name)
+        if m is None or m["stem"] != stem or m["ext"] != final.suffix:
+            continue
+        if _pid_alive(int(m["pid"])):
+            continue
+        with contextlib.suppress(OSError):
+            os.unlink(entry.path)
+            removed.append(Path(entry.path))
+    return removed
+
+
+def _make_temp(final: Path, kind: str = "part") -> Path:
+    fd, name = tempfile.mkstemp(
+        prefix=_temp_prefix(final), suffix=f".{kind}{final.suffix}", dir=final.parent
     )
     os.close(fd)
-    tmp = Path(tmp_name)
+    return Path(name)
+
+
+@contextlib.contextmanager
+def commit_lock(folders: Sequence[str | os.PathLike], *, shared: bool = False) -> Iterator[None]:
+    """Hold an :func:`fcntl.flock` on each folder (sorted, so two holders never deadlock).
+
+    Writers commit under an exclusive lock, readers of a file pair (RAW + sidecar) read under
+    a shared one, so a terrascape reader never sees half of a commit. Best effort: a folder
+    that cannot be locked (no flock on this file system) is skipped.
+    """
+    fds = []
     try:
-        yield tmp
-        if not tmp.exists() or tmp.stat().st_size == 0:
-            raise FileFormatError(f"writing {final} produced no data")
-        # mkstemp creates 0600 files; give the result the permissions a plain open() would.
-        os.chmod(tmp, 0o666 & ~_current_umask())
-        os.replace(tmp, final)
+        if fcntl is not None:
+            for folder in sorted({os.path.abspath(f) for f in folders}):
+                try:
+                    fd = os.open(folder, os.O_RDONLY)
+                except OSError:
+                    continue
+                fds.append(fd)
+                with contextlib.suppress(OSError):
+                    fcntl.flock(fd, fcntl.LOCK_SH if shared else fcntl.LOCK_EX)
+        yield
     finally:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
+        for fd in fds:
+            os.close(fd)  # closing releases the lock
+
+
+def _link_new(tmp: Path, final: Path) -> None:
+    """Give ``tmp`` the name ``final`` only if ``final`` does not exist (atomically)."""
+    try:
+        os.link(tmp, final)
+    except FileExistsError:
+        raise OutputExistsError(
+            f"{final} was created by someone else while this command ran; nothing was "
+            "overwritten (pass --force to overwrite it)"
+        ) from None
+    except OSError as exc:
+        if exc.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.EXDEV, errno.EMLINK,
+                             getattr(errno, "ENOTSUP", errno.EOPNOTSUPP)):
+            raise
+        # No hard links here (FAT, some network shares): reserve the name with O_EXCL, then
+        # rename over the reservation. Still never replaces someone else's file.
+        try:
+            fd = os.open(final, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
+        except FileExistsError:
+            raise OutputExistsError(
+                f"{final} was created by someone else while this command ran; nothing was "
+                "overwritten (pass --force to overwrite it)"
+            ) from None
+        os.close(fd)
+        os.replace(tmp, final)
+
+
+_DEFERRED_SIGNALS = {getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP")
+                     if hasattr(signal, n)}
+
+
+@contextlib.contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """Block SIGINT/SIGTERM/SIGHUP during a commit (a few renames): a signal then arrives
+    after it, so a unit is never left half-renamed with its rollback cut short."""
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - Windows
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _DEFERRED_SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _commit(pairs: list[tuple[Path, Path]], force: bool) -> None:
+    """Rename every ``tmp`` to its ``final`` under the folder locks; all or nothing."""
+    done: list[tuple[Path, Path | None]] = []  # (final, backup of the old file or None)
+    backups: list[Path] = []
+    with _signals_deferred(), commit_lock([final.parent for _tmp, final in pairs]):
+        try:
+            for tmp, final in pairs:
+                if force:
+                    backup = None
+                    if len(pairs) > 1 and os.path.lexists(final):
+                        backup = _make_temp(final, "bak")
+                        os.unlink(backup)
+                        os.link(final, backup, follow_symlinks=False)
+                        backups.append(backup)
+                    os.replace(tmp, final)
+                    done.append((final, backup))
+                else:
+                    _link_new(tmp, final)
+                    done.append((final, None))
+        except BaseException:
+            for final, backup in reversed(done):
+                with contextlib.suppress(OSError):
+                    if backup is not None:
+                        os.replace(backup, final)
+                    else:
+                        os.unlink(final)
+            raise
+        finally:
+            for backup in backups:
+                with contextlib.suppress(OSError):
+                    os.unlink(backup)
+
+
+@contextlib.contextmanager
+def atomic_outputs(
+    paths: Sequence[str | os.PathLike], *, force: bool = False
+) -> Iterator[list[Path]]:
+    """Yield one temporary path per output; on success commit them all as one unit.
+
+    Parameters
+    ----------
+    paths
+        Final paths (distinct). They are committed in the given order under an exclusive
+        lock of their folders; if any step fails, the files already committed are rolled
+        back, so a reader sees either every new file or none.
+    force
+        Replace existing files; without it an existing file (also one created by another
+        process while this one was writing) is never replaced.
+
+    Raises
+    ------
+    OutputExistsError
+        An output exists (before the work or at commit) and ``force`` is false.
+    OutputWriteError, FileFormatError
+        The file system refused a write (see :func:`os_error_to_terrascape`).
+    """
+    finals = [check_output_path(p, force=force) for p in paths]
+    keys = [os.path.abspath(f) for f in finals]
+    if len(set(keys)) != len(keys):
+        raise FileFormatError(f"the outputs repeat a file name: {', '.join(map(str, finals))}")
+    tmps: list[Path] = []
+    try:
+        try:
+            for final in finals:
+                remove_stale_temporaries(final)
+                tmps.append(_make_temp(final))
+        except OSError as exc:
+            raise os_error_to_terrascape(exc, final) from None
+        try:
+            yield list(tmps)
+        except OSError as exc:  # a writer's own OSError (disk full while writing, ...)
+            where = next((f for t, f in zip(tmps, finals, strict=False)
+                          if exc.filename in (str(t), t)), None)
+            if where is not None and exc.filename is not None:
+                exc.filename = str(where)
+            raise os_error_to_terrascape(exc, where or finals[0]) from None
+        for tmp, final in zip(tmps, finals, strict=True):
+            if not tmp.exists() or tmp.stat().st_size == 0:
+                raise FileFormatError(f"writing {final} produced no data")
+        mode = 0o666 & ~_current_umask()
+        try:
+            for tmp in tmps:
+                # mkstemp creates 0600 files; give the result the permissions open() would.
+                os.chmod(tmp, mode)
+            _commit(list(zip(tmps, finals, strict=True)), force)
+        except TerrascapeError:
+            raise
+        except OSError as exc:
+            raise os_error_to_terrascape(exc, finals[0]) from None
+    finally:
+        for tmp in tmps:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+
+
+@contextlib.contextmanager
+def atomic_output(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path]:
+    """Yield a temporary path next to ``path``; on success give it the name ``path``.
+
+    The temporary name keeps the final suffix, so writers that pick a format by extension
+    (Pillow, tifffile) behave the same. See :func:`atomic_outputs` for the guarantees.
+    """
+    with atomic_outputs([path], force=force) as (tmp,):
+        yield tmp

@@ -64,3 +64,33 @@ def fill_nodata(heights: np.ndarray, mask: np.ndarray | None = None) -> tuple[np
     indices = ndimage.distance_transform_edt(invalid, return_distances=False, return_indices=True)
     filled = h[indices[0], indices[1]]
     return np.ascontiguousarray(filled, dtype=np.float32), count
+
+
+def fill_non_finite(heights: np.ndarray, where: str) -> tuple[np.ndarray, int]:
+    """NaN/±inf samples of a float file are nodata: fill them from the nearest valid sample
+    and warn with the count, the same in every float format (GeoTIFF, ``.npy``, ``.r32``).
+
+    Returns ``(heights, number filled)``: the input unchanged when every sample is finite,
+    else a filled float64 copy. A file with no finite sample at all is a
+    :class:`~terrascape.errors.FileFormatError`.
+    """
+    import warnings
+
+    from terrascape.errors import FileFormatError
+
+    heights = np.asarray(heights)
+    if not np.issubdtype(heights.dtype, np.floating) or np.isfinite(heights).all():
+        return heights, 0
+    invalid = ~np.isfinite(heights)
+    count = int(np.count_nonzero(invalid))
+    if count == heights.size:
+        raise FileFormatError(f"{where}: all {heights.size} samples are NaN/infinite (nodata)")
+    heights = heights.astype(np.float64)
+    heights[invalid] = np.nan
+    heights, count = fill_nodata(heights)
+    warnings.warn(
+        f"{where}: filled {count} NaN/infinite (nodata) sample(s) of {heights.size} from "
+        "their nearest valid neighbours",
+        stacklevel=3,
+    )
+    return heights, count

@@ -142,7 +142,8 @@ def read_heightmap(
     FileFormatError
         Missing file, unknown extension, truncated/corrupt content.
     InvalidParameterError
-        Bad arguments, ``size`` given for a non-RAW file, NaN in ``.npy``/``.r32``.
+        Bad arguments, ``size`` given for a non-RAW file. (NaN/inf samples of float formats
+        — GeoTIFF, ``.npy``, ``.r32`` — are nodata: filled with a warning, not refused.)
     """
     p = check_input_path(path)
     ext = _extension(p)

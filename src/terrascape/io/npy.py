@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from terrascape.errors import FileFormatError, InvalidParameterError
+from terrascape.errors import FileFormatError
 from terrascape.heightmap import Heightmap
 from terrascape.io._common import (
     check_heightmap,
@@ -25,7 +25,8 @@ from terrascape.io._common import (
     normalise_spacing,
     parse_meta,
 )
-from terrascape.io.atomic import atomic_output, check_output_path
+from terrascape.io.atomic import atomic_outputs, check_output_path
+from terrascape.io.fill import fill_non_finite
 
 
 def npy_sidecar_path(path: str | os.PathLike) -> Path:
@@ -66,8 +67,9 @@ def read_npy(
     ------
     FileFormatError
         Missing/truncated/corrupt file, pickled data, not 2-D, non-numeric dtype.
-    InvalidParameterError
-        NaN or infinite samples (``.npy`` has no nodata convention; fill them yourself).
+
+    NaN/infinite samples are nodata, as in every float format terrascape reads: they are
+    filled from the nearest valid sample with a warning (``metadata["filled"]`` counts them).
     """
     p = check_input_path(path)
     spacing_t = normalise_spacing(spacing)
@@ -82,19 +84,16 @@ def read_npy(
         raise FileFormatError(f"expected a 2-D array in {p}, got shape {array.shape}")
     if not (np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)):
         raise FileFormatError(f"expected integer or float heights in {p}, got dtype {array.dtype}")
-    heights = array.astype(np.float64)
-    finite = np.isfinite(heights)
-    if not finite.all():
-        raise InvalidParameterError(
-            f"{p} contains {int(np.count_nonzero(~finite))} NaN/infinite sample(s); expected "
-            "finite heights (fill them, e.g. with terrascape.io.fill_nodata, and save again)"
-        )
+    # NaN/inf are nodata, filled with a warning, as in GeoTIFF and .r32 files.
+    heights, filled = fill_non_finite(array, p.name)
     if vscale is not None:
-        heights = heights * vscale
+        heights = heights.astype(np.float64) * vscale
     file_spacing = _sidecar_spacing(p, array.shape)
-    md = file_metadata(p, "npy", str(array.dtype), step=0.0,
+    md = file_metadata(p, "npy", str(array.dtype), step=0.0, filled=filled,
                        spacing_restored=file_spacing is not None)
-    return Heightmap(heights.astype(np.float32), spacing_t or file_spacing or (1.0, 1.0), md)
+    # asarray: a float32 file is not copied again (the read peak stays at one map).
+    return Heightmap(np.asarray(heights, dtype=np.float32),
+                     spacing_t or file_spacing or (1.0, 1.0), md)
 
 
 def write_npy(heightmap: Heightmap, path: str | os.PathLike, *, force: bool = False) -> Path:
@@ -108,8 +107,9 @@ def write_npy(heightmap: Heightmap, path: str | os.PathLike, *, force: bool = Fa
     check_output_path(side, force=force)
     record = meta_json(rows=heightmap.rows, cols=heightmap.cols,
                        spacing=list(heightmap.spacing))
-    with atomic_output(path, force=force) as tmp, open(tmp, "wb") as fh:
-        np.save(fh, np.ascontiguousarray(heightmap.heights, dtype=np.float32))
-    with atomic_output(side, force=force) as tmp:
-        tmp.write_text(record + "\n", encoding="utf-8")
+    # One unit: the heights and their spacing appear together or not at all.
+    with atomic_outputs([side, path], force=force) as (tmp_side, tmp_npy):
+        tmp_side.write_text(record + "\n", encoding="utf-8")
+        with open(tmp_npy, "wb") as fh:
+            np.save(fh, np.ascontiguousarray(heightmap.heights, dtype=np.float32))
     return Path(path)

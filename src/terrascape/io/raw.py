@@ -8,18 +8,23 @@ vertical_scale`` (default 1.0); a float32 file holds world heights.
 terrascape also writes a small JSON **sidecar** ``<file>.json`` (e.g. ``dem.r16.json``)
 holding cols/rows, the height ``offset``/``scale`` of the 16-bit quantisation and the
 spacing; when present next to a RAW file it is used to restore size, world units and
-spacing. Other tools simply ignore it.
+spacing, plus the SHA-256 of the RAW bytes it describes. The two files are committed as one
+unit (:func:`terrascape.io.atomic.atomic_outputs`); a reader that finds a sidecar whose hash
+does not match the RAW bytes (a pair mixed by another program, a RAW file edited after the
+fact) refuses it with a clear error instead of reading wrong heights. Other tools simply
+ignore the sidecar.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 from pathlib import Path
 
 import numpy as np
 
-from terrascape.errors import FileFormatError, InvalidParameterError
+from terrascape.errors import FileFormatError
 from terrascape.heightmap import Heightmap
 from terrascape.io._common import (
     check_heightmap,
@@ -31,9 +36,9 @@ from terrascape.io._common import (
     normalise_size,
     normalise_spacing,
     parse_meta,
-    quantise,
 )
-from terrascape.io.atomic import atomic_output, check_output_path
+from terrascape.io.atomic import atomic_outputs, check_output_path, commit_lock
+from terrascape.io.fill import fill_non_finite
 
 _DTYPES = {"r16": np.dtype("<u2"), "r32": np.dtype("<f4")}
 
@@ -58,6 +63,16 @@ def _read_sidecar(path: Path, kind: str) -> dict | None:
             f"sidecar {side} describes dtype {meta.get('dtype')!r}, expected "
             f"{_DTYPES[kind].str!r} for a {path.suffix} file"
         )
+    digest = meta.get("sha256")
+    hexdigits = "0123456789abcdef"
+    if digest is not None and not (
+        isinstance(digest, str) and len(digest) == 64 and all(c in hexdigits for c in digest)
+    ):
+        raise FileFormatError(f"bad 'sha256' in sidecar {side}: {str(digest)[:80]!r}")
+    for key in ("cols", "rows"):
+        if key in meta and (isinstance(meta[key], bool) or not isinstance(meta[key], int)
+                            or meta[key] < 2):
+            raise FileFormatError(f"bad {key!r} in sidecar {side}: {meta[key]!r}")
     return meta
 
 
@@ -106,16 +121,28 @@ def _read_raw(
     size_t = normalise_size(size)
     spacing_t = normalise_spacing(spacing)
     vscale = check_vertical_scale(vertical_scale)
-    meta = _read_sidecar(p, kind)
     dtype = _DTYPES[kind]
-    try:
-        data = p.read_bytes()
-    except OSError as exc:
-        raise FileFormatError(f"cannot read {p}: {exc}") from None
+    # A shared lock of the folder: a terrascape writer commits RAW + sidecar under the
+    # exclusive lock, so the two are never read half-way through a commit.
+    with commit_lock([p.parent], shared=True):
+        meta = _read_sidecar(p, kind)
+        try:
+            data = p.read_bytes()
+        except OSError as exc:
+            raise FileFormatError(f"cannot read {p}: {exc.strerror or exc}") from None
+    if meta is not None and "sha256" in meta:
+        digest = hashlib.sha256(data).hexdigest()
+        if digest != meta["sha256"]:
+            raise FileFormatError(
+                f"{p} does not match its sidecar {sidecar_path(p).name} (the sidecar was "
+                "written for other data: SHA-256 differs); the pair was mixed or the RAW file "
+                "changed. Write both again, or delete the sidecar to read the RAW file alone"
+            )
     rows, cols = _grid_shape(p, len(data), dtype.itemsize, size_t, meta)
     values = np.frombuffer(data, dtype=dtype).reshape(rows, cols)
 
     units = meta is not None and "offset" in meta and "scale" in meta
+    filled = 0
     if kind == "r16":
         if units:
             scale = float(meta["scale"])
@@ -129,12 +156,9 @@ def _read_raw(
             heights = (values.astype(np.float64) * (v / 65535.0)).astype(np.float32)
             step = v / 65535.0
     else:
-        heights = values.astype(np.float32)
-        if not np.isfinite(heights).all():
-            bad = int(np.count_nonzero(~np.isfinite(heights)))
-            raise InvalidParameterError(
-                f"{p} contains {bad} NaN/infinite sample(s); expected finite float32 heights"
-            )
+        # NaN/inf are nodata, filled with a warning, as in GeoTIFF and .npy files.
+        heights, filled = fill_non_finite(values, p.name)
+        heights = heights.astype(np.float32)
         if vscale is not None:
             heights = heights * np.float32(vscale)
         step = 0.0
@@ -145,6 +169,7 @@ def _read_raw(
         kind,
         f"{dtype.name} little-endian",
         step=step,
+        filled=filled,
         units_restored=units,
         sidecar=str(sidecar_path(p)) if meta else None,
     )
@@ -188,10 +213,35 @@ def read_raw32(
 ) -> Heightmap:
     """Read a little-endian float32 RAW heightmap (``.r32``); heights are world units.
 
-    ``vertical_scale`` multiplies the heights. Non-finite samples raise
-    :class:`InvalidParameterError`. Size/spacing rules as :func:`read_raw16`.
+    ``vertical_scale`` multiplies the heights. NaN/infinite samples are nodata: filled from
+    the nearest valid sample with a warning, as in GeoTIFF and ``.npy``. Size/spacing rules
+    as :func:`read_raw16`.
     """
     return _read_raw(path, "r32", size, spacing, vertical_scale)
+
+
+_ROWS_PER_BLOCK_SAMPLES = 1 << 20
+
+
+def _quantise_rows(heights: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """:func:`quantise` to little-endian uint16, one block of rows at a time.
+
+    The same float64 arithmetic (bit-identical codes) without float64 copies of the whole
+    map: the write's extra memory is the 2-byte codes plus one block, not ~20 bytes/sample.
+    """
+    h = np.asarray(heights)
+    lo = float(h.min())
+    span = float(h.max()) - lo
+    codes = np.zeros(h.shape, dtype=_DTYPES["r16"])
+    if span == 0.0:
+        return codes, lo, 0.0
+    factor = 65535 / span
+    step = max(1, _ROWS_PER_BLOCK_SAMPLES // max(1, h.shape[1]))
+    for r in range(0, h.shape[0], step):
+        block = np.rint((h[r:r + step].astype(np.float64) - lo) * factor)
+        np.clip(block, 0, 65535, out=block)
+        codes[r:r + step] = block
+    return codes, lo, span / 65535
 
 
 def _write_raw(
@@ -207,26 +257,32 @@ def _write_raw(
     if sidecar or side.exists():
         check_output_path(side, force=force)
     if kind == "r16":
-        codes, offset, scale = quantise(heightmap.heights, 65535)
-        payload = codes.astype(dtype)
+        data, offset, scale = _quantise_rows(heightmap.heights)
     else:
-        payload = heightmap.heights.astype(dtype)
+        data = np.ascontiguousarray(heightmap.heights, dtype=dtype)  # no copy when float32
         offset, scale = 0.0, 1.0
-    with atomic_output(path, force=force) as tmp:
-        tmp.write_bytes(payload.tobytes(order="C"))
-    if sidecar:
-        record = meta_json(
-            dtype=dtype.str,
-            cols=heightmap.cols,
-            rows=heightmap.rows,
-            offset=offset,
-            scale=scale,
-            spacing=list(heightmap.spacing),
-        )
-        with atomic_output(side, force=force) as tmp:
-            tmp.write_text(record + "\n", encoding="utf-8")
-    elif side.exists():
-        side.unlink()
+    if not sidecar:
+        with atomic_outputs([path], force=force) as (tmp,):
+            tmp.write_bytes(data)
+        if side.exists():
+            with commit_lock([side.parent]):
+                side.unlink(missing_ok=True)
+        return Path(path)
+    record = meta_json(
+        dtype=dtype.str,
+        cols=heightmap.cols,
+        rows=heightmap.rows,
+        offset=offset,
+        scale=scale,
+        spacing=list(heightmap.spacing),
+        sha256=hashlib.sha256(data).hexdigest(),
+    )
+    # Sidecar first: a reader that does not lock (another program) between the two renames
+    # sees the new sidecar with the old RAW bytes, which the hash check refuses, never new
+    # RAW bytes with an old (or no) sidecar, which would read as wrong heights.
+    with atomic_outputs([side, path], force=force) as (tmp_side, tmp_raw):
+        tmp_side.write_text(record + "\n", encoding="utf-8")
+        tmp_raw.write_bytes(data)
     return Path(path)
 
 

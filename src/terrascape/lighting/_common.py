@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from terrascape._validate import check_range
+from terrascape._validate import check_finite
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.lighting.sun import sun_direction
@@ -31,9 +31,9 @@ def sun_above_horizon(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
     A light at or below the horizon shadows everything (or nothing, at the map border),
     which is never what a caller means, so it is rejected.
     """
-    el = check_range(elevation_deg, "sun elevation (degrees)", -90.0, 90.0)
-    if el <= 0.0:
+    el = check_finite(elevation_deg, "sun elevation (degrees)")
+    if not 0.0 < el <= 90.0:
         raise InvalidParameterError(
-            f"sun elevation must be > 0° (above the horizon) and <= 90°, got {elevation_deg!r}°"
+            f"sun elevation must be in (0, 90] degrees (above the horizon), got {elevation_deg!r}"
         )
     return sun_direction(azimuth_deg, el)

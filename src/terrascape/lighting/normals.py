@@ -21,6 +21,7 @@ import numpy as np
 from terrascape._numba import CACHE, FASTMATH, njit, prange
 from terrascape._validate import check_finite
 from terrascape.errors import InvalidParameterError
+from terrascape.heightmap import Heightmap
 from terrascape.lighting._common import as_heightmap
 
 
@@ -144,16 +145,31 @@ def pack_normal_height(
     if bits not in (8, 16) or isinstance(bits, bool):
         raise InvalidParameterError(f"bits must be 8 or 16, got {bits!r}")
     hm = as_heightmap(heightmap)
-    n = tangent_space_normals(hm, height_scale=height_scale)
+    check_finite(height_scale, "height_scale")
     dtype = np.uint8 if bits == 8 else np.uint16
     maxval = float(np.iinfo(dtype).max)
     out = np.empty((hm.rows, hm.cols, 4), dtype=dtype)
-    out[..., :3] = np.rint((n.astype(np.float64) * 0.5 + 0.5) * maxval).clip(0, maxval)
-    h = hm.heights.astype(np.float64)
-    span = h.max() - h.min()
-    unit = (h - h.min()) / span if span > 0 else np.zeros_like(h)  # float64: exact codes
-    out[..., 3] = np.rint(unit * maxval).clip(0, maxval)
+    lo = float(hm.heights.min())
+    span = float(hm.heights.max()) - lo
+    rows, cols = hm.rows, hm.cols
+    # A block of rows at a time, with two halo rows either side so every kept row sees the
+    # stencils of the whole map (identical codes): the float32 normals and the float64
+    # temporaries exist for one block only, not 40+ bytes per sample of the whole map.
+    step = max(1, _PACK_BLOCK_SAMPLES // cols)
+    for r0 in range(0, rows, step):
+        r1 = min(rows, r0 + step)
+        a, b = max(0, r0 - 2), min(rows, r1 + 2)
+        sub = Heightmap(hm.heights[a:b], hm.spacing)
+        n = tangent_space_normals(sub, height_scale=height_scale)[r0 - a:r1 - a]
+        out[r0:r1, :, :3] = np.rint((n.astype(np.float64) * 0.5 + 0.5) * maxval).clip(0, maxval)
+        h = hm.heights[r0:r1].astype(np.float64)
+        unit = (h - lo) / span if span > 0 else np.zeros_like(h)  # float64: exact codes
+        out[r0:r1, :, 3] = np.rint(unit * maxval).clip(0, maxval)
     return out
+
+
+#: Samples per block of rows in :func:`pack_normal_height`.
+_PACK_BLOCK_SAMPLES = 1 << 20
 
 
 def unpack_normals(packed: np.ndarray) -> np.ndarray:

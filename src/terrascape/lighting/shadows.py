@@ -480,20 +480,53 @@ def lightmap(
     amb = check_range(ambient, "ambient", 0.0, 1.0)
     if method not in ("fast", "reference"):
         raise InvalidParameterError(f"method must be 'fast' or 'reference', got {method!r}")
-    ndotl = normal_map(hm) @ light.astype(np.float32)
-    lit = np.minimum(np.float32(amb) + np.float32(0.5) * (np.float32(1.0) + ndotl), 1.0)
+    lit = _slope_light(hm, light, amb)
     if not shadows:
-        return lit.astype(np.float32)
+        return lit
+    # In place from here on: the peak stays near one float32 map plus the shadow mask.
     if soft:
         vis = soft_shadow(hm, sun_azimuth, sun_elevation, sun_radius_deg=sun_radius_deg)
-        out = np.float32(amb) * (np.float32(1.0) - vis) + lit * vis
+        lit *= vis
+        np.subtract(np.float32(1.0), vis, out=vis)
+        vis *= np.float32(amb)
+        lit += vis
+        del vis
     else:
         if method == "fast":
             mask = shadow_mask(hm, sun_azimuth, sun_elevation)
         else:
             mask = shadow_mask_reference(hm, sun_azimuth, sun_elevation)
-        out = np.where(mask, np.float32(amb), lit)
-    return np.clip(out, 0.0, 1.0).astype(np.float32)
+        lit[mask] = np.float32(amb)
+        del mask
+    np.clip(lit, 0.0, 1.0, out=lit)
+    return lit
+
+
+#: Samples per block of rows for the slope term (bounds the float64/normal temporaries).
+_BLOCK_SAMPLES = 1 << 20
+
+
+def _slope_light(hm, light: np.ndarray, amb: float) -> np.ndarray:
+    """``min(amb + 0.5·(1 + N·L), 1)`` as float32, computed a block of rows at a time.
+
+    Each block carries two halo rows on either side, so every kept row sees the same
+    stencil as on the whole map (the values are identical); the normals (12 bytes/sample)
+    and their float64 heights only ever exist for one block.
+    """
+    rows, cols = hm.heights.shape
+    out = np.empty((rows, cols), dtype=np.float32)
+    l32 = light.astype(np.float32)
+    step = max(1, _BLOCK_SAMPLES // cols)
+    for r0 in range(0, rows, step):
+        r1 = min(rows, r0 + step)
+        a, b = max(0, r0 - 2), min(rows, r1 + 2)
+        normals = normal_map(Heightmap(hm.heights[a:b], hm.spacing))
+        np.matmul(normals[r0 - a:r1 - a], l32, out=out[r0:r1])
+    out += np.float32(1.0)
+    out *= np.float32(0.5)
+    out += np.float32(amb)
+    np.minimum(out, np.float32(1.0), out=out)
+    return out
 
 
 __all__ = ["lightmap", "shadow_mask", "shadow_mask_reference", "soft_shadow"]

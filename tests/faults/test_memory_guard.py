@@ -1,0 +1,125 @@
+"""Peak-memory estimates refuse impossible requests before allocating (exit 1, one line, no
+file); ``--max-memory`` moves the limit."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from terrascape import Heightmap
+from terrascape.cli.app import run_app
+from terrascape.errors import MemoryLimitError
+from terrascape.io import write_heightmap
+from terrascape.memory import check_memory, estimate_peak, memory_limit, set_limit
+
+
+def _one_error_line(err: str) -> str:
+    """The one error line (timing lines like ``read… 0.00 s`` aside)."""
+    lines = [line for line in err.splitlines()
+             if line.strip() and not re.search(r"… \d+\.\d+ s$", line)]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+def test_limit_sources(monkeypatch):
+    monkeypatch.setattr("terrascape.memory.available_bytes", lambda: 10 * 1024**3)
+    monkeypatch.delenv("TERRASCAPE_MAX_MEMORY", raising=False)
+    set_limit(None)
+    assert memory_limit() == 8 * 1024**3  # 80 % of available
+    monkeypatch.setenv("TERRASCAPE_MAX_MEMORY", "1G")
+    assert memory_limit() == 1024**3
+    set_limit("25%")
+    try:
+        assert memory_limit() == int(2.5 * 1024**3)
+    finally:
+        set_limit(None)
+
+
+def test_refusal_names_estimate_limit_and_available(monkeypatch):
+    monkeypatch.setattr("terrascape.memory.available_bytes", lambda: 2 * 1024**3)
+    monkeypatch.delenv("TERRASCAPE_MAX_MEMORY", raising=False)
+    set_limit(None)
+    with pytest.raises(MemoryLimitError, match=r"about 3 GiB .* limit of 1\.6 GiB .* 2 GiB "
+                                               r"available now\); use less"):
+        check_memory(3 * 1024**3, "thing", hint="use less")
+    check_memory(1024**3, "thing")  # under the limit: nothing happens
+
+
+@pytest.mark.parametrize("argv", [
+    ["generate", "diamond-square", "--size", "65537"],
+    ["generate", "fault", "--size", "40000"],
+    ["generate", "fbm", "--size", "30000x30000"],
+])
+def test_generators_refuse_before_allocating(tmp_path, capsys, argv):
+    out = tmp_path / "big.png"
+    code = run_app([*argv, "-o", str(out), "--max-memory", "8G"])
+    line = _one_error_line(capsys.readouterr().err)
+    assert code == 1
+    assert "memory at its peak (estimate)" in line and "limit of 8 GiB" in line
+    assert "--size" in line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_render_generate_refuses(tmp_path, capsys):
+    code = run_app(["render", "--generate", "diamond-square", "--gen-size", "65537",
+                    "-o", str(tmp_path / "r.png"), "--max-memory", "8G"])
+    line = _one_error_line(capsys.readouterr().err)
+    assert code == 1 and "--gen-size" in line
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture
+def small_map(tmp_path):
+    path = tmp_path / "in.npy"
+    write_heightmap(Heightmap(np.random.default_rng(1).random((33, 33)).astype(np.float32)),
+                    path)
+    return path
+
+
+@pytest.mark.parametrize("argv", [
+    ["blur", "{in}", "{out}.npy", "--sigma", "1e9"],
+    ["heightfromimage", "{img}", "-o", "{out}.png", "--blur", "1e9"],
+    ["heightfromimage", "{img}", "-o", "{out}.png", "--highpass", "1e9"],
+])
+def test_huge_kernels_are_refused_not_a_memory_error(tmp_path, small_map, capsys, argv):
+    from PIL import Image
+
+    img = tmp_path / "photo.png"
+    pixels = (np.random.default_rng(2).random((20, 20, 3)) * 255).astype(np.uint8)
+    Image.fromarray(pixels).save(img)
+    args = [a.format(**{"in": small_map, "out": tmp_path / "o", "img": img}) for a in argv]
+    code = run_app(args)
+    line = _one_error_line(capsys.readouterr().err)
+    assert code == 1 and "estimate" in line and "smaller" in line
+    assert not any(p.name.startswith("o") for p in tmp_path.iterdir())
+
+
+def test_max_memory_lets_small_jobs_through(tmp_path, capsys):
+    out = tmp_path / "ok.npy"
+    assert run_app(["generate", "diamond-square", "--size", "65", "-o", str(out), "-q",
+                    "--max-memory", "1G"]) == 0
+    assert np.load(out).shape == (65, 65)
+    est = estimate_peak("diamond-square", 65, 65)
+    assert est < 1024**2
+
+
+def test_bad_max_memory_is_usage_error(tmp_path, capsys):
+    code = run_app(["generate", "diamond-square", "--size", "65", "-o", str(tmp_path / "x.npy"),
+                    "--max-memory", "lots"])
+    assert code == 2 and "--max-memory must look like" in capsys.readouterr().err
+
+
+def test_a_memory_error_that_still_happens_is_one_line(tmp_path, capsys, monkeypatch):
+    import terrascape.generate
+
+    def exhausted(*_args, **_kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(terrascape.generate, "diamond_square", exhausted)
+    code = run_app(["generate", "diamond-square", "--size", "65", "-o", str(tmp_path / "x.png")])
+    line = _one_error_line(capsys.readouterr().err)
+    assert code == 1 and line.startswith("error: out of memory") and "nothing was written" in line
+    assert list(tmp_path.iterdir()) == []
