@@ -149,6 +149,13 @@ class Heightmap:
         hx, hz = self.gradient()
         return np.arctan(np.hypot(hx, hz)).astype(np.float32)
 
+    def _repr_png_(self) -> bytes:
+        """A small shaded, height-coloured PNG, so a heightmap shows itself in Jupyter
+        (:func:`terrascape.notebook.heightmap_preview`, at most 256 pixels a side)."""
+        from terrascape.notebook import as_image
+
+        return as_image(self).to_png()
+
     def __repr__(self) -> str:
         return (
             f"Heightmap({self.cols}×{self.rows}, spacing={self.spacing}, "

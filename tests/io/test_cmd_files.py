@@ -94,3 +94,20 @@ def test_convert_bad_inputs_exit_2(tmp_path, png, capsys):
     assert run_app(["convert", str(path), str(tmp_path / "o.tif"), "--spacing", "-1"]) == 2
     assert not (tmp_path / "o.tif").exists()
     assert run_app(["convert", str(path)]) == 2  # missing argument: click usage error
+
+
+def test_convert_says_what_a_preview_loses_and_npy_keeps_spacing(tmp_path, capsys):
+    """The newcomer's bug: `convert hm.png hm.bmp` claimed 0 … 300, spacing (4, 4)."""
+    z, x = np.mgrid[0:33, 0:33]
+    src = tmp_path / "hm.png"
+    write_heightmap(Heightmap((300 * (x + z) / 64).astype(np.float32), (4.0, 4.0)), src)
+    assert run_app(["convert", str(src), str(tmp_path / "hm.bmp")]) == 0
+    captured = capsys.readouterr()
+    assert "stored as 0 … 1" in captured.out and "not stored" in captured.out
+    assert "normalised to 0…1" in captured.err and ".npy" in captured.err
+    assert run_app(["convert", str(src), str(tmp_path / "hm.npy")]) == 0
+    assert "not stored" not in capsys.readouterr().out
+    # erode on the .npy erodes with the file's spacing and keeps it
+    assert run_app(["erode", str(tmp_path / "hm.npy"), str(tmp_path / "e.npy"),
+                    "--thermal", "2", "-q"]) == 0
+    assert read_heightmap(tmp_path / "e.npy").spacing == (4.0, 4.0)

@@ -104,7 +104,10 @@ def _is_sky(px: np.ndarray) -> np.ndarray:
 
 
 def test_view_window_keys_and_quit(xvfb, tmp_path):
-    env = xvfb
+    # A home without a pictures folder: F12 then writes to ./screenshots (a generated map
+    # has no file to put them next to).
+    env = {k: v for k, v in xvfb.items() if k != "XDG_PICTURES_DIR"}
+    env.update(HOME=str(tmp_path), XDG_CONFIG_HOME=str(tmp_path / "config"))
     proc = subprocess.Popen(
         [sys.executable, "-c", CLI, "view", "--generate", "diamond-square", "--gen-size", "65",
          "--size", f"{W}x{H}"],
@@ -143,9 +146,9 @@ def test_view_window_keys_and_quit(xvfb, tmp_path):
         changed = np.abs(t_lum - w_lum) > 72
         assert (w_lum[changed] < t_lum[changed]).mean() > 0.8, "wire lines should be dark"
 
-        _key(env, wid, "F12")  # screenshot into the working directory
+        _key(env, wid, "F12")  # screenshot into ./screenshots (created now)
         deadline = time.monotonic() + 10
-        while not (shots := list(tmp_path.glob("terrascape-*.png"))):
+        while not (shots := list((tmp_path / "screenshots").glob("terrascape-*.png"))):
             assert time.monotonic() < deadline, "F12 wrote no screenshot"
             time.sleep(0.1)
         from PIL import Image
@@ -160,7 +163,10 @@ def test_view_window_keys_and_quit(xvfb, tmp_path):
         _key(env, wid, "Escape")
         rc = proc.wait(timeout=10)
         assert time.monotonic() - t0 < 8
-        assert rc == 0, proc.stderr.read().decode()
+        err = proc.stderr.read().decode()
+        assert rc == 0, err
+        assert f"F12 saves screenshots to {tmp_path / 'screenshots'}" in err
+        assert f"screenshot: {shots[0]}" in err
     finally:
         if proc.poll() is None:
             proc.kill()

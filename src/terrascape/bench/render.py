@@ -102,4 +102,12 @@ def run(quick: bool = False) -> list[BenchTable]:
             "targets on llvmpipe: plain ≥ 10 frames/s at 1025²/1280×720; others ≤ 2× plain.",
         ],
     )
+    at_target_size = side == 1025 and tuple(size) == (1280, 720)
+    table.check_target("plain at 1025², 1280×720",
+                       table.value("plain", "frames/s") if at_target_size else None,
+                       at_least=10, unit=" frames/s")
+    for row in rows:
+        if row[0] != "plain":
+            table.check_target(f"{row[0]} time / plain's", table.value(row[0], "× plain"),
+                               at_most=2, unit="×")
     return [table]

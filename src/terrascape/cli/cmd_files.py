@@ -115,8 +115,14 @@ def convert(
 
     check_output_path(target, force=force)  # fail before reading a large input
     hm = _read(source, size, spacing, vertical_scale)
+    from terrascape.io.heightmap_file import WRITE_METADATA
+
     written = write_heightmap(hm, target, force=force)
-    out.print(
-        f"{source} → {written}: {hm.cols}×{hm.rows}, heights {hm.min:.6g} … {hm.max:.6g}, "
-        f"spacing ({hm.spacing[0]:.6g}, {hm.spacing[1]:.6g})"
-    )
+    keeps = WRITE_METADATA.get(target.suffix.lower().lstrip("."))
+    heights = f"heights {hm.min:.6g} … {hm.max:.6g}"
+    spacing = f"spacing ({hm.spacing[0]:.6g}, {hm.spacing[1]:.6g})"
+    if keeps is not None and not keeps.world_units:
+        heights = f"heights {hm.min:.6g} … {hm.max:.6g} stored as 0 … 1"
+    if keeps is not None and not keeps.spacing:
+        spacing = f"{spacing} not stored"
+    out.print(f"{source} → {written}: {hm.cols}×{hm.rows}, {heights}, {spacing}")

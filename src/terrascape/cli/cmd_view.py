@@ -66,7 +66,8 @@ def view_cmd(
         False, "--pad", help="Pad the heightmap to a square 2^n+1 grid (needed by the LOD "
         "algorithms) by repeating edge samples."),
     screenshot_dir: Path = typer.Option(
-        Path("."), "--screenshot-dir", help="Folder for F12 screenshots (PNG)."),
+        None, "--screenshot-dir", help="Folder for F12 screenshots (PNG).",
+        show_default="Pictures/terrascape, else screenshots/ next to the file"),
     frames: int = typer.Option(
         0, "--frames", help="Quit after this many frames (0: run until Esc).", min=0),
     no_hud: bool = typer.Option(False, "--no-hud", help="Hide the on-screen text."),
@@ -104,7 +105,7 @@ def view_cmd(
     check_positive(exaggeration, "--exaggeration")
     if not math.isfinite(exaggeration):
         raise InvalidParameterError(f"--exaggeration must be finite, got {exaggeration}")
-    if not screenshot_dir.is_dir():
+    if screenshot_dir is not None and not screenshot_dir.is_dir():
         raise InvalidParameterError(f"--screenshot-dir {screenshot_dir} is not a folder")
     check_display()
 

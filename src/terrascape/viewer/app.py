@@ -39,6 +39,39 @@ def check_display() -> None:
         )
 
 
+def pictures_dir(home: Path | None = None, environ: dict[str, str] | None = None) -> Path | None:
+    """The user's pictures folder: ``XDG_PICTURES_DIR`` (environment, then
+    ``~/.config/user-dirs.dirs``), else ``~/Pictures``; ``None`` when none exists."""
+    env = os.environ if environ is None else environ
+    home = Path.home() if home is None else home
+    candidates = [env.get("XDG_PICTURES_DIR", "")]
+    config = Path(env.get("XDG_CONFIG_HOME") or home / ".config") / "user-dirs.dirs"
+    with contextlib.suppress(OSError, UnicodeDecodeError):
+        for line in config.read_text(encoding="utf-8").splitlines():
+            key, _, value = line.partition("=")
+            if key.strip() == "XDG_PICTURES_DIR":
+                candidates.append(value.strip().strip('"').replace("$HOME", str(home)))
+    candidates.append(str(home / "Pictures"))
+    for candidate in candidates:
+        if candidate and Path(candidate).is_dir() and Path(candidate) != home:
+            return Path(candidate)
+    return None
+
+
+def default_screenshot_dir(heightmap_path: str | os.PathLike | None = None, *,
+                           home: Path | None = None,
+                           environ: dict[str, str] | None = None) -> Path:
+    """Where F12 screenshots go unless ``--screenshot-dir`` says otherwise:
+    ``<pictures>/terrascape`` (:func:`pictures_dir`), else a ``screenshots`` folder next to
+    the heightmap file, else ``./screenshots``. The folder is created on the first F12."""
+    pictures = pictures_dir(home, environ)
+    if pictures is not None:
+        return pictures / "terrascape"
+    if heightmap_path is not None:
+        return Path(heightmap_path).resolve().parent / "screenshots"
+    return Path.cwd() / "screenshots"
+
+
 def key_names(keys_cls) -> dict[int, str]:
     """Window-library key code → controls key name (``"W"``, ``"TAB"``, ``"F1"``, …)."""
     names: dict[int, str] = {}
@@ -96,6 +129,7 @@ def make_window_config():
             if self.want_screenshot:
                 # Read the back buffer now, before the swap leaves it undefined.
                 self.want_screenshot = False
+                self.screenshot_dir.mkdir(parents=True, exist_ok=True)
                 path = s.screenshot(self.wnd.fbo, self.screenshot_dir)
                 print(f"screenshot: {path}", file=sys.stderr, flush=True)
             if self.max_frames and s.frames >= self.max_frames:
@@ -171,7 +205,7 @@ def open_window(size: tuple[int, int], *, fullscreen: bool = False, title: str =
 def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
                fullscreen: bool = False, technique: str = "plain", lod: str = "none",
                texture: np.ndarray | None = None, exaggeration: float = 1.0,
-               screenshot_dir: str | os.PathLike = ".", max_frames: int = 0,
+               screenshot_dir: str | os.PathLike | None = None, max_frames: int = 0,
                hud: bool = True) -> int:
     """Open the viewer window and fly over ``heightmap`` until Esc / the window is closed.
 
@@ -186,7 +220,8 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
     texture
         Optional ``uint8 (H, W, 3)`` colour texture stretched over the terrain.
     screenshot_dir
-        Where F12 writes PNG screenshots.
+        Where F12 writes PNG screenshots (created on the first one); default
+        :func:`default_screenshot_dir` (the user's pictures folder).
     max_frames
         Quit after this many frames (0: run until closed) — for scripted runs.
 
@@ -207,6 +242,9 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
 
     if lod not in LOD_MODES:
         raise InvalidParameterError(f"lod must be one of {', '.join(LOD_MODES)}, got {lod!r}")
+    if screenshot_dir is None:
+        screenshot_dir = default_screenshot_dir(heightmap.metadata.get("source"))
+    print(f"F12 saves screenshots to {screenshot_dir}", file=sys.stderr, flush=True)
     wnd = open_window(size, fullscreen=fullscreen)
     session = None
     try:
@@ -239,5 +277,5 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
             wnd._window.close()
 
 
-__all__ = ["HEADLESS_HINT", "check_display", "key_names", "make_window_config", "open_window",
-           "run_viewer"]
+__all__ = ["HEADLESS_HINT", "check_display", "default_screenshot_dir", "key_names",
+           "make_window_config", "open_window", "pictures_dir", "run_viewer"]
