@@ -180,9 +180,10 @@ def _resolve_fault(shape, p):
 
 
 def _resolve_hills(shape, p):
-    from terrascape.generate.hills import default_radius_range
-
-    lo, hi = default_radius_range(*shape)
+    # Twice the library's side/64 … side/16: with every sample under ~10 hills, smaller
+    # hills pile up into needles at a relief of 20 % of the extent.
+    m = min(shape)
+    lo, hi = max(1.0, m / 32.0), max(2.0, m / 8.0)
     p["radius_min"] = lo if p["radius_min"] is None else p["radius_min"]
     p["radius_max"] = hi if p["radius_max"] is None else p["radius_max"]
     if p["count"] is None:
@@ -301,9 +302,9 @@ GENERATORS: dict[str, Generator] = {
                 Param("count", int, None, "Number of hills.",
                       auto="every sample under ~10 hills (1.5 with --floor)"),
                 Param("radius_min", float, None, "Smallest hill radius (samples).",
-                      auto="side/64"),
+                      auto="side/32"),
                 Param("radius_max", float, None, "Largest hill radius (samples).",
-                      auto="side/16"),
+                      auto="side/8"),
                 Param("height", float, 1.0,
                       "Hill height, the seed's 'odmak' (world units; with --raw)."),
                 Param("floor", bool, False,
