@@ -216,18 +216,19 @@ def _resolve_noise(shape, p):
     return p
 
 
-def _build_fbm(shape, *, seed, spacing, progress, scale, octaves, lacunarity, gain):
+def _build_fbm(shape, *, seed, spacing, progress, scale, octaves, lacunarity, gain, amplitude):
     from terrascape.generate.noise import fbm
 
     return fbm(shape, scale=scale, octaves=octaves, lacunarity=lacunarity, gain=gain,
-               seed=seed, spacing=spacing)
+               amplitude=amplitude, seed=seed, spacing=spacing)
 
 
-def _build_ridged(shape, *, seed, spacing, progress, scale, octaves, lacunarity, gain, offset):
+def _build_ridged(shape, *, seed, spacing, progress, scale, octaves, lacunarity, gain,
+                  amplitude, offset):
     from terrascape.generate.noise import ridged
 
     return ridged(shape, scale=scale, octaves=octaves, lacunarity=lacunarity, gain=gain,
-                  offset=offset, seed=seed, spacing=spacing)
+                  amplitude=amplitude, offset=offset, seed=seed, spacing=spacing)
 
 
 _DECAY_LAWS = ("linear", "halve", "sqrt", "hurst")
@@ -237,6 +238,7 @@ _NOISE_PARAMS = (
           auto="down to a 4-sample wavelength"),
     Param("lacunarity", float, 2.0, "Frequency ratio between octaves (1–16)."),
     Param("gain", float, 0.5, "Amplitude ratio between octaves (0–1)."),
+    Param("amplitude", float, 1.0, "Height amplitude (world units; with --raw)."),
 )
 
 GENERATORS: dict[str, Generator] = {
