@@ -180,9 +180,10 @@ def _resolve_fault(shape, p):
 
 
 def _resolve_hills(shape, p):
-    from terrascape.generate.hills import default_radius_range
-
-    lo, hi = default_radius_range(*shape)
+    # Twice the library's side/64 … side/16: with every sample under ~10 hills, smaller
+    # hills pile up into needles at a relief of 20 % of the extent.
+    m = min(shape)
+    lo, hi = max(1.0, m / 32.0), max(2.0, m / 8.0)
     p["radius_min"] = lo if p["radius_min"] is None else p["radius_min"]
     p["radius_max"] = hi if p["radius_max"] is None else p["radius_max"]
     if p["count"] is None:
@@ -215,18 +216,19 @@ def _resolve_noise(shape, p):
     return p
 
 
-def _build_fbm(shape, *, seed, spacing, progress, scale, octaves, lacunarity, gain):
+def _build_fbm(shape, *, seed, spacing, progress, scale, octaves, lacunarity, gain, amplitude):
     from terrascape.generate.noise import fbm
 
     return fbm(shape, scale=scale, octaves=octaves, lacunarity=lacunarity, gain=gain,
-               seed=seed, spacing=spacing)
+               amplitude=amplitude, seed=seed, spacing=spacing)
 
 
-def _build_ridged(shape, *, seed, spacing, progress, scale, octaves, lacunarity, gain, offset):
+def _build_ridged(shape, *, seed, spacing, progress, scale, octaves, lacunarity, gain,
+                  amplitude, offset):
     from terrascape.generate.noise import ridged
 
     return ridged(shape, scale=scale, octaves=octaves, lacunarity=lacunarity, gain=gain,
-                  offset=offset, seed=seed, spacing=spacing)
+                  amplitude=amplitude, offset=offset, seed=seed, spacing=spacing)
 
 
 _DECAY_LAWS = ("linear", "halve", "sqrt", "hurst")
@@ -236,6 +238,7 @@ _NOISE_PARAMS = (
           auto="down to a 4-sample wavelength"),
     Param("lacunarity", float, 2.0, "Frequency ratio between octaves (1–16)."),
     Param("gain", float, 0.5, "Amplitude ratio between octaves (0–1)."),
+    Param("amplitude", float, 1.0, "Height amplitude (world units; with --raw)."),
 )
 
 GENERATORS: dict[str, Generator] = {
@@ -301,9 +304,9 @@ GENERATORS: dict[str, Generator] = {
                 Param("count", int, None, "Number of hills.",
                       auto="every sample under ~10 hills (1.5 with --floor)"),
                 Param("radius_min", float, None, "Smallest hill radius (samples).",
-                      auto="side/64"),
+                      auto="side/32"),
                 Param("radius_max", float, None, "Largest hill radius (samples).",
-                      auto="side/16"),
+                      auto="side/8"),
                 Param("height", float, 1.0,
                       "Hill height, the seed's 'odmak' (world units; with --raw)."),
                 Param("floor", bool, False,
