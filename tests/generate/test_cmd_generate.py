@@ -135,9 +135,11 @@ def test_erode_cli(tmp_path: Path) -> None:
     ref = thermal_erosion(hydraulic_erosion(Heightmap(hm.heights), droplets=200, seed=2),
                           iterations=5, talus_angle=40.0)
     np.testing.assert_array_equal(np.load(dst), ref.heights)
-    assert run_app(["erode", str(src), str(tmp_path / "o2.npy")]) == 2
     assert run_app(["erode", str(src), str(tmp_path / "o2.npy"), "--thermal", "-1"]) == 2
     assert not (tmp_path / "o2.npy").exists()
+    # no options: the default erosion model, which changes the terrain
+    assert run_app(["erode", str(src), str(tmp_path / "o3.npy"), "-q"]) == 0
+    assert np.abs(np.load(tmp_path / "o3.npy") - hm.heights).max() > 0.01
 
 
 def test_default_relief_is_a_fifth_of_the_extent(tmp_path: Path) -> None:
