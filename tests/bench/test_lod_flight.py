@@ -94,6 +94,11 @@ def test_target_table_follows_the_target(gl_ctx):
     targets = (600, 2400)
     table, res = lf._target_table(gl_ctx, 65, targets, 2, VIEWPORT)
     assert [row[0] for row in table.rows] == list(targets)
+    # one column group per SCHEMES entry, the layout the report's figures read
+    assert table.columns == [
+        "target", "ROAM triangles", "ROAM frames/s", "Turner triangles", "Turner frames/s",
+        "geomipmap τ px", "geomipmap triangles", "geomipmap frames/s"]
+    assert all(len(row) == len(table.columns) for row in table.rows)
     for t in targets:
         roam, turner, gm = res[t]
         assert (roam.triangles <= t).all()

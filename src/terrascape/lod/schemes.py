@@ -221,10 +221,6 @@ def scheme(name: str) -> Scheme:
             f"LOD scheme must be one of {', '.join(SCHEMES)}, got {name!r}") from None
 
 
-def scheme_names() -> tuple[str, ...]:
-    return tuple(SCHEMES)
-
-
 __all__ = [
     "SCHEMES",
     "LodParameter",
@@ -232,6 +228,5 @@ __all__ = [
     "LodStats",
     "Scheme",
     "scheme",
-    "scheme_names",
     "unsupported",
 ]

@@ -286,8 +286,8 @@ class ViewerSession:
         Initial viewport ``(width, height)`` (sets the camera's aspect; each frame uses the
         framebuffer's size).
     technique, lod
-        Start technique (registered name) and LOD mode (``none``, ``roam``, ``turner``,
-        ``geomipmap``).
+        Start technique (registered name) and LOD mode (``none`` or a name of
+        :data:`~terrascape.lod.schemes.SCHEMES`: ``roam``, ``turner``, ``geomipmap``).
     texture
         Optional ``uint8 (H, W, 3)`` colour texture stretched over the terrain (replaces the
         procedural region texture of every technique that samples ``u_color_tex``).
