@@ -60,7 +60,7 @@ _RECIPES: dict[str, _Recipe] = {
     "meadow": _Recipe("grass", 0.75, 0.0, 0.3, 0.0, (92, 90, 42), (178, 168, 100), 2.0),
     "rock": _Recipe("gravel", 2.0, 1.0, 0.45, 0.35, (70, 66, 62), (168, 160, 150), 5.0),
     "scree": _Recipe("gravel", 1.0, 0.0, 0.1, 0.0, (84, 80, 74), (176, 168, 156), 4.0),
-    "sediment": _Recipe("gravel", 0.5, 0.8, 0.4, 0.0, (112, 96, 70), (190, 170, 130), 1.5),
+    "sediment": _Recipe("grass", 1.0, 1.5, 0.5, 0.0, (112, 96, 70), (190, 170, 130), 1.5),
     "snow": _Recipe("gravel", 2.0, 3.0, 0.6, 0.0, (200, 210, 226), (250, 251, 255), 1.0),
     "water": _Recipe("gravel", 2.0, 6.0, 0.8, 0.0, (22, 52, 78), (46, 88, 112), 0.3),
 }
@@ -126,6 +126,10 @@ def _fourier_resize(image: np.ndarray, size: int) -> np.ndarray:
     k = min(m, size)
     so, si = (size - k) // 2, (m - k) // 2
     out[so:so + k, so:so + k] = spec[si:si + k, si:si + k]
+    if k < m:
+        # The kept Nyquist row/column has no conjugate partner: drop it (it would alias).
+        out[so, :] = 0.0
+        out[:, so] = 0.0
     return np.real(np.fft.ifft2(np.fft.ifftshift(out))) * (size * size) / (m * m)
 
 
@@ -141,10 +145,11 @@ def _layer_height(name: str, size: int, seed: int) -> np.ndarray:
     rec = _RECIPES[name]
     rng = np.random.default_rng(np.random.SeedSequence([seed, MATERIAL_LAYERS.index(name), 7]))
     base = _zoomed(_photo(rec.photo), size, rec.zoom)
-    # Wrapped high-pass: remove the photo's illumination gradient (it would repeat per tile).
-    base = base - ndimage.gaussian_filter(base, size / 8.0, mode="wrap")
+    # Wrapped high-pass ("grid-wrap" is scipy's exactly periodic mode): remove the photo's
+    # illumination gradient (it would repeat with every tile).
+    base = base - ndimage.gaussian_filter(base, size / 8.0, mode="grid-wrap")
     if rec.blur > 0.0:
-        base = ndimage.gaussian_filter(base, rec.blur, mode="wrap")
+        base = ndimage.gaussian_filter(base, rec.blur, mode="grid-wrap")
     base /= max(float(base.std()), 1e-9)
     h = base
     if rec.noise > 0.0:
@@ -238,6 +243,31 @@ def photo_material_layers(size: int = 256, *, seed: int = 0) -> MaterialLayers:
     return _cached_layers(size, int(seed))
 
 
+def detail_normal_height(name: str = "rock", size: int = 256, *, seed: int = 0,
+                         strength: float = 1.0) -> np.ndarray:
+    """A photo material's detail normal map with its height, ``uint8 (size, size, 4)``.
+
+    RGB = tangent-space normal ``n·0.5 + 0.5`` (layout of
+    :func:`terrascape.lighting.normals.pack_normal_height`), A = detail height; tiles
+    seamlessly. ``strength`` scales the material's own relief (1: the layer's normals).
+    """
+    if not isinstance(name, str) or name.lower() not in MATERIAL_LAYERS:
+        raise InvalidParameterError(
+            f"unknown photo material {name!r}; expected one of {', '.join(MATERIAL_LAYERS)}"
+        )
+    strength = check_positive(strength, "strength", allow_zero=True)
+    layers = photo_material_layers(size, seed=seed)
+    k = MATERIAL_LAYERS.index(name.lower())
+    if strength == 1.0:
+        return layers.normals[k].copy()
+    h = layers.albedo[k, ..., 3].astype(np.float64) / 255.0
+    n = detail_normals(h, _RECIPES[name.lower()].bump * size / 256.0 * strength)
+    out = np.empty((size, size, 4), dtype=np.uint8)
+    out[..., :3] = np.rint((n * 0.5 + 0.5) * 255.0).clip(0, 255)
+    out[..., 3] = layers.albedo[k, ..., 3]
+    return out
+
+
 def photo_material(name: str, size: int = 256, *, seed: int = 0) -> np.ndarray:
     """One photo material's albedo, ``uint8 (size, size, 3)``, tiling seamlessly."""
     if not isinstance(name, str) or name.lower() not in MATERIAL_LAYERS:
@@ -251,6 +281,7 @@ def photo_material(name: str, size: int = 256, *, seed: int = 0) -> np.ndarray:
 __all__ = [
     "MATERIAL_LAYERS",
     "MaterialLayers",
+    "detail_normal_height",
     "detail_normals",
     "periodic_component",
     "photo_material",
