@@ -95,10 +95,11 @@ def render_command(
     ),
     size: str = typer.Option("1280x720", "--size", help="Image size WIDTHxHEIGHT in pixels."),
     technique: str = typer.Option(
-        "plain",
+        "material",
         "--technique",
         "-t",
-        help="Shading technique: plain, regions, texture3d, splat, bump (+ registered ones).",
+        help="Shading technique: material (photo materials by slope, height and masks), "
+        "plain, regions, texture3d, splat, bump (+ registered ones).",
     ),
     camera: str = typer.Option(
         None,

@@ -59,9 +59,10 @@ def view_cmd(
         None, "--texture", help="Colour image stretched over the whole terrain.",
         show_default="procedural region texture"),
     technique: str = typer.Option(
-        "plain", "--technique", help="Start technique (Tab switches at run time): plain, "
-        "regions, texture3d, splat, bump, parallax, parallax_limited, steep_parallax, pom, "
-        "relief, interval, relief_by_distance."),
+        None, "--technique", show_default="material (plain with --texture)",
+        help="Start technique (Tab switches at run time): material, plain, regions, "
+        "texture3d, splat, bump, parallax, parallax_limited, steep_parallax, pom, relief, "
+        "interval, relief_by_distance."),
     lod: str = typer.Option(
         "none", "--lod", help="Level of detail: none, roam, turner, geomipmap (L switches)."),
     size: str = typer.Option("1280x720", "--size", help="Window size WIDTHxHEIGHT in pixels."),
@@ -94,6 +95,9 @@ def view_cmd(
     if generate is not None and generate not in GENERATORS:
         raise InvalidParameterError(
             f"--generate must be one of {', '.join(GENERATORS)}, got {generate!r}")
+    if technique is None:
+        # --texture replaces the colour texture the plain family samples; material has none.
+        technique = "plain" if texture is not None else "material"
     names = technique_names()
     if technique not in names:
         raise InvalidParameterError(

@@ -33,6 +33,7 @@ References
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -58,6 +59,8 @@ from terrascape.texture.hextile import (
 from terrascape.texture.photo_materials import MATERIAL_LAYERS, photo_material_layers
 
 MASK_NAMES: tuple[str, ...] = ("flow", "deposition", "wear", "water")
+#: Minimum relief / extent for the automatic snow line.
+SNOW_RELIEF = 0.08
 #: Height-blend transition depth (fraction of the detail height range).
 BLEND_DEPTH = 0.2
 
@@ -68,7 +71,8 @@ _L = {name: k for k, name in enumerate(MATERIAL_LAYERS)}
 class MaterialRules:
     """Thresholds of the default blend (angles in degrees, heights in world units).
 
-    ``snow_line=None``: 78 % of the way from the lowest to the highest height;
+    ``snow_line=None``: 78 % of the way from the lowest to the highest height, on terrain
+    whose relief is at least ``SNOW_RELIEF`` (8 %) of its extent (none on gentle country);
     ``water_level=None``: no water except where the ``water`` mask says so.
     """
 
@@ -204,7 +208,13 @@ def material_weights(
         sediment = np.maximum(sediment, _scaled(m["deposition"]))
     sediment = np.clip(sediment, 0.0, 1.0) * (1.0 - rock)
     # Snow: above the line only (noise raises the edge, never lowers it), on flats.
-    line = lo + 0.78 * span if rules.snow_line is None else float(rules.snow_line)
+    if rules.snow_line is not None:
+        line = float(rules.snow_line)
+    elif span >= SNOW_RELIEF * max(hm.extent):
+        line = lo + 0.78 * span
+    else:
+        line = math.inf  # gentle country: no snow caps on its highest hillock
+
     fade = 0.04 * span
     edge = line + fade * (0.5 + 0.5 * n2)
     snow = _smoothstep(0.0, fade, h - edge) * (1.0 - _smoothstep(*rules.snow_max_slope, slope))
