@@ -63,8 +63,8 @@ def test_relief_on_terrain_differs_from_flat_and_follows_parameters(terrain):
 
 
 def test_terrain_relief_defaults_to_a_natural_field(terrain):
-    from terrascape.render.relief_techniques import RELIEF_DEFAULTS, _relief_heights
     from terrascape.relief.fields import natural_field
+    from terrascape.render.relief_techniques import RELIEF_DEFAULTS, _relief_heights
 
     assert RELIEF_DEFAULTS["relief_field"] == "natural"
     params = {"relief_field": "natural", "relief_size": 64, "seed": 0}
