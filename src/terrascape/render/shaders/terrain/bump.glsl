@@ -19,7 +19,8 @@ void main() {
     vec3 N = normalize(v_normal);
     vec3 T = normalize(v_tangent.xyz - N * dot(N, v_tangent.xyz));
     vec3 B = v_tangent.w * cross(N, T);
-    HexTile t = hex_tile(v_uv, 1.0, 0u);
+    // Offsets only (rotation 0): a user's directional normal map keeps its direction.
+    HexTile t = hex_tile(v_uv, 0.0, 0u);
     vec4 a[3];
     hex_fetch(u_normal_height, t, a);
     vec3 hw = hex_blend_weights(t, vec3(a[0].a, a[1].a, a[2].a), 0.6, 7.0);
