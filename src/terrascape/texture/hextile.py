@@ -128,6 +128,26 @@ def _bilinear_wrap(tex, u, v, c):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
+def _bilinear_wrap_all(tex, u, v, out):
+    """Every channel of a bilinear, wrapped lookup into ``out`` (one index computation)."""
+    size_y, size_x = tex.shape[0], tex.shape[1]
+    x = u * size_x - 0.5
+    y = v * size_y - 0.5
+    x0 = math.floor(x)
+    y0 = math.floor(y)
+    fx = x - x0
+    fy = y - y0
+    i0 = int(y0) % size_y
+    j0 = int(x0) % size_x
+    i1 = (i0 + 1) % size_y
+    j1 = (j0 + 1) % size_x
+    for c in range(out.shape[0]):
+        top = tex[i0, j0, c] + (tex[i0, j1, c] - tex[i0, j0, c]) * fx
+        bottom = tex[i1, j0, c] + (tex[i1, j1, c] - tex[i1, j0, c]) * fx
+        out[c] = top + (bottom - top) * fy
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
 def _hex_weights(w1, w2, w3, l1, l2, l3, contrast, sharpness):
     """Mikkelsen's blend weights: ``mix(1, lum, contrast) · w^sharpness``, normalised."""
     a = (1.0 + (l1 - 1.0) * contrast) * w1**sharpness

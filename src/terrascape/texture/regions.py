@@ -46,7 +46,7 @@ from terrascape.texture.hextile import (
     HEX_CONTRAST,
     HEX_ROTATION,
     HEX_SHARPNESS,
-    _bilinear_wrap,
+    _bilinear_wrap_all,
     _hex_grid,
     _hex_weights,
     _vertex_uv,
@@ -382,7 +382,7 @@ def _bilinear(a, y, x):
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
 def _texture_kernel(heights, slope, use_slope, lightmap, use_light, maxs, ranges, amps, lat1,
-                    lat2, rule, water, s0, s1, water_level, textures, lum, tex_per_x, tex_per_z,
+                    lat2, rule, water, s0, s1, water_level, textures, tex_per_x, tex_per_z,
                     hex_seed, out):
     rows, cols = heights.shape
     h_out, w_out = out.shape[0], out.shape[1]
@@ -398,6 +398,9 @@ def _texture_kernel(heights, slope, use_slope, lightmap, use_light, maxs, ranges
         lx_scale = 0.0
     for oi in prange(h_out):
         w = np.empty(n)
+        c1 = np.empty(3)
+        c2 = np.empty(3)
+        c3 = np.empty(3)
         y = oi * sy
         v = oi / (h_out - 1)
         tv = y * tex_per_z  # texture repeats along z
@@ -427,20 +430,18 @@ def _texture_kernel(heights, slope, use_slope, lightmap, use_light, maxs, ranges
                 wr = w[r]
                 if wr > 0.0:
                     tex = textures[r]
-                    lt = lum[r]
-                    p, q, t = _hex_weights(g[6], g[7], g[8], _bilinear_wrap(lt, u1, v1, 0),
-                                           _bilinear_wrap(lt, u2, v2, 0),
-                                           _bilinear_wrap(lt, u3, v3, 0), HEX_CONTRAST,
-                                           HEX_SHARPNESS)
-                    acc0 += wr * (p * _bilinear_wrap(tex, u1, v1, 0)
-                                  + q * _bilinear_wrap(tex, u2, v2, 0)
-                                  + t * _bilinear_wrap(tex, u3, v3, 0))
-                    acc1 += wr * (p * _bilinear_wrap(tex, u1, v1, 1)
-                                  + q * _bilinear_wrap(tex, u2, v2, 1)
-                                  + t * _bilinear_wrap(tex, u3, v3, 1))
-                    acc2 += wr * (p * _bilinear_wrap(tex, u1, v1, 2)
-                                  + q * _bilinear_wrap(tex, u2, v2, 2)
-                                  + t * _bilinear_wrap(tex, u3, v3, 2))
+                    _bilinear_wrap_all(tex, u1, v1, c1)
+                    _bilinear_wrap_all(tex, u2, v2, c2)
+                    _bilinear_wrap_all(tex, u3, v3, c3)
+                    # Luminance in [0, 1] weights the transitions (Mikkelsen's contrast term).
+                    p, q, t = _hex_weights(g[6], g[7], g[8],
+                                           (c1[0] + c1[1] + c1[2]) * (1.0 / 765.0),
+                                           (c2[0] + c2[1] + c2[2]) * (1.0 / 765.0),
+                                           (c3[0] + c3[1] + c3[2]) * (1.0 / 765.0),
+                                           HEX_CONTRAST, HEX_SHARPNESS)
+                    acc0 += wr * (p * c1[0] + q * c2[0] + t * c3[0])
+                    acc1 += wr * (p * c1[1] + q * c2[1] + t * c3[1])
+                    acc2 += wr * (p * c1[2] + q * c2[2] + t * c3[2])
             out[oi, oj, 0] = np.uint8(min(max(acc0 * light + 0.5, 0.0), 255.0))
             out[oi, oj, 1] = np.uint8(min(max(acc1 * light + 0.5, 0.0), 255.0))
             out[oi, oj, 2] = np.uint8(min(max(acc2 * light + 0.5, 0.0), 255.0))
@@ -545,12 +546,10 @@ def region_texture(
     maxs, ranges, amps, lat1, lat2 = _region_arrays(regions, jitter, seed)
     out = np.empty((h_out, w_out, 3), dtype=np.uint8)
     # Texels per heightmap sample step along x / z: world step × texture texels per world unit.
-    # Luminance in [0, 1] weights the hex-tile transitions (Mikkelsen's contrast term).
-    lum = np.ascontiguousarray(textures.mean(axis=3, keepdims=True) / np.float32(255.0))
     # Texture repeats per heightmap sample step along x / z.
     _texture_kernel(hm.heights, slope, rule >= 0, lm, lightmap is not None, maxs, ranges, amps,
                     lat1, lat2, rule, _water_index(regions), s0, s1,
-                    _water_level(regions, water_level), textures, lum, dx / tile, dz / tile,
+                    _water_level(regions, water_level), textures, dx / tile, dz / tile,
                     int(seed) & 0xFFFFFFFF, out)
     return out
 

@@ -49,7 +49,7 @@ from terrascape.texture.hextile import (
     HEX_CONTRAST,
     HEX_ROTATION,
     HEX_SHARPNESS,
-    _bilinear_wrap,
+    _bilinear_wrap_all,
     _hex_grid,
     _hex_weights,
     _vertex_uv,
@@ -261,6 +261,9 @@ def _material_kernel(weights, layers, lightmap, use_light, tex_per_x, tex_per_z,
     lx = (lightmap.shape[1] - 1) / max(w_out - 1, 1)
     for oi in prange(h_out):
         wk = np.empty(n_layers)
+        c1 = np.empty(4)
+        c2 = np.empty(4)
+        c3 = np.empty(4)
         col = np.empty((n_layers, 3))
         hk = np.empty(n_layers)
         y = oi * sy
@@ -286,15 +289,14 @@ def _material_kernel(weights, layers, lightmap, use_light, tex_per_x, tex_per_z,
                     hk[k] = -1e30
                     continue
                 tex = layers[k]
-                l1 = _bilinear_wrap(tex, u1, v1, 3)
-                l2 = _bilinear_wrap(tex, u2, v2, 3)
-                l3 = _bilinear_wrap(tex, u3, v3, 3)
-                p, q, r = _hex_weights(g[6], g[7], g[8], l1, l2, l3, contrast, sharpness)
+                _bilinear_wrap_all(tex, u1, v1, c1)
+                _bilinear_wrap_all(tex, u2, v2, c2)
+                _bilinear_wrap_all(tex, u3, v3, c3)
+                p, q, r = _hex_weights(g[6], g[7], g[8], c1[3], c2[3], c3[3], contrast,
+                                       sharpness)
                 for c in range(3):
-                    col[k, c] = (p * _bilinear_wrap(tex, u1, v1, c)
-                                 + q * _bilinear_wrap(tex, u2, v2, c)
-                                 + r * _bilinear_wrap(tex, u3, v3, c))
-                hk[k] = p * l1 + q * l2 + r * l3 + wk[k]
+                    col[k, c] = p * c1[c] + q * c2[c] + r * c3[c]
+                hk[k] = p * c1[3] + q * c2[3] + r * c3[3] + wk[k]
                 if hk[k] > best:
                     best = hk[k]
             # Height-based blend: layers within `depth` of the highest (height + weight) mix.
