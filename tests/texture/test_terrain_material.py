@@ -146,6 +146,14 @@ def test_masks_drive_sediment_wear_and_water(terrain):
     assert w[L["sediment"]][:, :90].max() == 0
     assert (w[L["grass"]] + w[L["meadow"]])[10:20, 10:20].max() < 1e-6
     np.testing.assert_allclose(w[L["water"]][200:210, 200:210], 1.0)
+    deposit = np.zeros(shape, np.float32)
+    deposit[50:70, 50:70] = 2.0     # a thick deposit ...
+    deposit[150:170, 150:170] = 0.2  # ... and a thin film
+    wd = material_weights(terrain, masks={"deposition": deposit})
+    rockless = w[L["rock"]] < 0.01
+    # most of it (scree on its steeper cells keeps a share)
+    assert wd[L["sediment"]][55:65, 55:65][rockless[55:65, 55:65]].mean() > 0.5
+    assert wd[L["sediment"]][150:170, 150:170].max() == 0
     with pytest.raises(InvalidParameterError, match="flow mask contains NaN"):
         material_weights(terrain, masks={"flow": np.full(shape, np.nan, np.float32)})
     with pytest.raises(InvalidParameterError, match="shape"):

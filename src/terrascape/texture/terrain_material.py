@@ -125,7 +125,10 @@ def check_masks(shape: tuple[int, int], masks: dict[str, Any] | None) -> dict[st
 
 
 def _scaled(mask: np.ndarray) -> np.ndarray:
-    """Flow/deposition to [0, 1]: divided by the 95th percentile of the positive values."""
+    """Flow/deposition to [0, 1]: smoothed over about a cell (droplet erosion leaves speckled
+    deposits; a channel is a connected band), divided by the 95th percentile of the
+    positive values."""
+    mask = ndimage.gaussian_filter(mask.astype(np.float64), 1.0, mode="nearest")
     pos = mask[mask > 0]
     if pos.size == 0:
         return np.zeros_like(mask, dtype=np.float64)
@@ -205,7 +208,8 @@ def material_weights(
         flow = _scaled(m["flow"])
         sediment = np.maximum(sediment, flow * (1.0 - _smoothstep(12.0, 28.0, slope)))
     if "deposition" in m:
-        sediment = np.maximum(sediment, _scaled(m["deposition"]))
+        # Thin deposits (a film in every hollow) stay grass; thick ones become sediment.
+        sediment = np.maximum(sediment, _smoothstep(0.25, 0.85, _scaled(m["deposition"])))
     sediment = np.clip(sediment, 0.0, 1.0) * (1.0 - rock)
     # Snow: above the line only (noise raises the edge, never lowers it), on flats.
     if rules.snow_line is not None:
