@@ -115,3 +115,18 @@ def test_rock_on_the_cliff_grass_on_the_flat_and_masks(ramp):
     with pytest.raises(InvalidParameterError, match="NaN"):
         r.render(cam, technique="material",
                  params={"flow": np.full(hm.shape, np.nan, np.float32)})
+
+
+def test_a_mask_changed_only_inside_rebuilds_the_weights(ramp):
+    # numpy's repr of a large array shows only its corners; the texture must still follow
+    r, hm = ramp
+    cam = Camera.look_at((40.0, 160.0, 64.0), (40.0, 20.0, 64.0), fov_y=40.0, near=1.0,
+                         far=1000.0, aspect=1.0)
+    flat = {"lighting": "none", "sky": False, "fog_density": 0.0}
+    dry = np.zeros(hm.shape, np.float32)
+    wet = dry.copy()
+    wet[50:80, 20:60] = 1.0
+    assert repr(dry) == repr(wet)
+    a = r.render(cam, technique="material", params={**flat, "water": dry}).astype(int)
+    b = r.render(cam, technique="material", params={**flat, "water": wet}).astype(int)
+    assert (b[..., 2] - b[..., 0]).mean() > (a[..., 2] - a[..., 0]).mean() + 5

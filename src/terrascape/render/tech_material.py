@@ -67,13 +67,46 @@ def _digest(*arrays: Any) -> str:
     return h.hexdigest()
 
 
+class MaskParam:
+    """A mask array with a content-hash ``repr``: the renderer rebuilds a texture when the
+    ``repr`` of a parameter it depends on changes, and numpy's ``repr`` of a large array
+    shows only its corners (two masks differing inside would look equal)."""
+
+    __slots__ = ("array", "digest")
+
+    def __init__(self, array: Any) -> None:
+        self.array = array
+        self.digest = _digest(array)
+
+    def __repr__(self) -> str:
+        return f"MaskParam(sha1={self.digest})"
+
+
+def _unwrap(value: Any) -> Any:
+    return value.array if isinstance(value, MaskParam) else value
+
+
+class MaterialTechnique(Technique):
+    """:class:`Technique` whose mask parameters are wrapped in :class:`MaskParam`."""
+
+    def resolve(self, params: Mapping[str, Any] | None) -> dict[str, Any]:
+        merged = super().resolve(params)
+        for name in MASK_NAMES:
+            value = merged.get(name)
+            if value is not None and not isinstance(value, MaskParam):
+                merged[name] = MaskParam(value)
+        return merged
+
+
 def material_weight_maps(hm: Heightmap, params: Mapping[str, Any]) -> list[np.ndarray]:
     """The packed RGBA weight maps of ``params`` (cached on the heights, masks and rules)."""
     from terrascape.texture import pack_splat_maps
     from terrascape.texture.terrain_material import MaterialRules, material_weights
 
-    masks = {name: params.get(name) for name in MASK_NAMES if params.get(name) is not None}
-    key = _digest(hm.heights, np.asarray(hm.spacing), *(params.get(n) for n in MASK_NAMES))
+    masks = {name: _unwrap(params.get(name)) for name in MASK_NAMES
+             if params.get(name) is not None}
+    key = _digest(hm.heights, np.asarray(hm.spacing),
+                  *(_unwrap(params.get(n)) for n in MASK_NAMES))
     key += repr((params.get("snow_line"), params.get("water_level"), int(params["seed"])))
     if key not in _cache:
         rules = MaterialRules(snow_line=params.get("snow_line"),
@@ -112,7 +145,7 @@ def build_layer_normals(hm: Heightmap, params: Mapping[str, Any]) -> TextureData
 
 
 MATERIAL_TECHNIQUE = register_technique(
-    Technique(
+    MaterialTechnique(
         "material",
         "terrain/material",
         deferred=True,
@@ -134,4 +167,5 @@ MATERIAL_TECHNIQUE = register_technique(
     replace=True,
 )
 
-__all__ = ["MATERIAL_DEFAULTS", "MATERIAL_TECHNIQUE", "material_weight_maps"]
+__all__ = ["MATERIAL_DEFAULTS", "MATERIAL_TECHNIQUE", "MaskParam", "MaterialTechnique",
+           "material_weight_maps"]
