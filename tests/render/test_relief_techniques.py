@@ -43,7 +43,9 @@ def terrain(gl_ctx):
 
 def _draw(terrain, technique, **params):
     r, fbo, cam, size = terrain
-    base = {"relief_size": 64, "uv_scale": 4.0, "fog_density": 0.0, "sky": False}
+    # The seed's city field: walls and flat roofs make displacement and shadows unmistakable.
+    base = {"relief_size": 64, "uv_scale": 4.0, "fog_density": 0.0, "sky": False,
+            "relief_field": "city"}
     r.render(fbo, cam, technique, {**base, **params})
     return np.frombuffer(fbo.read(components=4), np.uint8).reshape(size[1], size[0], 4)
 
@@ -58,6 +60,20 @@ def test_relief_on_terrain_differs_from_flat_and_follows_parameters(terrain):
     for name in ("parallax", "parallax_limited", "pom", "interval", "relief_by_distance"):
         img = _draw(terrain, name, depth=0.08)
         assert img[..., :3].std() > 5
+
+
+def test_terrain_relief_defaults_to_a_natural_field(terrain):
+    from terrascape.relief.fields import natural_field
+    from terrascape.render.relief_techniques import RELIEF_DEFAULTS, _relief_heights
+
+    assert RELIEF_DEFAULTS["relief_field"] == "natural"
+    params = {"relief_field": "natural", "relief_size": 64, "seed": 0}
+    np.testing.assert_array_equal(_relief_heights(params), natural_field(64, seed=0))
+    natural = _draw(terrain, "relief", depth=0.08, relief_field=RELIEF_DEFAULTS["relief_field"])
+    city = _draw(terrain, "relief", depth=0.08)
+    assert np.abs(natural.astype(int) - city.astype(int)).max() > 30
+    photo = _draw(terrain, "relief", depth=0.08, relief_field="photo")
+    assert photo[..., :3].std() > 5
 
 
 def test_relief_field_validation(terrain):

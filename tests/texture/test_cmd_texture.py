@@ -142,3 +142,30 @@ def test_splat_command_with_material_map(tmp_path, hm_file):
     Image.fromarray(np.zeros((32, 40, 3), np.uint8)).save(tmp_path / "rgb.png")
     assert run_app(["texture", "splat", str(path), "-o", str(tmp_path / "w"), "--materials",
                     str(tmp_path / "rgb.png")]) == 2
+
+
+def test_material_command_draws_a_terrain_and_photo_materials(tmp_path, hm_file):
+    from terrascape.texture import MaterialRules, material_texture, photo_material
+
+    path, hm = hm_file
+    out = tmp_path / "terrain.png"
+    flow = np.zeros(hm.shape, np.float32)
+    flow[:, 10:12] = 5.0
+    np.save(tmp_path / "flow.npy", flow)
+    argv = ["texture", "material", str(path), "-o", str(out), "--scale", "2", "--seed", "4",
+            "--flow", str(tmp_path / "flow.npy"), "--snow-line", "40", "-q"]
+    assert run_app(argv) == 0
+    expected = material_texture(hm, masks={"flow": flow}, rules=MaterialRules(snow_line=40.0),
+                                scale=2, seed=4)
+    np.testing.assert_array_equal(_png(out), expected)
+    photo = tmp_path / "grass.png"
+    assert run_app(["texture", "material", "photo-grass", "-o", str(photo), "--size", "64"]) == 0
+    np.testing.assert_array_equal(_png(photo), photo_material("grass", 64))
+    # a NaN mask is one clear error (exit 2) and writes nothing
+    flow[0, 0] = np.nan
+    np.save(tmp_path / "bad.npy", flow)
+    bad = tmp_path / "bad.png"
+    assert run_app(["texture", "material", str(path), "-o", str(bad), "--flow",
+                    str(tmp_path / "bad.npy"), "-q"]) == 2
+    assert not bad.exists()
+    assert run_app(["texture", "material", "photo-grass", "-o", str(photo)]) == 2  # exists

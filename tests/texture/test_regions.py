@@ -63,7 +63,8 @@ def test_default_regions_follow_table_1():
     # Complementary hats: halfway between two peaks both bands weigh 0.5, no renormalising.
     w = region_weights(_heights([0.0, 76.5, 229.5, 255.0]), regs)[:, 0, :]
     np.testing.assert_allclose(w[:, 0], [1, 0, 0, 0, 0], atol=1e-6)
-    np.testing.assert_allclose(w[:, 1], [0.5, 0.5, 0, 0, 0], atol=1e-6)
+    # ... except water, which stops at its line (max = 51): above it sand takes it all.
+    np.testing.assert_allclose(w[:, 1], [0, 1, 0, 0, 0], atol=1e-6)
     np.testing.assert_allclose(w[:, 2], [0, 0, 0, 0.5, 0.5], atol=1e-6)
     np.testing.assert_allclose(w[:, 3], [0, 0, 0, 0, 1], atol=1e-6)
     flat = default_regions(Heightmap(np.zeros((3, 3), np.float32)))
@@ -116,12 +117,13 @@ def test_slope_rule_puts_rock_on_steep_ramp():
     s = _heights([math.radians(37.5), math.radians(37.5)])
     w = region_weights(h, regs, slope=s, slope_rule=SlopeRule("rock", 30, 45))[:, 0, 0]
     np.testing.assert_allclose(w, [0.0, 0.5, 0.5, 0.0], atol=1e-6)
-    # water keeps its weight on a steep slope (no rock under the water plane)
+    # water keeps its weight on a steep slope below the water line (no rock under the water
+    # plane); above it there is no water at all, so the steep slope is all rock
     h = _heights([10.0, 30.0])
     s = _heights([1.3, 1.3])
     w = region_weights(h, regs, slope=s, slope_rule=True)[:, 0, :]
     np.testing.assert_allclose(w[:, 0], [1, 0, 0, 0], atol=1e-6)
-    np.testing.assert_allclose(w[:, 1], [0.5, 0, 0.5, 0], atol=1e-6)
+    np.testing.assert_allclose(w[:, 1], [0, 0, 1, 0], atol=1e-6)
 
 
 def _solid(colour, size=8):
@@ -159,20 +161,40 @@ def test_region_texture_scale_interpolates_heights():
     np.testing.assert_array_equal(tex[:, 2, 1], [80] * 6)
 
 
-def test_region_texture_tiles_textures_with_wrap():
+def test_region_texture_is_hex_tiled_without_a_period():
     pattern = (np.arange(64).reshape(8, 8) * 4).astype(np.uint8)
     tex_img = np.repeat(pattern[..., None], 3, axis=2)
-    hm = Heightmap(np.zeros((20, 30), np.float32))
+    hm = Heightmap(np.zeros((40, 60), np.float32))
     regs = [Region("ground", 0.0, 1.0, texture=tex_img)]
     out = region_texture(hm, regs, texture_size=8, tile_size=8.0, slope_rule=False)[..., 0]
-    # one texture repeat every 8 world units = 8 samples; wrap makes it exactly periodic
-    np.testing.assert_array_equal(out[:, 8:], out[:, :-8])
-    np.testing.assert_array_equal(out[8:, :], out[:-8, :])
-    # texel centres: sample (i, j) is the mean of texels (i-1..i, j-1..j) mod 8
-    p = pattern.astype(np.float64)
-    for i, j in [(3, 5), (0, 0), (8, 1)]:
-        rows, cols = [(i - 1) % 8, i % 8], [(j - 1) % 8, j % 8]
-        assert out[i, j] == int(np.floor(p[np.ix_(rows, cols)].mean() + 0.5))
+    # wrap sampling would repeat exactly every 8 samples; hex-tiling never does
+    for period in (8, 16, 24):
+        assert np.abs(out[:, period:].astype(int) - out[:, :-period]).mean() > 10
+        assert np.abs(out[period:, :].astype(int) - out[:-period, :]).mean() > 10
+    # every texel is a blend of texture values: inside the texture's range, all of it used
+    assert out.min() >= pattern.min() and out.max() <= pattern.max()
+    assert np.ptp(out) > 0.6 * np.ptp(pattern)
+    a = region_texture(hm, regs, texture_size=8, tile_size=8.0, slope_rule=False, seed=1)
+    assert not np.array_equal(a[..., 0], out)  # the seed picks the hexagons' offsets
+
+
+def test_no_water_colour_above_the_water_line():
+    # a steep ramp from 0 to 100: default bands put water up to 20
+    x = np.linspace(0.0, 100.0, 64, dtype=np.float32)
+    hm = Heightmap(np.tile(x, (16, 1)), spacing=(0.5, 0.5))
+    blue, sand = (0, 0, 255), (200, 180, 120)
+    regs = [Region("water", 20.0, 20.0, texture=_solid(blue)),
+            Region("sand", 40.0, 20.0, texture=_solid(sand)),
+            Region("rock", 100.0, 60.0, texture=_solid((100, 100, 100)))]
+    tex = region_texture(hm, regs, texture_size=8)
+    above = hm.heights > 20.0
+    assert np.all(tex[..., 2][above] < 200)  # no blue anywhere above the line
+    assert np.all(tex[~above] == blue)
+    w = region_weights(hm.heights, regs, slope=hm.slope(), slope_rule=True)
+    assert np.all(w[0][above] == 0) and np.all(w[0][~above] == 1)
+    # an explicit water level moves the line
+    low = region_weights(hm.heights, regs, water_level=10.0)
+    assert np.all(low[0][hm.heights > 10.0] == 0) and np.all(low[0][hm.heights <= 10.0] == 1)
 
 
 def test_region_texture_with_builtins_is_deterministic():

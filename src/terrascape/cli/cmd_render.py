@@ -129,7 +129,7 @@ def render_command(
     ),
     size: str = typer.Option("1280x720", "--size", help="Image size WIDTHxHEIGHT in pixels."),
     technique: str = typer.Option(
-        "plain",
+        "material",
         "--technique",
         "-t",
         help="Shading technique: {techniques}.",

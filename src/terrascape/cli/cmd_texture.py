@@ -256,23 +256,104 @@ def splat_cmd(
                       f"3 per image in R, G, B) and the preview {preview_path}")
 
 
+def _read_mask(path: Path | None, name: str) -> np.ndarray | None:
+    """A float mask from .npy, or from a grey image (values / full scale, in [0, 1])."""
+    if path is None:
+        return None
+    if path.suffix.lower() == ".npy":
+        if not path.is_file():
+            raise FileFormatError(f"{name} mask {path} does not exist")
+        try:
+            return np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise FileFormatError(f"{path} is not a readable .npy file ({exc})") from None
+    return _read_lightmap(path).astype(np.float32)
+
+
 @texture_app.command("material")
 def material_cmd(
-    name: str = typer.Argument(..., help="Built-in material: water, sand, grass, rock, snow."),
+    name: str = typer.Argument(
+        ..., help="A heightmap file: the terrain's default material as a top-down image; or "
+                  "a material name: water, sand, grass, rock, snow (procedural) or "
+                  "photo-grass, photo-meadow, photo-rock, photo-scree, photo-sediment, "
+                  "photo-snow, photo-water (from photographs)."),
     output: Path = typer.Option(..., "--output", "-o", help="Output image (.png/.bmp/.tif/.jpg)."),
-    size: int = typer.Option(256, "--size", min=4, max=8192, help="Side in pixels."),
+    size: int = typer.Option(256, "--size", min=4, max=8192,
+                             help="Side in pixels of a single material (photo: a power of two)."),
     seed: int = typer.Option(0, "--seed", min=0, help="Noise seed."),
+    scale: int = typer.Option(1, "--scale", min=1, max=64,
+                              help="Terrain: output texels per heightmap sample."),
+    flow: Path = typer.Option(None, "--flow", help="Terrain: flow mask (.npy float or grey "
+                              "image, heightmap size): sediment in channels.",
+                              show_default="none"),
+    deposition: Path = typer.Option(None, "--deposition", help="Terrain: deposition mask.",
+                                    show_default="none"),
+    wear: Path = typer.Option(None, "--wear", help="Terrain: wear mask in [0, 1] (bare ground).",
+                              show_default="none"),
+    water: Path = typer.Option(None, "--water", help="Terrain: water mask in [0, 1].",
+                               show_default="none"),
+    snow_line: float = typer.Option(None, "--snow-line", help="Terrain: snow only above this "
+                                    "height (world units).", show_default="78 % of the range"),
+    water_level: float = typer.Option(None, "--water-level", help="Terrain: water at and "
+                                      "below this height.", show_default="none"),
+    lightmap: Path = typer.Option(None, "--lightmap", help="Terrain: grey image in [0, 1] "
+                                  "multiplied in.", show_default="none"),
+    tile_size: float = typer.Option(None, "--tile-size", help="Terrain: world units per "
+                                    "material repeat.", show_default="32 × sample spacing"),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing output file."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress output."),
     max_memory: str = MAX_MEMORY,
 ) -> None:
-    """Write a seamlessly tiling built-in material texture."""
+    """Write a material texture: one tiling material, or a terrain's default material.
+
+    For a terrain, rock covers cliffs, scree lies under them, grass and meadow the flats,
+    sediment the channels (with --flow/--deposition), snow the high flats; every layer is a
+    photo texture hex-tiled so no repeat shows.
+    """
     from terrascape.io import atomic_output, check_output_path
     from terrascape.texture import builtin_material
+    from terrascape.texture.materials import BUILTIN_MATERIALS
+    from terrascape.texture.photo_materials import MATERIAL_LAYERS, photo_material
 
-    check_output_path(output, force=force)  # fail before the work, not after
+    check_output_path(output, force=force)
     _image_format(output)
-    _check_memory("texture material", size, size, max_memory,
-                  "use a smaller --size (or raise --max-memory)")
-    img = builtin_material(name, size, seed=seed)
+    key = name.lower()
+    if key in BUILTIN_MATERIALS or key.startswith("photo-"):
+        _check_memory("texture material", size, size, max_memory,
+                      "use a smaller --size (or raise --max-memory)")
+    if key in BUILTIN_MATERIALS:
+        img = builtin_material(key, size, seed=seed)
+    elif key.startswith("photo-") and key[6:] in MATERIAL_LAYERS:
+        img = photo_material(key[6:], size, seed=seed)
+    else:
+        from terrascape.texture.terrain_material import MaterialRules, material_texture
+
+        path = Path(name)
+        if not path.is_file():
+            raise FileFormatError(
+                f"{name!r} is neither a heightmap file nor a material name "
+                f"({', '.join(BUILTIN_MATERIALS)}, photo-<{'|'.join(MATERIAL_LAYERS)}>)"
+            )
+        with progress(quiet=quiet) as bar:
+            task = bar.add_task("texture material", total=3)
+            hm = _read_heightmap(path)
+            _check_memory("texture material", hm.rows * scale, hm.cols * scale, max_memory,
+                          "use a smaller --scale (or raise --max-memory)")
+            masks = {k: m for k, m in (("flow", _read_mask(flow, "flow")),
+                                       ("deposition", _read_mask(deposition, "deposition")),
+                                       ("wear", _read_mask(wear, "wear")),
+                                       ("water", _read_mask(water, "water"))) if m is not None}
+            light = _read_lightmap(lightmap) if lightmap is not None else None
+            bar.advance(task)
+            rules = MaterialRules(snow_line=snow_line, water_level=water_level)
+            img = material_texture(hm, masks=masks, rules=rules, scale=scale, seed=seed,
+                                   tile_size=tile_size, lightmap=light)
+            bar.advance(task)
+            with atomic_output(output, force=force) as tmp:
+                _save_rgb(img, tmp, output)
+            bar.advance(task)
+        if not quiet:
+            console.print(f"wrote {output} ({img.shape[1]}×{img.shape[0]} RGB)")
+        return
     with atomic_output(output, force=force) as tmp:
         _save_rgb(img, tmp, output)

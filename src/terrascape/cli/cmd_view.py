@@ -53,8 +53,8 @@ def view_cmd(
         None, "--texture", help="Colour image stretched over the whole terrain.",
         show_default="procedural region texture"),
     technique: str = typer.Option(
-        "plain", "--technique", help="Start technique (Tab switches at run time): "
-        "{techniques}."),
+        None, "--technique", show_default="material (plain with --texture)",
+        help="Start technique (Tab switches at run time): {techniques}."),
     lod: str = typer.Option(
         "none", "--lod",
         help=f"Level of detail: {', '.join(LOD_CHOICES)} (L switches, J picks the setting "
@@ -92,6 +92,9 @@ def view_cmd(
 
         get_generator(generate)
         gen_params = parse_params(generate, gen_param)
+    if technique is None:
+        # --texture replaces the colour texture the plain family samples; material has none.
+        technique = "plain" if texture is not None else "material"
     from terrascape.render.techniques import canonical_technique_name
 
     technique = canonical_technique_name(technique)  # old spellings, with a note

@@ -37,7 +37,11 @@ from terrascape.render.techniques import (
     register_technique,
 )
 
-FIELDS = ("city", "natural")
+FIELDS = ("city", "natural", "photo")
+#: The terrain's default relief texture: a natural field (smooth fBm hills and crevices)
+#: instead of the seed's city blocks, which tile the whole terrain with glossy slabs; the
+#: urban fields stay selectable (``relief_field="city"``) for the measurements.
+TERRAIN_RELIEF_FIELD = "natural"
 
 
 def _relief_heights(params: Mapping[str, Any]) -> np.ndarray:
@@ -46,6 +50,13 @@ def _relief_heights(params: Mapping[str, Any]) -> np.ndarray:
     name = params["relief_field"]
     if isinstance(name, np.ndarray):
         return name
+    if name == "photo":
+        from terrascape.texture.photo_materials import photo_material_layers
+
+        size = int(params["relief_size"])
+        size = 1 << max(4, min(11, size.bit_length() - 1))
+        rock = photo_material_layers(size, seed=int(params["seed"])).albedo[2, ..., 3]
+        return rock.astype(np.float32) / np.float32(255.0)
     if name in FIELDS:
         maker = city_field if name == "city" else natural_field
         return maker(int(params["relief_size"]), seed=int(params["seed"]))
@@ -95,7 +106,7 @@ RELIEF_DEFAULTS: dict[str, Any] = {
     "dist_relief": 200.0,
     "dist_parallax": 600.0,
     "dist_band": 100.0,
-    "relief_field": "city",
+    "relief_field": TERRAIN_RELIEF_FIELD,
     "relief_size": 256,
     "relief_tint": 0.5,
     "ks": 0.15,

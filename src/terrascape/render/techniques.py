@@ -240,19 +240,20 @@ def build_splat1(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
 
 
 def build_normal_height(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
-    """Tiled RGBA normal+height texture (seed 000 §2.3.1) of a rock material's relief.
+    """Tiled RGBA normal+height texture (seed 000 §2.3.1) of a rock photo's relief.
 
-    The detail height is the rock texture's luminance (``height_from_image`` idea of seed
-    000: bright = high); ``pack_normal_height`` turns it into tangent-space normals (RGB) and
-    height (A). ``bump_height`` scales the relief (texels are one unit apart).
+    The detail height is the photo's luminance (``height_from_image`` idea of seed 000:
+    bright = high; :func:`terrascape.texture.photo_materials.detail_normal_height`), its
+    normals in RGB and the height in A. ``bump_height`` scales the relief. bump.glsl
+    hex-tiles it, so the tiling leaves no grid of seams.
     """
-    from terrascape.lighting.normals import pack_normal_height
+    from terrascape.texture.photo_materials import detail_normal_height
 
-    rgb = _material("rock", params).astype(np.float32) / 255.0
-    lum = rgb @ np.array([0.299, 0.587, 0.114], dtype=np.float32)
-    # Texel spacing 1 → normal slope = bump_height × luminance gradient per texel.
-    detail = Heightmap(lum * np.float32(params["bump_height"] * lum.shape[0] / 16.0))
-    return TextureData(pack_normal_height(detail), repeat=True)
+    size = int(params["material_size"])
+    size = 1 << max(4, min(11, size.bit_length() - 1))  # photo layers: powers of two
+    data = detail_normal_height("rock", size, seed=int(params["seed"]),
+                                strength=float(params["bump_height"]))
+    return TextureData(data, repeat=True)
 
 
 # ----------------------------------------------------------------------------------------

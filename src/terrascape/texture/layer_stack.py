@@ -82,7 +82,9 @@ def layer_coordinate(
     Layer ``i`` is ``regions[i]`` (default :func:`default_regions`); their ``max`` values must
     increase strictly. ``r`` is piecewise linear in height: ``(i + 0.5 + t)/L`` with
     ``t = (h - max_i)/(max_{i+1} - max_i)`` between consecutive peaks, clamped to
-    ``[0.5/L, (L - 0.5)/L]``.
+    ``[0.5/L, (L - 0.5)/L]``. A lowest band named ``water`` is all or nothing, as in
+    :func:`~terrascape.texture.regions.region_weights`: above its ``max`` the coordinate is at
+    least the next layer's centre.
 
     Returns
     -------
@@ -102,7 +104,12 @@ def layer_coordinate(
         return np.full(hm.shape, 0.5, dtype=np.float32)
     # np.interp is exactly the piecewise-linear map between peaks, flat outside them.
     centres = (np.arange(n) + 0.5) / n
-    r = np.interp(hm.heights.astype(np.float64), peaks, centres)
+    h = hm.heights.astype(np.float64)
+    r = np.interp(h, peaks, centres)
+    if regions[0].name.lower() == "water":
+        # Water is all or nothing (region_weights): above the water line the blend starts
+        # at the next layer, so the water layer never climbs the slopes.
+        r = np.where(h > peaks[0], np.maximum(r, centres[1]), r)
     return r.astype(np.float32)
 
 

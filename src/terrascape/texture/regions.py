@@ -42,6 +42,15 @@ from terrascape._validate import (
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.texture._noise import _jitter_noise, jitter_lattices
+from terrascape.texture.hextile import (
+    HEX_CONTRAST,
+    HEX_ROTATION,
+    HEX_SHARPNESS,
+    _bilinear_wrap_all,
+    _hex_grid,
+    _hex_weights,
+    _vertex_uv,
+)
 from terrascape.texture.materials import TextureSpec, load_texture, resize_rgb
 
 
@@ -195,13 +204,26 @@ def _region_arrays(regions: list[Region], jitter: float, seed: int) -> tuple:
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _texel_weights(h, slope, u, v, maxs, ranges, amps, lat1, lat2, rule, water, s0, s1, w):
-    """Normalised region weights of one texel into ``w`` (float64, R)."""
+def _texel_weights(h, slope, u, v, maxs, ranges, amps, lat1, lat2, rule, water, s0, s1, w,
+                   water_level):
+    """Normalised region weights of one texel into ``w`` (float64, R).
+
+    Water is all or nothing: weight 1 at or below ``water_level``, 0 above it (no water
+    colour on a slope above the water line), the other bands share the rest.
+    """
     n = maxs.shape[0]
+    if water >= 0 and (h <= water_level or n == 1):
+        for r in range(n):
+            w[r] = 0.0
+        w[water] = 1.0
+        return
     total = 0.0
     best = np.inf
     best_i = 0
     for r in range(n):
+        if r == water:
+            w[r] = 0.0
+            continue
         peak = maxs[r]
         # A band whose jittered peak cannot come within ``range`` of h has weight 0 anyway:
         # skip the noise evaluation (most bands at most texels; the dominant cost otherwise).
@@ -233,8 +255,8 @@ def _texel_weights(h, slope, u, v, maxs, ranges, amps, lat1, lat2, rule, water, 
             t = 1.0 if slope >= s0 else 0.0
         t = min(max(t, 0.0), 1.0)
         if t > 0.0:
-            # Water keeps its weight (no rock texture under the water plane); the rest of the
-            # mass moves toward the rule's region.
+            # Above the water line water's weight is 0 (below it the texel returned early), so
+            # all the mass moves toward the rule's region.
             keep = w[water] if water >= 0 else 0.0
             for r in range(n):
                 if r != water:
@@ -244,7 +266,7 @@ def _texel_weights(h, slope, u, v, maxs, ranges, amps, lat1, lat2, rule, water, 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
 def _weights_kernel(heights, slope, use_slope, maxs, ranges, amps, lat1, lat2, rule, water, s0,
-                    s1, out):
+                    s1, water_level, out):
     rows, cols = heights.shape
     n = maxs.shape[0]
     for i in prange(rows):
@@ -253,7 +275,7 @@ def _weights_kernel(heights, slope, use_slope, maxs, ranges, amps, lat1, lat2, r
         for j in range(cols):
             s = slope[i, j] if use_slope else 0.0
             _texel_weights(heights[i, j], s, j / (cols - 1), v, maxs, ranges, amps, lat1,
-                           lat2, rule, water, s0, s1, w)
+                           lat2, rule, water, s0, s1, w, water_level)
             for r in range(n):
                 out[r, i, j] = w[r]
 
@@ -266,6 +288,7 @@ def region_weights(
     seed: int = 0,
     slope: Any = None,
     slope_rule: SlopeRule | bool | None = None,
+    water_level: float | None = None,
 ) -> np.ndarray:
     """Per-sample region weights, seed 001 §3.1.1 ``tezina``, normalised to sum to 1.
 
@@ -292,6 +315,10 @@ def region_weights(
     slope_rule
         ``None``/``False``: off. ``True``: :class:`SlopeRule` defaults if a ``rock`` region
         exists (else off). A :class:`SlopeRule`: applied, its region must exist.
+    water_level
+        Heights at or below it are water (weight 1), heights above it never are: the water
+        band does not blend up the slopes. Default: the water band's ``max`` (where it is
+        pure). Ignored without a band named ``water``.
 
     Returns
     -------
@@ -313,8 +340,18 @@ def region_weights(
     maxs, ranges, amps, lat1, lat2 = _region_arrays(regions, jitter, seed)
     out = np.empty((len(regions), *h.shape), dtype=np.float32)
     _weights_kernel(h, slope_arr, rule >= 0, maxs, ranges, amps, lat1, lat2, rule,
-                    _water_index(regions), s0, s1, out)
+                    _water_index(regions), s0, s1, _water_level(regions, water_level), out)
     return out
+
+
+def _water_level(regions: list[Region], water_level: float | None) -> float:
+    """The water line: ``water_level`` or the water band's ``max``; -inf without water."""
+    k = _water_index(regions)
+    if k < 0:
+        return -math.inf
+    if water_level is None:
+        return float(regions[k].max)
+    return check_finite(water_level, "water_level")
 
 
 def _check_same_shape(array: Any, shape: tuple[int, int], name: str) -> np.ndarray:
@@ -345,11 +382,11 @@ def _bilinear(a, y, x):
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
 def _texture_kernel(heights, slope, use_slope, lightmap, use_light, maxs, ranges, amps, lat1,
-                    lat2, rule, water, s0, s1, textures, tex_per_x, tex_per_z, out):
+                    lat2, rule, water, s0, s1, water_level, textures, tex_per_x, tex_per_z,
+                    hex_seed, out):
     rows, cols = heights.shape
     h_out, w_out = out.shape[0], out.shape[1]
     n = maxs.shape[0]
-    size = textures.shape[1]
     sy = (rows - 1) / (h_out - 1)
     sx = (cols - 1) / (w_out - 1)
     same_grid = h_out == rows and w_out == cols
@@ -361,14 +398,12 @@ def _texture_kernel(heights, slope, use_slope, lightmap, use_light, maxs, ranges
         lx_scale = 0.0
     for oi in prange(h_out):
         w = np.empty(n)
+        c1 = np.empty(3)
+        c2 = np.empty(3)
+        c3 = np.empty(3)
         y = oi * sy
         v = oi / (h_out - 1)
-        # Texture coordinate in texels (centre-aligned), wrapped later: tiling.
-        ty = y * tex_per_z - 0.5
-        ty0f = np.floor(ty)
-        fy = ty - ty0f
-        ty0 = int(ty0f) % size
-        ty1 = (ty0 + 1) % size
+        tv = y * tex_per_z  # texture repeats along z
         for oj in range(w_out):
             x = oj * sx
             if same_grid:  # scale 1: texel = vertex, no interpolation needed
@@ -378,29 +413,38 @@ def _texture_kernel(heights, slope, use_slope, lightmap, use_light, maxs, ranges
                 h = _bilinear(heights, y, x)
                 s = _bilinear(slope, y, x) if use_slope else 0.0
             _texel_weights(h, s, oj / (w_out - 1), v, maxs, ranges, amps, lat1, lat2, rule,
-                           water, s0, s1, w)
-            tx = x * tex_per_x - 0.5
-            tx0f = np.floor(tx)
-            fx = tx - tx0f
-            tx0 = int(tx0f) % size
-            tx1 = (tx0 + 1) % size
+                           water, s0, s1, w, water_level)
+            # Hex-tiling instead of wrap sampling: no texture period (Mikkelsen 2022).
+            tu = x * tex_per_x
+            g = _hex_grid(tu, tv)
+            u1, v1, _, _ = _vertex_uv(g[0], g[1], tu, tv, hex_seed, HEX_ROTATION)
+            u2, v2, _, _ = _vertex_uv(g[2], g[3], tu, tv, hex_seed, HEX_ROTATION)
+            u3, v3, _, _ = _vertex_uv(g[4], g[5], tu, tv, hex_seed, HEX_ROTATION)
             light = 1.0
             if use_light:
                 light = _bilinear(lightmap, oi * ly_scale, oj * lx_scale)
-            for c in range(3):
-                acc = 0.0
-                for r in range(n):
-                    wr = w[r]
-                    if wr > 0.0:
-                        a = textures[r, ty0, tx0, c]
-                        b = textures[r, ty0, tx1, c]
-                        cc = textures[r, ty1, tx0, c]
-                        d = textures[r, ty1, tx1, c]
-                        top = a + (b - a) * fx
-                        bottom = cc + (d - cc) * fx
-                        acc += wr * (top + (bottom - top) * fy)
-                val = acc * light + 0.5
-                out[oi, oj, c] = np.uint8(min(max(val, 0.0), 255.0))
+            acc0 = 0.0
+            acc1 = 0.0
+            acc2 = 0.0
+            for r in range(n):
+                wr = w[r]
+                if wr > 0.0:
+                    tex = textures[r]
+                    _bilinear_wrap_all(tex, u1, v1, c1)
+                    _bilinear_wrap_all(tex, u2, v2, c2)
+                    _bilinear_wrap_all(tex, u3, v3, c3)
+                    # Luminance in [0, 1] weights the transitions (Mikkelsen's contrast term).
+                    p, q, t = _hex_weights(g[6], g[7], g[8],
+                                           (c1[0] + c1[1] + c1[2]) * (1.0 / 765.0),
+                                           (c2[0] + c2[1] + c2[2]) * (1.0 / 765.0),
+                                           (c3[0] + c3[1] + c3[2]) * (1.0 / 765.0),
+                                           HEX_CONTRAST, HEX_SHARPNESS)
+                    acc0 += wr * (p * c1[0] + q * c2[0] + t * c3[0])
+                    acc1 += wr * (p * c1[1] + q * c2[1] + t * c3[1])
+                    acc2 += wr * (p * c1[2] + q * c2[2] + t * c3[2])
+            out[oi, oj, 0] = np.uint8(min(max(acc0 * light + 0.5, 0.0), 255.0))
+            out[oi, oj, 1] = np.uint8(min(max(acc1 * light + 0.5, 0.0), 255.0))
+            out[oi, oj, 2] = np.uint8(min(max(acc2 * light + 0.5, 0.0), 255.0))
 
 
 def _check_lightmap(lightmap: Any) -> np.ndarray:
@@ -442,6 +486,7 @@ def region_texture(
     lightmap: Any = None,
     texture_size: int = 256,
     tile_size: float | None = None,
+    water_level: float | None = None,
 ) -> np.ndarray:
     """Procedural terrain colour texture from height regions (seed 001 §3.1.1 ``stvori_teksturu``).
 
@@ -466,8 +511,13 @@ def region_texture(
     texture_size
         Side of built-in textures; user images are resized to it.
     tile_size
-        World units covered by one repeat of each material texture (wrap sampling);
-        default ``32 × max(spacing)``. Textures are box-pre-filtered to the output footprint.
+        World units covered by one repeat of each material texture; default
+        ``32 × max(spacing)``. Textures are hex-tiled (:mod:`terrascape.texture.hextile`:
+        random offsets and rotations per hexagon, so no period shows) and box-pre-filtered
+        to the output footprint.
+    water_level
+        Water colour only at or below this height (default: the water band's ``max``), as
+        in :func:`region_weights`.
 
     Returns
     -------
@@ -496,9 +546,11 @@ def region_texture(
     maxs, ranges, amps, lat1, lat2 = _region_arrays(regions, jitter, seed)
     out = np.empty((h_out, w_out, 3), dtype=np.uint8)
     # Texels per heightmap sample step along x / z: world step × texture texels per world unit.
+    # Texture repeats per heightmap sample step along x / z.
     _texture_kernel(hm.heights, slope, rule >= 0, lm, lightmap is not None, maxs, ranges, amps,
-                    lat1, lat2, rule, _water_index(regions), s0, s1, textures, dx * size / tile,
-                    dz * size / tile, out)
+                    lat1, lat2, rule, _water_index(regions), s0, s1,
+                    _water_level(regions, water_level), textures, dx / tile, dz / tile,
+                    int(seed) & 0xFFFFFFFF, out)
     return out
 
 

@@ -42,6 +42,7 @@ from terrascape.texture.regions import (
     _resolve_slope_rule,
     _texel_weights,
     _water_index,
+    _water_level,
     default_regions,
 )
 
@@ -79,13 +80,13 @@ def material_ids_from_rules(
     maxs, ranges, amps, lat1, lat2 = _region_arrays(regions, 0.0, 0)
     out = np.empty((hm.rows - 1, hm.cols - 1), dtype=np.uint8)
     _ids_kernel(hm.heights, slope, rule >= 0, maxs, ranges, amps, lat1, lat2, rule,
-                _water_index(regions), s0, s1, out)
+                _water_index(regions), s0, s1, _water_level(regions, None), out)
     return out
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
 def _ids_kernel(heights, slope, use_slope, maxs, ranges, amps, lat1, lat2, rule, water, s0, s1,
-                out):
+                water_level, out):
     nr, nc = out.shape
     n = maxs.shape[0]
     for i in prange(nr):
@@ -99,7 +100,7 @@ def _ids_kernel(heights, slope, use_slope, maxs, ranges, amps, lat1, lat2, rule,
                 s = 0.25 * (np.float64(slope[i, j]) + slope[i, j + 1] + slope[i + 1, j]
                             + slope[i + 1, j + 1])
             _texel_weights(h, s, 0.0, 0.0, maxs, ranges, amps, lat1, lat2, rule, water, s0,
-                           s1, w)
+                           s1, w, water_level)
             best = 0
             for r in range(1, n):
                 if w[r] > w[best]:  # first maximum wins ties, like numpy.argmax

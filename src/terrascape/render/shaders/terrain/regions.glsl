@@ -1,13 +1,17 @@
 // "regions": seed 001 §3.1.1 procedural blending evaluated per fragment on the GPU.
 //   tezina(h, r) = max(0, (r.range - |h - r.max|) / r.range), normalised over the regions;
 // outside every band the nearest band takes weight 1; then the slope rule moves weight
-// to rock on steep slopes (as terrascape.texture.region_weights, without jitter).
-// Each region's material texture is tiled (texture array layer k); a grey detail texture
-// in a second unit adds high-frequency noise, as the seed suggests.
+// to rock on steep slopes (as terrascape.texture.region_weights, without jitter). Water is
+// all or nothing: weight 1 at or below its band's max (the water line), 0 above it, so no
+// water colour climbs the slopes.
+// Each region's material texture (texture array layer k) and the grey detail texture in a
+// second unit (high-frequency noise, as the seed suggests) are hex-tiled
+// (common/hextile.glsl): no texture period shows.
 #if defined VERTEX_SHADER
 #include "common/terrain_vertex.glsl"
 #elif defined FRAGMENT_SHADER
 #include "common/terrain_fragment.glsl"
+#include "common/hextile.glsl"
 #define MAX_REGIONS 8
 uniform sampler2DArray u_materials;
 uniform sampler2D u_detail;
@@ -29,7 +33,13 @@ void main() {
     float total = 0.0;
     float best = 1e30;
     int best_i = 0;
+    bool under_water = u_water_index >= 0
+        && (h <= u_region_max[u_water_index] || u_n_regions == 1);
     for (int r = 0; r < u_n_regions; ++r) {
+        if (r == u_water_index) {
+            w[r] = 0.0;
+            continue;
+        }
         float dist = abs(h - u_region_max[r]);
         if (dist - u_region_range[r] < best) {
             best = dist - u_region_range[r];
@@ -39,7 +49,8 @@ void main() {
         total += w[r];
     }
     for (int r = 0; r < u_n_regions; ++r) {
-        w[r] = total > 0.0 ? w[r] / total : (r == best_i ? 1.0 : 0.0);
+        w[r] = under_water ? (r == u_water_index ? 1.0 : 0.0)
+             : (total > 0.0 ? w[r] / total : (r == best_i ? 1.0 : 0.0));
     }
     if (u_rock_index >= 0) {
         // slope of the un-exaggerated surface: tan = |grad h| = |N.xz| / (N.y · e)
@@ -54,12 +65,23 @@ void main() {
         }
         w[u_rock_index] += t * (1.0 - keep);
     }
-    vec2 tile_uv = v_world.xz / u_tile_size;
+    HexTile t = hex_tile(v_world.xz / u_tile_size, 1.0, 0u);
+    const vec3 lum_w = vec3(1.0 / 3.0);
     vec3 albedo = vec3(0.0);
     for (int r = 0; r < u_n_regions; ++r) {
-        if (w[r] > 0.0) albedo += w[r] * texture(u_materials, vec3(tile_uv, float(r))).rgb;
+        if (w[r] > 0.0) {
+            vec4 a[3];
+            hex_fetch_array(u_materials, float(r), t, a);
+            vec3 hw = hex_blend_weights(t, vec3(dot(a[0].rgb, lum_w), dot(a[1].rgb, lum_w),
+                                                dot(a[2].rgb, lum_w)), 0.6, 7.0);
+            albedo += w[r] * (hw.x * a[0].rgb + hw.y * a[1].rgb + hw.z * a[2].rgb);
+        }
     }
-    float detail = texture(u_detail, v_world.xz / u_detail_size).r;
+    HexTile td = hex_tile(v_world.xz / u_detail_size, 1.0, 1u);
+    vec4 d[3];
+    hex_fetch(u_detail, td, d);
+    vec3 dw = hex_blend_weights(td, vec3(d[0].r, d[1].r, d[2].r), 0.6, 7.0);
+    float detail = dw.x * d[0].r + dw.y * d[1].r + dw.z * d[2].r;
     albedo *= mix(1.0, 2.0 * detail, u_detail_strength);
     f_color = finish(shade(albedo, N));
 }
