@@ -26,6 +26,8 @@ from scipy import ndimage
 from terrascape._validate import check_positive
 from terrascape.errors import InvalidParameterError
 
+#: Pixels per block of rows when converting integer photos (bounds the float64 temporaries).
+_BLOCK_PIXELS = 1 << 20
 _REC709 = np.array([0.2126, 0.7152, 0.0722], dtype=np.float64)
 
 
@@ -67,6 +69,18 @@ def luminance(rgb: Any) -> np.ndarray:
 
     Alpha is ignored; a grey image is returned as is.
     """
+    photo = np.asarray(rgb)
+    if (photo.ndim == 3 and photo.shape[2] in (3, 4) and photo.dtype in (np.uint8, np.uint16)
+            and photo.shape[0] >= 2 and photo.shape[1] >= 2):
+        # An integer photo, a block of rows at a time: the same values, without a float64
+        # copy of every channel (32 bytes per RGBA pixel) of the whole image.
+        full = float(np.iinfo(photo.dtype).max)
+        out = np.empty(photo.shape[:2], dtype=np.float64)
+        step = max(1, _BLOCK_PIXELS // photo.shape[1])
+        for r0 in range(0, photo.shape[0], step):
+            block = photo[r0:r0 + step].astype(np.float64) / full
+            out[r0:r0 + step] = block[..., :3] @ _REC709
+        return out
     img = _to_unit_float(rgb)
     if img.ndim == 2:
         return img
@@ -106,22 +120,27 @@ def height_from_image(
     """
     blur = check_positive(blur_sigma, "blur_sigma", allow_zero=True)
     gamma = check_positive(contrast, "contrast")
+    hp = None if highpass_sigma is None else check_positive(highpass_sigma, "highpass_sigma")
     y = luminance(rgb)
+    if isinstance(rgb, np.ndarray) and np.shares_memory(y, rgb):
+        y = y.copy()  # the steps below work in place; never on the caller's array
+    # In place from here on (same arithmetic): one float64 image plus the filter's output.
     if invert:
-        y = 1.0 - y
+        np.subtract(1.0, y, out=y)
     if blur > 0.0:
         y = ndimage.gaussian_filter(y, blur, mode="reflect")
-    if highpass_sigma is not None:
-        hp = check_positive(highpass_sigma, "highpass_sigma")
-        y = y - ndimage.gaussian_filter(y, hp, mode="reflect")
+    if hp is not None:
+        y -= ndimage.gaussian_filter(y, hp, mode="reflect")
     lo, hi = float(y.min()), float(y.max())
     # Relative threshold: a constant image blurred in float64 is not exactly constant.
     if hi - lo <= 1e-9 * max(1.0, abs(hi)):
         return np.zeros(y.shape, dtype=np.float32)
-    h = (y - lo) / (hi - lo)
+    y -= lo
+    y /= hi - lo
     if gamma != 1.0:
-        h = h**gamma
-    return np.clip(h, 0.0, 1.0).astype(np.float32)
+        y **= gamma
+    np.clip(y, 0.0, 1.0, out=y)
+    return y.astype(np.float32)
 
 
 __all__ = ["height_from_image", "luminance"]
