@@ -183,7 +183,7 @@ PEAK_BYTES_PER_SAMPLE: dict[str, float] = {
     "normalmap": 16.0,
     "texture regions": 40.0,
     "texture material": 100.0,
-    "heightfromimage": 48.0,
+    "heightfromimage": 38.0,
     "render": 200.0,
 }
 

@@ -119,3 +119,28 @@ def test_ctrl_c_stops_a_long_erosion_within_seconds(tmp_path):
     # one chunk plus the interpreter's exit (generous: the test host is shared and loaded).
     assert waited < 10.0, f"Ctrl-C took {waited:.1f} s"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.npy"]
+
+
+def test_signal_after_one_of_two_outputs_says_what_was_kept(tmp_path, capsys, monkeypatch):
+    """generate -o X --preview P, the signal arrives while P is written: X is complete and
+    named as kept, P's temporary file is gone, exit 143."""
+    import terrascape.io
+    from terrascape.cli.app import run_app
+    from terrascape.errors import Interrupted
+    from terrascape.io.atomic import atomic_output
+
+    def interrupted_preview(hm, path, *, force=False):
+        with atomic_output(path, force=force) as tmp:
+            tmp.write_bytes(b"half a preview")
+            raise Interrupted(signal.SIGTERM)
+
+    monkeypatch.setattr(terrascape.io, "write_preview", interrupted_preview)
+    out, preview = tmp_path / "hm.npy", tmp_path / "p.png"
+    code = run_app(["generate", "diamond-square", "--size", "33", "-o", str(out),
+                    "--preview", str(preview), "-q"])
+    err = capsys.readouterr().err
+    assert code == 143
+    assert "interrupted (SIGTERM)" in err and "kept" in err and "hm.npy" in err
+    assert "nothing was written" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hm.npy"]
+    assert np.load(out).shape == (33, 33)

@@ -207,6 +207,7 @@ def _usage_line(exc: click_errors.ClickException) -> str:
 
 
 def _error(message: str) -> None:
+    # escape: a path or value such as "[0, 1]" in the message is text, not rich markup.
     console.print(f"[bold red]error:[/] {escape(message)}", markup=True, highlight=False)
 
 
@@ -218,8 +219,9 @@ def run_app(argv: list[str] | None = None) -> int:
     turned into a typed error → 1; SIGINT/SIGTERM/SIGHUP → 128 + signal number, after the
     temporary files of unfinished outputs were removed.
     """
-    from terrascape.io.atomic import describe_os_error
+    from terrascape.io.atomic import committed_outputs, describe_os_error, reset_committed
 
+    reset_committed()
     use_max_memory(None)  # a previous in-process run's --max-memory does not carry over
     try:
         with _signals_raise():
@@ -230,8 +232,14 @@ def run_app(argv: list[str] | None = None) -> int:
             except KeyboardInterrupt:  # raised by code that installs its own SIGINT handler
                 raise Interrupted(signal.SIGINT) from None
     except Interrupted as exc:
-        console.print(f"[red]interrupted ({exc.signal_name}); nothing was written[/] "
-                      "(unfinished outputs were removed)")
+        done = committed_outputs()
+        if done:  # e.g. the heightmap was written, its --preview was not
+            kept = ", ".join(str(p) for p in done)
+            console.print(f"[red]interrupted ({exc.signal_name})[/]; finished before the "
+                          f"signal and kept: {escape(kept)}; unfinished outputs were removed")
+        else:
+            console.print(f"[red]interrupted ({exc.signal_name}); nothing was written[/] "
+                          "(unfinished outputs were removed)")
         return exc.exit_code
     except TerrascapeError as exc:
         _error(str(exc))

@@ -86,15 +86,28 @@ def quantise(heights: np.ndarray, levels: int) -> tuple[np.ndarray, float, float
     at most ``scale / 2`` (half a quantisation step). A flat map gives ``scale = 0``.
     Computed in float64 so the float32 input is not degraded before rounding.
     """
-    h = np.asarray(heights, dtype=np.float64)
+    h = np.asarray(heights)
     lo = float(h.min())
     span = float(h.max()) - lo
     dtype = np.uint8 if levels <= 255 else np.uint16
+    codes = np.zeros(h.shape, dtype=dtype)
     if span == 0.0:
-        return np.zeros(h.shape, dtype=dtype), lo, 0.0
-    codes = np.rint((h - lo) * (levels / span))
-    np.clip(codes, 0, levels, out=codes)
-    return codes.astype(dtype), lo, span / levels
+        return codes, lo, 0.0
+    factor = levels / span
+    # A block of rows at a time: the same float64 arithmetic, but the float64 temporaries
+    # exist for one block, not for the whole map (16 bytes per sample on every write).
+    flat = h.reshape(h.shape[0], -1) if h.ndim >= 2 else h.reshape(1, -1)
+    out = codes.reshape(flat.shape)
+    step = max(1, _QUANTISE_BLOCK // max(1, flat.shape[1]))
+    for r in range(0, flat.shape[0], step):
+        block = np.rint((flat[r:r + step].astype(np.float64) - lo) * factor)
+        np.clip(block, 0, levels, out=block)
+        out[r:r + step] = block
+    return codes, lo, span / levels
+
+
+#: Samples per block in :func:`quantise`.
+_QUANTISE_BLOCK = 1 << 20
 
 
 def dequantise(codes: np.ndarray, offset: float, scale: float) -> np.ndarray:

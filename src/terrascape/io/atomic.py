@@ -56,6 +56,21 @@ _STEM_CHARS = 80
 _TEMP_RE = re.compile(r"^\.(?P<stem>.*)\.(?P<pid>\d+)-[A-Za-z0-9_]+\.(?:part|bak)(?P<ext>.*)$")
 
 
+#: Outputs committed by this process since :func:`reset_committed` (the CLI's message on a
+#: signal says which files a command had already finished).
+_COMMITTED: list[Path] = []
+
+
+def committed_outputs() -> list[Path]:
+    """The files :func:`atomic_outputs` committed since the last :func:`reset_committed`."""
+    return list(_COMMITTED)
+
+
+def reset_committed() -> None:
+    """Forget the committed outputs (the CLI calls this when a command starts)."""
+    _COMMITTED.clear()
+
+
 def describe_os_error(
     exc: OSError, path: str | os.PathLike | None = None, *, verb: str = "cannot write"
 ) -> str:
@@ -359,6 +374,7 @@ def atomic_outputs(
                 # mkstemp creates 0600 files; give the result the permissions open() would.
                 os.chmod(tmp, mode)
             _commit(list(zip(tmps, finals, strict=True)), force)
+            _COMMITTED.extend(finals)
         except TerrascapeError:
             raise
         except OSError as exc:

@@ -36,6 +36,7 @@ from terrascape.io._common import (
     normalise_size,
     normalise_spacing,
     parse_meta,
+    quantise,
 )
 from terrascape.io.atomic import atomic_outputs, check_output_path, commit_lock
 from terrascape.io.fill import fill_non_finite
@@ -220,30 +221,6 @@ def read_raw32(
     return _read_raw(path, "r32", size, spacing, vertical_scale)
 
 
-_ROWS_PER_BLOCK_SAMPLES = 1 << 20
-
-
-def _quantise_rows(heights: np.ndarray) -> tuple[np.ndarray, float, float]:
-    """:func:`quantise` to little-endian uint16, one block of rows at a time.
-
-    The same float64 arithmetic (bit-identical codes) without float64 copies of the whole
-    map: the write's extra memory is the 2-byte codes plus one block, not ~20 bytes/sample.
-    """
-    h = np.asarray(heights)
-    lo = float(h.min())
-    span = float(h.max()) - lo
-    codes = np.zeros(h.shape, dtype=_DTYPES["r16"])
-    if span == 0.0:
-        return codes, lo, 0.0
-    factor = 65535 / span
-    step = max(1, _ROWS_PER_BLOCK_SAMPLES // max(1, h.shape[1]))
-    for r in range(0, h.shape[0], step):
-        block = np.rint((h[r:r + step].astype(np.float64) - lo) * factor)
-        np.clip(block, 0, 65535, out=block)
-        codes[r:r + step] = block
-    return codes, lo, span / 65535
-
-
 def _write_raw(
     heightmap: Heightmap, path: str | os.PathLike, kind: str, force: bool, sidecar: bool
 ) -> Path:
@@ -257,7 +234,8 @@ def _write_raw(
     if sidecar or side.exists():
         check_output_path(side, force=force)
     if kind == "r16":
-        data, offset, scale = _quantise_rows(heightmap.heights)
+        codes, offset, scale = quantise(heightmap.heights, 65535)  # a block at a time
+        data = codes.astype(dtype, copy=False)  # no copy on little-endian machines
     else:
         data = np.ascontiguousarray(heightmap.heights, dtype=dtype)  # no copy when float32
         offset, scale = 0.0, 1.0

@@ -104,22 +104,27 @@ def height_from_image(
     """
     blur = check_positive(blur_sigma, "blur_sigma", allow_zero=True)
     gamma = check_positive(contrast, "contrast")
+    hp = None if highpass_sigma is None else check_positive(highpass_sigma, "highpass_sigma")
     y = _brightness(rgb)
+    if isinstance(rgb, np.ndarray) and np.shares_memory(y, rgb):
+        y = y.copy()  # the steps below work in place; never on the caller's array
+    # In place from here on (same arithmetic): one float64 image plus the filter's output.
     if invert:
-        y = 1.0 - y
+        np.subtract(1.0, y, out=y)
     if blur > 0.0:
         y = ndimage.gaussian_filter(y, blur, mode="reflect")
-    if highpass_sigma is not None:
-        hp = check_positive(highpass_sigma, "highpass_sigma")
-        y = y - ndimage.gaussian_filter(y, hp, mode="reflect")
+    if hp is not None:
+        y -= ndimage.gaussian_filter(y, hp, mode="reflect")
     lo, hi = float(y.min()), float(y.max())
     # Relative threshold: a constant image blurred in float64 is not exactly constant.
     if hi - lo <= 1e-9 * max(1.0, abs(hi)):
         return np.zeros(y.shape, dtype=np.float32)
-    h = (y - lo) / (hi - lo)
+    y -= lo
+    y /= hi - lo
     if gamma != 1.0:
-        h = h**gamma
-    return np.clip(h, 0.0, 1.0).astype(np.float32)
+        y **= gamma
+    np.clip(y, 0.0, 1.0, out=y)
+    return y.astype(np.float32)
 
 
-__all__ = ["height_from_image", "luminance"]
+__all__ = ["height_from_image"]
