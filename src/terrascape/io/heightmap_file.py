@@ -9,11 +9,11 @@ from pathlib import Path
 from terrascape.errors import FileFormatError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.io._common import check_heightmap, check_input_path, normalise_size
+from terrascape.io.geotiff import read_geotiff, write_geotiff
 from terrascape.io.image import read_image, write_png16, write_preview
 from terrascape.io.npy import read_npy, write_npy
 from terrascape.io.raw import read_raw16, read_raw32, write_raw16, write_raw32
 from terrascape.io.terragen import read_terragen, write_terragen
-from terrascape.io.tiff import read_tiff, write_tiff
 
 #: Supported extensions → (reads, writes, description). Used for ``--help`` texts.
 FORMATS: dict[str, tuple[bool, bool, str]] = {
@@ -24,7 +24,7 @@ FORMATS: dict[str, tuple[bool, bool, str]] = {
     ".r16": (True, True, "RAW uint16 little-endian (+ .json sidecar on write)"),
     ".raw": (True, True, "RAW uint16 little-endian, same as .r16"),
     ".r32": (True, True, "RAW float32 little-endian (+ .json sidecar on write)"),
-    ".tif": (True, True, "(Geo)TIFF any int/float type in (nodata filled); float32 out"),
+    ".tif": (True, True, "(Geo)TIFF any int/float type in (nodata filled); float32 out, CRS kept"),
     ".tiff": (True, True, "same as .tif"),
     ".npy": (True, True, "NumPy 2-D array; float32 out"),
     ".ter": (True, True, "Terragen terrain (int16 + HeightScale/BaseHeight)"),
@@ -42,8 +42,8 @@ WRITE_FORMAT_NAMES: dict[str, Callable[..., Path]] = {
     "r16": write_raw16,
     "raw": write_raw16,
     "r32": write_raw32,
-    "tif": write_tiff,
-    "tiff": write_tiff,
+    "tif": write_geotiff,
+    "tiff": write_geotiff,
     "npy": write_npy,
     "ter": write_terragen,
 }
@@ -110,7 +110,7 @@ def read_heightmap(
             "the size is read from the file"
         )
     if ext in (".tif", ".tiff"):
-        return read_tiff(p, **kwargs)
+        return read_geotiff(p, **kwargs)
     if ext == ".npy":
         return read_npy(p, **kwargs)
     if ext == ".ter":
