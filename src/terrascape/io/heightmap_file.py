@@ -9,6 +9,7 @@ from pathlib import Path
 from terrascape.errors import FileFormatError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.io._common import check_heightmap, check_input_path, normalise_size
+from terrascape.io.exr import read_exr, write_exr, write_exr_half
 from terrascape.io.geotiff import read_geotiff, write_geotiff
 from terrascape.io.image import read_image, write_png16, write_preview
 from terrascape.io.npy import read_npy, write_npy
@@ -28,6 +29,7 @@ FORMATS: dict[str, tuple[bool, bool, str]] = {
     ".tiff": (True, True, "same as .tif"),
     ".npy": (True, True, "NumPy 2-D array; float32 out"),
     ".ter": (True, True, "Terragen terrain (int16 + HeightScale/BaseHeight)"),
+    ".exr": (True, True, "OpenEXR one channel, real heights; float32 out (exr16: half)"),
 }
 READ_EXTENSIONS: tuple[str, ...] = tuple(e for e, (r, _w, _d) in FORMATS.items() if r)
 WRITE_EXTENSIONS: tuple[str, ...] = tuple(e for e, (_r, w, _d) in FORMATS.items() if w)
@@ -46,6 +48,8 @@ WRITE_FORMAT_NAMES: dict[str, Callable[..., Path]] = {
     "tiff": write_geotiff,
     "npy": write_npy,
     "ter": write_terragen,
+    "exr": write_exr,
+    "exr16": write_exr_half,
 }
 
 
@@ -115,6 +119,8 @@ def read_heightmap(
         return read_npy(p, **kwargs)
     if ext == ".ter":
         return read_terragen(p, **kwargs)
+    if ext == ".exr":
+        return read_exr(p, **kwargs)
     return read_image(p, **kwargs)
 
 
@@ -149,7 +155,7 @@ def write_heightmap(
             )
         writer = WRITE_FORMAT_NAMES[key]
         # Previews pick the image container from the suffix, so it must agree with format.
-        want = {"png8": ".png", "bmp": ".bmp"}.get(key)
+        want = {"png8": ".png", "bmp": ".bmp", "exr16": ".exr"}.get(key)
         if want is not None and _extension(p) != want:
             raise FileFormatError(f"format {key!r} needs a {want} path, got {p.name!r}")
     else:
