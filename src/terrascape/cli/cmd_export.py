@@ -43,6 +43,16 @@ def export_command(
                                show_default="hterrain"),
     layers: bool = typer.Option(True, "--layers/--no-layers",
                                 help="Also write texture-layer weights (unity, unreal)."),
+    lonlat: str = typer.Option(None, "--lonlat", help="cesium, terrain_rgb: place the map's "
+                               "centre at LON,LAT (degrees).", show_default="from the CRS"),
+    min_zoom: int = typer.Option(None, "--min-zoom", min=0, max=24,
+                                 help="Tile pyramids: first level.", show_default="0"),
+    max_zoom: int = typer.Option(None, "--max-zoom", min=0, max=24,
+                                 help="Tile pyramids: last level.",
+                                 show_default="as dense as the map"),
+    max_error: float = typer.Option(None, "--max-error", help="blender glb: mesh error; "
+                                    "cesium: error floor per level (world units).",
+                                    show_default="0.5"),
     spacing: str = typer.Option(None, "--spacing", help="Sample spacing DX or DX,DZ in world "
                                 "units (overrides the file).", show_default="from file"),
     force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
@@ -63,8 +73,12 @@ def export_command(
     message = degree_warning(hm)
     if message is not None:
         console.print(f"[yellow]warning:[/] {message}")
+    from terrascape.cli.parsing import parse_floats
+
+    ll = None if lonlat is None else tuple(parse_floats(lonlat, 2, name="--lonlat"))
     options = ExportOptions(name=name or heightmap.stem, fit=fit, tiles=tiles, flip=flip,
-                            format=fmt, plugin=plugin, layers=layers, force=force)
+                            format=fmt, plugin=plugin, layers=layers, force=force, lonlat=ll,
+                            min_zoom=min_zoom, max_zoom=max_zoom, max_error=max_error)
     with timed(f"export {destination}", quiet=quiet):
         written = module.export(hm, output, options)
     for path in written:

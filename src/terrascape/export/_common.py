@@ -43,6 +43,14 @@ class ExportOptions:
         Also write texture-layer weights (alphamaps / weight maps).
     force
         Overwrite existing files.
+    lonlat
+        Tile pyramids: put the map's centre at this (longitude, latitude); default: its CRS.
+    min_zoom, max_zoom
+        Tile pyramids: levels written (default 0 … the level as dense as the map).
+    max_error
+        Meshes (blender glb; cesium tiles at the finest level): vertical error, world units.
+    workers
+        Tile pyramids: worker processes.
     """
 
     name: str = "terrain"
@@ -53,6 +61,11 @@ class ExportOptions:
     plugin: str | None = None
     layers: bool = True
     force: bool = False
+    lonlat: tuple[float, float] | None = None
+    min_zoom: int | None = None
+    max_zoom: int | None = None
+    max_error: float | None = None
+    workers: int = 2
 
 
 def _fit_axis(n: int, accepted: Sequence[int], fit: str) -> int:

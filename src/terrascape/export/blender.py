@@ -19,8 +19,7 @@ SUMMARY = "Blender: float32 TIFF displacement (Displace modifier) or a textured 
 FORMATS = ("tiff", "glb")
 
 
-def export(heightmap: Heightmap, out_dir, options: ExportOptions,
-           *, max_error: float = 0.5) -> list[Path]:
+def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     out = check_out_dir(out_dir)
     name = check_name(options.name)
     fmt = options.format or "tiff"
@@ -49,6 +48,7 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions,
     else:
         from terrascape.export.glb import write_terrain_glb
 
+        max_error = 0.5 if options.max_error is None else options.max_error
         path, mesh = write_terrain_glb(hm, out / f"{name}.glb", max_error=max_error,
                                        force=options.force)
         lines = [
