@@ -48,6 +48,7 @@ if [ "$mode" = test ]; then
   command -v Xvfb >/dev/null 2>&1 || need_pkgs+=(xvfb)
   command -v xdotool >/dev/null 2>&1 || need_pkgs+=(xdotool)
   command -v import >/dev/null 2>&1 || need_pkgs+=(imagemagick)
+  command -v chromium >/dev/null 2>&1 || need_pkgs+=(chromium)
 fi
 if [ "${#need_pkgs[@]}" -gt 0 ]; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
