@@ -18,7 +18,7 @@ from terrascape.export import destinations
 def _destinations_help() -> str:
     from terrascape.export import get_destination
 
-    return "; ".join(f"{n}: {get_destination(n).SUMMARY}" for n in destinations())
+    return "; ".join(get_destination(n).SUMMARY.rstrip(".") for n in destinations()) + "."
 
 
 @app.command("export", help="Export a heightmap for a game engine, GIS or the web. "
