@@ -47,8 +47,9 @@ class GeoGrid:
         eps = 1e-9
         inside = (col >= -eps) & (col <= cols - 1 + eps) & (row >= -eps) & (row <= rows - 1 + eps)
         coords = np.stack([np.clip(row, 0, rows - 1), np.clip(col, 0, cols - 1)])
-        h = ndimage.map_coordinates(self.heights.astype(np.float64), coords.reshape(2, -1),
-                                    order=1, mode="nearest").reshape(np.shape(lon))
+        # float32 in, float64 out: no per-call copy of the whole map (tiles sample it often)
+        h = ndimage.map_coordinates(self.heights, coords.reshape(2, -1), order=1,
+                                    mode="nearest", output=np.float64).reshape(np.shape(lon))
         return h, inside
 
     def metres_per_degree(self) -> tuple[float, float]:
