@@ -152,7 +152,7 @@ def test_godot_exr_holds_real_heights(terrain, tmp_path, fmt):
                                atol=(hi - lo) / 65535 + 1e-3)
 
 
-def test_blender_tiff_and_glb(terrain, tmp_path):
+def test_blender_tiff_and_glb(terrain, tmp_path, gltf_validator):
     np.save(tmp_path / "b.npy", terrain.heights)
     assert run_app(["export", "blender", str(tmp_path / "b.npy"), "-o", str(tmp_path / "o"),
                     "--spacing", "10", "-q"]) == 0
@@ -163,6 +163,7 @@ def test_blender_tiff_and_glb(terrain, tmp_path):
     assert "Midlevel 0" in note and "scale X 1280" in note
     assert run_app(["export", "blender", str(tmp_path / "b.npy"), "-o", str(tmp_path / "g"),
                     "--format", "glb", "-q"]) == 0
+    assert gltf_validator(tmp_path / "g" / "b.glb")["numErrors"] == 0
     trimesh = pytest.importorskip("trimesh")
     scene = trimesh.load(tmp_path / "g" / "b.glb", process=False)
     assert scene.bounds[1][1] == pytest.approx(terrain.max, rel=1e-6)

@@ -64,8 +64,10 @@ def _terrain_pixels(img: np.ndarray) -> np.ndarray:
     return body[~sky]
 
 
-def test_page_is_self_contained(site):
+def test_page_is_self_contained(site, gltf_validator):
     folder, _ = site
+    issues = gltf_validator(folder / "t.glb")
+    assert issues["numErrors"] == 0 and issues["numWarnings"] == 0, issues["messages"]
     html = (folder / "index.html").read_text()
     assert "src=" not in html.split("<body>")[1].replace("img src", "")  # nothing fetched
     assert (folder / "t.glb").read_bytes()[:4] == b"glTF"
