@@ -59,6 +59,7 @@ missing_system_packages() {
     command -v Xvfb >/dev/null 2>&1 || echo xvfb
     command -v xdotool >/dev/null 2>&1 || echo xdotool
     command -v import >/dev/null 2>&1 || echo imagemagick
+    command -v chromium >/dev/null 2>&1 || echo chromium
   fi
   return 0
 }

@@ -2,6 +2,15 @@
 
 Arrays are indexed ``[row, col]`` = ``[z, x]``. ``spacing`` is the world distance between
 neighbouring samples along X (columns) and Z (rows).
+
+Georeference (optional, kept by the GeoTIFF reader/writer): ``crs`` names the coordinate
+reference system (an ``"EPSG:…"`` string or WKT), ``origin`` is the ``(x, y)`` CRS coordinate
+of the OUTER corner of sample ``[0, 0]``'s cell — the ``(c, f)`` of GDAL's geotransform, the
+north-west corner of a north-up raster — and rows run south (``y`` decreases with the row).
+The centre of sample ``[r, c]`` is at ``(x0 + (c + ½)·px, y0 − (r + ½)·py)`` with ``(px, py)``
+the pixel size in CRS units (``spacing`` for projected CRSs; degrees for geographic ones, whose
+``spacing`` is converted to metres). ``nodata`` is the value the source used for missing
+samples (they are filled on read; writers restore it where the source had holes).
 """
 
 from __future__ import annotations
@@ -30,11 +39,23 @@ class Heightmap:
         2-D array ``[rows(z), cols(x)]``; converted to C-contiguous float32. NaN is rejected.
     spacing
         ``(dx, dz)``: world units between samples along X (columns) and Z (rows).
+    metadata
+        Free-form reader information (source file, on-disk dtype, ...).
+    origin
+        ``(x, y)`` CRS coordinate of the outer corner of sample ``[0, 0]`` (see the module
+        docstring); ``(0, 0)`` for a map without a georeference.
+    crs
+        ``"EPSG:…"`` or WKT string, or ``None`` (a local grid).
+    nodata
+        The source's nodata value, or ``None``.
     """
 
     heights: np.ndarray
     spacing: tuple[float, float] = (1.0, 1.0)
     metadata: dict = field(default_factory=dict)
+    origin: tuple[float, float] = (0.0, 0.0)
+    crs: str | None = None
+    nodata: float | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "heights", as_height_array(self.heights))
@@ -45,6 +66,20 @@ class Heightmap:
             raise InvalidParameterError(f"spacing must be (dx, dz), got {self.spacing!r}")
         sp = (check_positive(sp[0], "spacing dx"), check_positive(sp[1], "spacing dz"))
         object.__setattr__(self, "spacing", sp)
+        try:
+            ox, oy = (float(v) for v in self.origin)
+        except (TypeError, ValueError):
+            raise InvalidParameterError(f"origin must be (x, y), got {self.origin!r}") from None
+        if not (np.isfinite(ox) and np.isfinite(oy)):
+            raise InvalidParameterError(f"origin must be finite, got {self.origin!r}")
+        object.__setattr__(self, "origin", (ox, oy))
+        if self.crs is not None and (not isinstance(self.crs, str) or not self.crs.strip()):
+            raise InvalidParameterError(f"crs must be an EPSG/WKT string or None, got {self.crs!r}")
+        if self.nodata is not None:
+            nd = float(self.nodata)
+            if np.isnan(nd):
+                raise InvalidParameterError("nodata must be a number (NaN is implied for floats)")
+            object.__setattr__(self, "nodata", nd)
         self.heights.flags.writeable = False
 
     # --- shape -------------------------------------------------------------------------
@@ -83,9 +118,15 @@ class Heightmap:
         return check_pow2_plus1_square(self.shape, algorithm=algorithm)
 
     # --- pure operations ---------------------------------------------------------------
+    @property
+    def georeferenced(self) -> bool:
+        """True when the map carries a coordinate reference system."""
+        return self.crs is not None
+
     def with_heights(self, heights: np.ndarray) -> Heightmap:
-        """Same spacing and metadata, new heights."""
-        return Heightmap(heights, self.spacing, dict(self.metadata))
+        """Same spacing, metadata and georeference, new heights."""
+        return Heightmap(heights, self.spacing, dict(self.metadata), self.origin, self.crs,
+                         self.nodata)
 
     def to_pow2_plus1(self, mode: str = "pad") -> Heightmap:
         """Make a square 2**n + 1 map.
@@ -118,7 +159,8 @@ class Heightmap:
             if out.shape != (side, side):  # zoom rounding guard
                 out = np.pad(out, ((0, side - out.shape[0]), (0, side - out.shape[1])), "edge")
             spacing = (self.extent[0] / (side - 1), self.extent[1] / (side - 1))
-            return Heightmap(out, spacing, dict(self.metadata))
+            return Heightmap(out, spacing, dict(self.metadata), self.origin, self.crs,
+                             self.nodata)
         raise InvalidParameterError(f"mode must be 'pad' or 'resample', got {mode!r}")
 
     def normalised(self, lo: float = 0.0, hi: float = 1.0) -> Heightmap:

@@ -72,13 +72,17 @@ def test_exit_codes(hm_path, tmp_path):
     assert run_app([*base, "--max-error", "5", "-q", "--force"]) == 0
 
 
-def test_non_pow2_map_needs_fit(tmp_path):
+def test_non_pow2_map_static_meshes_any_size_view_needs_fit(tmp_path):
     src = tmp_path / "odd.npy"
     np.save(src, np.random.default_rng(0).random((40, 50)).astype(np.float32))
     out = str(tmp_path / "o.obj")
-    assert run_app(["mesh", str(src), "-o", out, "--max-error", "0.1", "-q"]) == 2
-    assert run_app(["mesh", str(src), "-o", out, "--max-error", "0.1", "--fit", "pad",
-                    "-q"]) == 0
+    view = ["--camera", "0,10,0", "--target", "20,0,20", "-q"]
+    assert run_app(["mesh", str(src), "-o", out, *view]) == 2
+    assert run_app(["mesh", str(src), "-o", out, *view, "--fit", "pad"]) == 0
+    assert run_app(["mesh", str(src), "-o", out, "--max-error", "0.1", "-q", "--force"]) == 0
+    with open(out) as fh:
+        xs = [float(line.split()[1]) for line in fh if line.startswith("v ")]
+    assert max(xs) == 49.0  # the data's own extent, padding dropped
 
 
 def test_view_dependent_roam(hm_path, tmp_path, capsys):

@@ -24,6 +24,14 @@ _VSCALE_HELP = (
     "RAW16 without sidecar); a multiplier for files with world units. Default: 1 / unchanged."
 )
 
+_CRS_HELP = (
+    "Coordinate reference system of the input (EPSG:4326, EPSG:32633 or WKT) when the file "
+    "has none or a wrong one; with a geographic CRS the spacing is read as degrees."
+)
+_REPROJECT_HELP = (
+    "Warp to this CRS before writing (e.g. EPSG:32633 for a DEM in degrees); needs rasterio."
+)
+
 
 def _parse_spacing(text: str | None) -> tuple[float, float] | None:
     from terrascape.cli.parsing import parse_floats
@@ -46,9 +54,13 @@ def _parse_grid(text: str | None) -> tuple[int, int] | None:
     return parse_size(text, name="--size")
 
 
-def _read(path: Path, size: str | None, spacing: str | None, vertical_scale: float | None):
-    """Read with warnings shown as one yellow line each (not Python's two-line format)."""
+def _read(path: Path, size: str | None, spacing: str | None, vertical_scale: float | None,
+          crs: str | None = None, reproject: str | None = None):
+    """Read with warnings shown as one yellow line each (not Python's two-line format);
+    then declare ``crs`` and warp to ``reproject`` if given, and warn about degrees."""
     from terrascape.io import read_heightmap
+    from terrascape.io.geotiff import assign_crs, degree_warning
+    from terrascape.io.geotiff import reproject as warp
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -60,6 +72,13 @@ def _read(path: Path, size: str | None, spacing: str | None, vertical_scale: flo
         )
     for w in caught:
         console.print(f"[yellow]warning:[/] {w.message}")
+    if crs is not None:
+        hm = assign_crs(hm, crs)
+    if reproject is not None:
+        hm = warp(hm, reproject)
+    message = degree_warning(hm)
+    if message is not None:
+        console.print(f"[yellow]warning:[/] {message}")
     return hm
 
 
@@ -71,9 +90,10 @@ def info(
     vertical_scale: float = typer.Option(
         None, "--vertical-scale", help=_VSCALE_HELP, show_default="1 / unchanged"
     ),
+    crs: str = typer.Option(None, "--crs", help=_CRS_HELP, show_default="from file"),
 ) -> None:
     """Print size, value range, on-disk dtype, spacing, extent and NaN-filled count."""
-    hm = _read(file, size, spacing, vertical_scale)
+    hm = _read(file, size, spacing, vertical_scale, crs)
     md = hm.metadata
     table = Table(title=str(file), show_header=False)
     table.add_column("property")
@@ -94,6 +114,13 @@ def info(
     table.add_row("NaN/nodata filled", str(md.get("filled", 0)))
     if md.get("geographic"):
         table.add_row("georeference", "geographic (degrees → metres at centre latitude)")
+    if hm.crs is not None:
+        crs_text = hm.crs if len(hm.crs) <= 60 else hm.crs[:57] + "…"
+        table.add_row("CRS", crs_text)
+        table.add_row("origin", f"x={hm.origin[0]:.10g}, y={hm.origin[1]:.10g} (corner of "
+                      "the first sample)")
+    if hm.nodata is not None:
+        table.add_row("nodata value", f"{hm.nodata:.10g}")
     out.print(table)
 
 
@@ -108,13 +135,16 @@ def convert(
     vertical_scale: float = typer.Option(
         None, "--vertical-scale", help=_VSCALE_HELP, show_default="1 / unchanged"
     ),
+    crs: str = typer.Option(None, "--crs", help=_CRS_HELP, show_default="from file"),
+    reproject: str = typer.Option(None, "--reproject", help=_REPROJECT_HELP,
+                                  show_default="off"),
     force: bool = typer.Option(False, "--force", help="Overwrite TARGET (and its sidecar)."),
 ) -> None:
     """Read SOURCE and write it as TARGET (format chosen by TARGET's extension)."""
     from terrascape.io import check_output_path, write_heightmap
 
     check_output_path(target, force=force)  # fail before reading a large input
-    hm = _read(source, size, spacing, vertical_scale)
+    hm = _read(source, size, spacing, vertical_scale, crs, reproject)
     from terrascape.io.heightmap_file import WRITE_METADATA
 
     written = write_heightmap(hm, target, force=force)

@@ -95,7 +95,28 @@ def mesh_command(
     ),
     fit: str = typer.Option(
         "none", "--fit",
-        help="Non-(2**n+1) maps: none (error), pad (repeat edges) or resample (cubic).",
+        help="Non-(2**n+1) maps: none (static meshes take any size, view meshes refuse), "
+        "pad (repeat edges) or resample (cubic).",
+    ),
+    texture: bool = typer.Option(
+        True, "--texture/--no-texture",
+        help=".glb: bake the terrain colour × sun and shadows into a base-colour texture.",
+    ),
+    normal_map: bool = typer.Option(
+        False, "--normal-map", help=".glb: add a tangent-space normal map (and tangents)."
+    ),
+    quantize: bool = typer.Option(
+        False, "--quantize",
+        help=".glb: KHR_mesh_quantization (int16 positions, int8 normals, uint16 UVs).",
+    ),
+    skirt: float = typer.Option(
+        0.0, "--skirt", help=".glb: depth of a skirt hung from the border (world units; "
+        "hides cracks between tiles).", show_default="none",
+    ),
+    georeference_node: bool = typer.Option(
+        False, "--georeference-node",
+        help=".glb: place the mesh at its projected CRS coordinates (root node translation); "
+        "the CRS is always in the root node's extras.",
     ),
     spacing: str = typer.Option(
         None, "--spacing", help="Sample spacing DX or DX,DZ in world units (overrides file).",
@@ -163,11 +184,14 @@ def mesh_command(
             hm = hm.to_pow2_plus1(fit)
 
     if static_mode:
-        from terrascape.lod.rtin import Rtin, rtin_mesh
+        from terrascape.export.meshing import rtin_rectangle
+        from terrascape.lod.rtin import Rtin
 
-        if triangles is None:  # one error: the fast path skips most exact triangle errors
+        if triangles is None or not hm.is_pow2_plus1:
+            # one error: the fast path skips most exact triangle errors; any other size is
+            # padded internally and the triangles outside the data are dropped
             with timed("rtin mesh", quiet=quiet):
-                tri = rtin_mesh(hm, max_error=max_error)
+                tri = rtin_rectangle(hm, max_error=max_error, max_triangles=triangles)
         else:
             with timed("rtin errors", quiet=quiet):
                 rtin = Rtin(hm)
@@ -207,6 +231,18 @@ def mesh_command(
         )
 
     with timed("write", quiet=quiet):
-        vertices, faces = compact_mesh(hm, tri)
-        write_mesh(output, vertices, faces, force=force)
-    out.print(f"{output}: {len(faces)} triangles, {len(vertices)} vertices; {summary}")
+        if output.suffix.lower() == ".glb":
+            from terrascape.export.glb import build_glb
+            from terrascape.io.atomic import atomic_output
+
+            data, mesh = build_glb(hm, tri, texture=texture, normal_map=normal_map,
+                                   quantize=quantize, skirt=skirt,
+                                   georeference_node=georeference_node)
+            with atomic_output(output, force=force) as tmp:
+                tmp.write_bytes(data)
+            n_faces, n_vertices = len(tri), len(mesh.positions)
+        else:
+            vertices, faces = compact_mesh(hm, tri)
+            write_mesh(output, vertices, faces, force=force)
+            n_faces, n_vertices = len(faces), len(vertices)
+    out.print(f"{output}: {n_faces} triangles, {n_vertices} vertices; {summary}")

@@ -11,11 +11,12 @@ from pathlib import Path
 from terrascape.errors import FileFormatError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.io._common import check_heightmap, check_input_path, normalise_size
+from terrascape.io.exr import read_exr, write_exr, write_exr_half
+from terrascape.io.geotiff import read_geotiff, write_geotiff
 from terrascape.io.image import read_image, write_png16, write_preview
 from terrascape.io.npy import read_npy, write_npy
 from terrascape.io.raw import read_raw16, read_raw32, write_raw16, write_raw32
 from terrascape.io.terragen import read_terragen, write_terragen
-from terrascape.io.tiff import read_tiff, write_tiff
 
 #: Supported extensions → (reads, writes, description). Used for ``--help`` texts.
 FORMATS: dict[str, tuple[bool, bool, str]] = {
@@ -26,10 +27,11 @@ FORMATS: dict[str, tuple[bool, bool, str]] = {
     ".r16": (True, True, "RAW uint16 little-endian (+ .json sidecar on write)"),
     ".raw": (True, True, "RAW uint16 little-endian, same as .r16"),
     ".r32": (True, True, "RAW float32 little-endian (+ .json sidecar on write)"),
-    ".tif": (True, True, "(Geo)TIFF any int/float type in (nodata filled); float32 out"),
+    ".tif": (True, True, "(Geo)TIFF any int/float type in (nodata filled); float32 out, CRS kept"),
     ".tiff": (True, True, "same as .tif"),
     ".npy": (True, True, "NumPy 2-D array; float32 out + .npy.json sidecar (spacing)"),
     ".ter": (True, True, "Terragen terrain (int16 + HeightScale/BaseHeight)"),
+    ".exr": (True, True, "OpenEXR one channel, real heights; float32 out (exr16: half)"),
 }
 
 
@@ -94,10 +96,12 @@ WRITE_FORMAT_NAMES: dict[str, Callable[..., Path]] = {
     "r16": write_raw16,
     "raw": write_raw16,
     "r32": write_raw32,
-    "tif": write_tiff,
-    "tiff": write_tiff,
+    "tif": write_geotiff,
+    "tiff": write_geotiff,
     "npy": write_npy,
     "ter": write_terragen,
+    "exr": write_exr,
+    "exr16": write_exr_half,
 }
 
 
@@ -163,11 +167,13 @@ def read_heightmap(
             "the size is read from the file"
         )
     if ext in (".tif", ".tiff"):
-        return read_tiff(p, **kwargs)
+        return read_geotiff(p, **kwargs)
     if ext == ".npy":
         return read_npy(p, **kwargs)
     if ext == ".ter":
         return read_terragen(p, **kwargs)
+    if ext == ".exr":
+        return read_exr(p, **kwargs)
     return read_image(p, **kwargs)
 
 
@@ -205,7 +211,7 @@ def write_heightmap(
             )
         writer = WRITE_FORMAT_NAMES[key]
         # Previews pick the image container from the suffix, so it must agree with format.
-        want = {"png8": ".png", "bmp": ".bmp"}.get(key)
+        want = {"png8": ".png", "bmp": ".bmp", "exr16": ".exr"}.get(key)
         if want is not None and _extension(p) != want:
             raise FileFormatError(f"format {key!r} needs a {want} path, got {p.name!r}")
     else:

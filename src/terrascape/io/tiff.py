@@ -43,6 +43,9 @@ TAG_GEO_KEY_DIRECTORY = 34735
 TAG_GDAL_NODATA = 42113
 GEOKEY_MODEL_TYPE = 1024
 GEOKEY_RASTER_TYPE = 1025
+GEOKEY_GEOGRAPHIC_TYPE = 2048
+GEOKEY_PROJECTED_CS = 3072
+MODEL_TYPE_PROJECTED = 1
 MODEL_TYPE_GEOGRAPHIC = 2
 RASTER_PIXEL_IS_AREA = 1
 
@@ -175,8 +178,37 @@ def read_tiff(
     if not (np.issubdtype(data.dtype, np.integer) or np.issubdtype(data.dtype, np.floating)):
         raise FileFormatError(f"expected integer or float TIFF samples in {p}, got {data.dtype}")
 
-    invalid = np.zeros(data.shape, dtype=bool)
     nodata = _parse_nodata(tags[TAG_GDAL_NODATA]) if TAG_GDAL_NODATA in tags else None
+    heights, invalid = fill_invalid(data, nodata, p)
+    filled = int(np.count_nonzero(invalid))
+    if vscale is not None:
+        heights = heights * vscale
+
+    file_spacing, geographic = _tiff_spacing(tags, data.shape, p)
+    sp = spacing_t or file_spacing or (1.0, 1.0)
+    md = file_metadata(
+        p,
+        "tiff",
+        str(data.dtype),
+        step=0.0,
+        filled=filled,
+        geographic=geographic,
+        nodata=nodata,
+    )
+    if filled:
+        md["nodata_mask"] = invalid
+    origin, pixel = _tiff_origin(tags)
+    if geographic and pixel is not None:
+        md["crs_pixel_size"] = pixel
+        md["crs_pixel_spacing"] = sp
+    return Heightmap(np.asarray(heights, dtype=np.float32), sp, md, origin=origin,
+                     crs=_tiff_epsg(tags), nodata=nodata)
+
+
+def fill_invalid(data: np.ndarray, nodata: float | None, p: Path) -> tuple[np.ndarray, np.ndarray]:
+    """float64 heights with nodata and non-finite samples filled from their nearest valid
+    neighbours (warning with the count), and the boolean mask of the filled samples."""
+    invalid = np.zeros(data.shape, dtype=bool)
     if nodata is not None:
         if np.issubdtype(data.dtype, np.floating):
             # Exact match in the file's precision and in float64 ...
@@ -202,23 +234,35 @@ def read_tiff(
         warnings.warn(
             f"{p.name}: filled {filled} nodata sample(s) of {data.size} from their nearest "
             "valid neighbours",
-            stacklevel=2,
+            stacklevel=3,
         )
-    if vscale is not None:
-        heights = heights * vscale
+    return heights, invalid
 
-    file_spacing, geographic = _tiff_spacing(tags, data.shape, p)
-    sp = spacing_t or file_spacing or (1.0, 1.0)
-    md = file_metadata(
-        p,
-        "tiff",
-        str(data.dtype),
-        step=0.0,
-        filled=filled,
-        geographic=geographic,
-        nodata=nodata,
-    )
-    return Heightmap(np.asarray(heights, dtype=np.float32), sp, md)
+
+def _tiff_origin(tags: dict) -> tuple[tuple[float, float], tuple[float, float] | None]:
+    """Corner of sample [0, 0] (CRS units) and pixel size from the tiepoint and pixel scale."""
+    scale = _tag_values(tags, TAG_MODEL_PIXEL_SCALE)
+    tie = _tag_values(tags, TAG_MODEL_TIEPOINT)
+    if scale is None or tie is None or len(tie) < 6 or len(scale) < 2:
+        return (0.0, 0.0), None
+    keys = _geokeys(tags[TAG_GEO_KEY_DIRECTORY]) if TAG_GEO_KEY_DIRECTORY in tags else {}
+    i, j, x, y = tie[0], tie[1], tie[3], tie[4]
+    if keys.get(GEOKEY_RASTER_TYPE, RASTER_PIXEL_IS_AREA) != RASTER_PIXEL_IS_AREA:
+        i, j = i + 0.5, j + 0.5  # PixelIsPoint: the tiepoint names a sample centre
+    sx, sy = abs(scale[0]), abs(scale[1])
+    return (x - i * sx, y + j * sy), (sx, sy)
+
+
+def _tiff_epsg(tags: dict) -> str | None:
+    """``"EPSG:n"`` from ProjectedCSTypeGeoKey (3072) or GeographicTypeGeoKey (2048)."""
+    if TAG_GEO_KEY_DIRECTORY not in tags:
+        return None
+    keys = _geokeys(tags[TAG_GEO_KEY_DIRECTORY])
+    for key in (GEOKEY_PROJECTED_CS, GEOKEY_GEOGRAPHIC_TYPE):
+        code = keys.get(key)
+        if code is not None and 1024 <= code < 32767:  # user-defined / undefined are not codes
+            return f"EPSG:{code}"
+    return None
 
 
 def _tiff_spacing(
@@ -254,21 +298,39 @@ def _tiff_spacing(
 
 
 def write_tiff(heightmap: Heightmap, path: str | os.PathLike, *, force: bool = False) -> Path:
-    """Write a float32 TIFF (exact) with ModelPixelScale ``(dx, dz, 0)`` and a tiepoint at 0.
+    """Write a float32 TIFF (exact) with ModelPixelScale and a tiepoint at the map's origin.
 
-    No GeoKeyDirectory is written (terrascape grids have no CRS); readers that understand
-    GeoTIFF (GDAL, QGIS, :func:`read_tiff`) still get the sample spacing.
+    This is the writer used without rasterio. An ``"EPSG:n"`` CRS is written as a
+    GeoKeyDirectory (projected or geographic model, PixelIsArea) and ``nodata`` as
+    GDAL_NODATA, restored where the source had holes; other CRSs (WKT) need rasterio
+    (:func:`terrascape.io.geotiff.write_geotiff`). Readers that understand GeoTIFF (GDAL,
+    QGIS, :func:`read_tiff`) get the spacing and georeference.
     """
     check_heightmap(heightmap)
-    dx, dz = heightmap.spacing
+    from terrascape.io.geotiff import crs_pixel_size, is_geographic_epsg, restore_nodata
+
+    px, py = crs_pixel_size(heightmap)
+    ox, oy = heightmap.origin
     extratags = [
-        (TAG_MODEL_PIXEL_SCALE, "d", 3, (float(dx), float(dz), 0.0), True),
-        (TAG_MODEL_TIEPOINT, "d", 6, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0), True),
+        (TAG_MODEL_PIXEL_SCALE, "d", 3, (float(px), float(py), 0.0), True),
+        (TAG_MODEL_TIEPOINT, "d", 6, (0.0, 0.0, 0.0, float(ox), float(oy), 0.0), True),
     ]
+    crs = heightmap.crs
+    if crs is not None and crs.upper().startswith("EPSG:") and crs[5:].isdigit():
+        code = int(crs[5:])
+        geographic = is_geographic_epsg(code)
+        model = MODEL_TYPE_GEOGRAPHIC if geographic else MODEL_TYPE_PROJECTED
+        cs_key = GEOKEY_GEOGRAPHIC_TYPE if geographic else GEOKEY_PROJECTED_CS
+        keys = (1, 1, 0, 3, GEOKEY_MODEL_TYPE, 0, 1, model, GEOKEY_RASTER_TYPE, 0, 1,
+                RASTER_PIXEL_IS_AREA, cs_key, 0, 1, code)
+        extratags.append((TAG_GEO_KEY_DIRECTORY, "H", len(keys), keys, True))
+    data = restore_nodata(heightmap)
+    if heightmap.nodata is not None:
+        extratags.append((TAG_GDAL_NODATA, "s", 0, repr(float(heightmap.nodata)), True))
     with atomic_output(path, force=force) as tmp:
         tifffile.imwrite(
             tmp,
-            np.ascontiguousarray(heightmap.heights, dtype=np.float32),
+            data,
             photometric="minisblack",
             metadata=None,
             extratags=extratags,

@@ -1,0 +1,85 @@
+"""``terrascape export DESTINATION HEIGHTMAP -o FOLDER`` — terrain for engines, GIS and the web.
+
+Destinations come from :mod:`terrascape.export` (one module each); every one writes a
+``NAME_import.txt`` next to its files with the exact import settings.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import typer
+
+from terrascape.cli.app import app, console, out, timed
+from terrascape.export import destinations
+
+
+def _destinations_help() -> str:
+    from terrascape.export import get_destination
+
+    return "; ".join(get_destination(n).SUMMARY.rstrip(".") for n in destinations()) + "."
+
+
+@app.command("export", help="Export a heightmap for a game engine, GIS or the web. "
+             f"Destinations — {_destinations_help()}")
+def export_command(
+    destination: str = typer.Argument(..., help=f"One of: {', '.join(destinations())}."),
+    heightmap: Path = typer.Argument(..., help="Heightmap file (any format `info` reads)."),
+    output: Path = typer.Option(..., "--output", "-o", help="Output folder (created if missing)."),
+    name: str = typer.Option(None, "--name", help="Base name of the files written.",
+                             show_default="the heightmap's file name"),
+    fit: str = typer.Option(
+        None, "--fit", help="When the size is not one the destination accepts: pad (repeat "
+        "edges to the next size), resample (cubic, nearest size, same extent) or crop.",
+        show_default="error listing the accepted sizes"),
+    tiles: int = typer.Option(1, "--tiles", help="Tiles per side (unity, unreal).", min=1,
+                              max=64),
+    flip: bool = typer.Option(False, "--flip", help="unity: rows in image order (north "
+                              "first), for Unity's Flip Vertically."),
+    fmt: str = typer.Option(None, "--format", help="unreal: png|r16; godot: exr|exr16|r16; "
+                            "blender: tiff|glb.", show_default="png / exr / tiff"),
+    plugin: str = typer.Option(None, "--plugin", help="godot: hterrain|terrain3d.",
+                               show_default="hterrain"),
+    layers: bool = typer.Option(True, "--layers/--no-layers",
+                                help="Also write texture-layer weights (unity, unreal)."),
+    lonlat: str = typer.Option(None, "--lonlat", help="cesium, terrain_rgb: place the map's "
+                               "centre at LON,LAT (degrees).", show_default="from the CRS"),
+    min_zoom: int = typer.Option(None, "--min-zoom", min=0, max=24,
+                                 help="Tile pyramids: first level.", show_default="0"),
+    max_zoom: int = typer.Option(None, "--max-zoom", min=0, max=24,
+                                 help="Tile pyramids: last level.",
+                                 show_default="as dense as the map"),
+    max_error: float = typer.Option(None, "--max-error", help="blender glb: mesh error; "
+                                    "cesium: error floor per level (world units).",
+                                    show_default="0.5"),
+    spacing: str = typer.Option(None, "--spacing", help="Sample spacing DX or DX,DZ in world "
+                                "units (overrides the file).", show_default="from file"),
+    force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines."),
+) -> None:
+    """Write the destination's files and a NAME_import.txt with the import settings."""
+    from terrascape.cli.cmd_files import _parse_spacing
+    from terrascape.export import ExportOptions, get_destination
+    from terrascape.io import read_heightmap
+    from terrascape.io.geotiff import degree_warning
+
+    module = get_destination(destination)
+    with timed("read", quiet=quiet), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hm = read_heightmap(heightmap, spacing=_parse_spacing(spacing))
+    for w in caught:
+        console.print(f"[yellow]warning:[/] {w.message}")
+    message = degree_warning(hm)
+    if message is not None:
+        console.print(f"[yellow]warning:[/] {message}")
+    from terrascape.cli.parsing import parse_floats
+
+    ll = None if lonlat is None else tuple(parse_floats(lonlat, 2, name="--lonlat"))
+    options = ExportOptions(name=name or heightmap.stem, fit=fit, tiles=tiles, flip=flip,
+                            format=fmt, plugin=plugin, layers=layers, force=force, lonlat=ll,
+                            min_zoom=min_zoom, max_zoom=max_zoom, max_error=max_error)
+    with timed(f"export {destination}", quiet=quiet):
+        written = module.export(hm, output, options)
+    for path in written:
+        out.print(f"{path} ({path.stat().st_size:,} bytes)")

@@ -1,0 +1,213 @@
+"""Shared pieces of the engine exporters: explicit size fitting, 16-bit codes, layer weights,
+tiles and atomic writes of the small "how to import" text files."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+from scipy import ndimage
+
+from terrascape.errors import HeightmapSizeError, InvalidParameterError
+from terrascape.heightmap import Heightmap
+from terrascape.io.atomic import atomic_output
+
+FITS = ("pad", "resample", "crop")
+
+
+@dataclass(frozen=True)
+class ExportOptions:
+    """What ``terrascape export ENGINE`` passes to an exporter.
+
+    Attributes
+    ----------
+    name
+        Base name of the files written (``Name.raw``, ``Name_X_Z.raw`` ...).
+    fit
+        ``None`` (a wrong size is an error), ``"pad"`` (repeat edge samples up to the next
+        accepted size), ``"resample"`` (cubic, to the nearest accepted size, same world extent)
+        or ``"crop"`` (keep the largest accepted size from the top-left corner).
+    tiles
+        Tiles per side (1: one file).
+    flip
+        Unity: write rows in image order (north first) for "Flip Vertically" on.
+    format
+        Exporter-specific output format (``png``/``r16``, ``exr``/``r16``, ``tiff``/``glb``).
+    plugin
+        Godot: ``hterrain`` or ``terrain3d``.
+    layers
+        Also write texture-layer weights (alphamaps / weight maps).
+    force
+        Overwrite existing files.
+    lonlat
+        Tile pyramids: put the map's centre at this (longitude, latitude); default: its CRS.
+    min_zoom, max_zoom
+        Tile pyramids: levels written (default 0 … the level as dense as the map).
+    max_error
+        Meshes (blender glb; cesium tiles at the finest level): vertical error, world units.
+    workers
+        Tile pyramids: worker processes.
+    """
+
+    name: str = "terrain"
+    fit: str | None = None
+    tiles: int = 1
+    flip: bool = False
+    format: str | None = None
+    plugin: str | None = None
+    layers: bool = True
+    force: bool = False
+    lonlat: tuple[float, float] | None = None
+    min_zoom: int | None = None
+    max_zoom: int | None = None
+    max_error: float | None = None
+    workers: int = 2
+
+
+def _fit_axis(n: int, accepted: Sequence[int], fit: str) -> int:
+    accepted = sorted(accepted)
+    if fit == "pad":
+        bigger = [a for a in accepted if a >= n]
+        if not bigger:
+            raise HeightmapSizeError(
+                f"{n} samples is more than the largest accepted size {accepted[-1]}; "
+                "use --fit resample or --fit crop"
+            )
+        return bigger[0]
+    if fit == "crop":
+        smaller = [a for a in accepted if a <= n]
+        if not smaller:
+            raise HeightmapSizeError(
+                f"{n} samples is less than the smallest accepted size {accepted[0]}; "
+                "use --fit pad or --fit resample"
+            )
+        return smaller[-1]
+    return min(accepted, key=lambda a: (abs(a - n), a))
+
+
+def fit_to_sizes(
+    heightmap: Heightmap,
+    accepted: Sequence[int],
+    fit: str | None,
+    *,
+    square: bool,
+    what: str,
+) -> Heightmap:
+    """Return a map whose sides are in ``accepted`` (and equal when ``square``).
+
+    Never resamples silently: without ``fit`` a wrong size raises
+    :class:`~terrascape.errors.HeightmapSizeError` listing the accepted sizes.
+    """
+    rows, cols = heightmap.shape
+    ok = rows in accepted and cols in accepted and (rows == cols or not square)
+    if ok:
+        return heightmap
+    if fit is None:
+        shape = "square " if square else ""
+        raise HeightmapSizeError(
+            f"{what} takes {shape}heightmaps of {', '.join(map(str, accepted))} samples per side; "
+            f"this one is {cols}×{rows}: pass --fit pad, --fit resample or --fit crop"
+        )
+    if fit not in FITS:
+        raise InvalidParameterError(f"--fit must be one of {', '.join(FITS)}, got {fit!r}")
+    if square:
+        basis = max(rows, cols) if fit != "crop" else min(rows, cols)
+        side = _fit_axis(basis, accepted, fit)
+        target = (side, side)
+    else:
+        target = (_fit_axis(rows, accepted, fit), _fit_axis(cols, accepted, fit))
+    h = heightmap.heights
+    if fit == "pad":
+        out = np.pad(h, ((0, max(0, target[0] - rows)), (0, max(0, target[1] - cols))), "edge")
+        out = out[:target[0], :target[1]]
+        return heightmap.with_heights(out)
+    if fit == "crop":
+        if target[0] > rows or target[1] > cols:
+            raise HeightmapSizeError(
+                f"cannot crop {cols}×{rows} to {target[1]}×{target[0]}; use --fit pad"
+            )
+        return heightmap.with_heights(h[:target[0], :target[1]])
+    zoom = ((target[0] - 1) / (rows - 1), (target[1] - 1) / (cols - 1))
+    out = ndimage.zoom(h.astype(np.float64), zoom, order=3, mode="nearest", grid_mode=False)
+    short = (max(0, target[0] - out.shape[0]), max(0, target[1] - out.shape[1]))
+    out = np.pad(out, ((0, short[0]), (0, short[1])), "edge")[:target[0], :target[1]]
+    ex, ez = heightmap.extent
+    md = dict(heightmap.metadata)
+    md.pop("nodata_mask", None)
+    return Heightmap(out.astype(np.float32), (ex / (target[1] - 1), ez / (target[0] - 1)), md,
+                     heightmap.origin, heightmap.crs, heightmap.nodata)
+
+
+def tiled_sizes(tile_sizes: Sequence[int], tiles: int) -> list[int]:
+    """Whole-map sizes that split into ``tiles`` tiles per side sharing their edge samples."""
+    return [tiles * (s - 1) + 1 for s in tile_sizes]
+
+
+def split_tiles(heights: np.ndarray, tiles: int) -> dict[tuple[int, int], np.ndarray]:
+    """``{(row_tile, col_tile): block}``; neighbouring blocks share one row/column of samples."""
+    rows, cols = heights.shape
+    tr, tc = (rows - 1) // tiles, (cols - 1) // tiles
+    return {(i, j): heights[i * tr:(i + 1) * tr + 1, j * tc:(j + 1) * tc + 1]
+            for i in range(tiles) for j in range(tiles)}
+
+
+def uint16_codes(heights: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Heights mapped linearly onto 0…65535 (``lo`` → 0, ``hi`` → 65535), rounded."""
+    span = hi - lo
+    if span <= 0:
+        return np.zeros(heights.shape, np.uint16)
+    codes = np.rint((heights.astype(np.float64) - lo) * (65535.0 / span))
+    return np.clip(codes, 0, 65535).astype(np.uint16)
+
+
+def layer_weights(heightmap: Heightmap, shape: tuple[int, int] | None = None,
+                  seed: int = 0) -> tuple[list[str], np.ndarray]:
+    """Texture-layer names and weights ``(rows, cols, layers)`` (sum 1) of the default height
+    regions, resampled to ``shape`` if given."""
+    from terrascape.texture import default_regions, region_weights
+
+    regions = default_regions(heightmap)
+    w = region_weights(heightmap.heights, regions, seed=seed, slope=heightmap.slope(),
+                       slope_rule=True)
+    w = np.moveaxis(w, 0, -1).astype(np.float64)
+    if shape is not None and tuple(shape) != w.shape[:2]:
+        zoom = ((shape[0] - 1) / (w.shape[0] - 1), (shape[1] - 1) / (w.shape[1] - 1), 1)
+        w = ndimage.zoom(w, zoom, order=1, grid_mode=False)[:shape[0], :shape[1]]
+        w = np.clip(w, 0, None)
+        w /= np.maximum(w.sum(axis=2, keepdims=True), 1e-12)
+    return [r.name for r in regions], w
+
+
+def write_bytes(path: Path, data: bytes, *, force: bool) -> Path:
+    with atomic_output(path, force=force) as tmp:
+        Path(tmp).write_bytes(data)
+    return path
+
+
+def write_text(path: Path, text: str, *, force: bool) -> Path:
+    return write_bytes(path, text.encode("utf-8"), force=force)
+
+
+def write_png(path: Path, image: np.ndarray, *, force: bool) -> Path:
+    """8-bit gray/RGB(A) or 16-bit gray PNG, atomically."""
+    with atomic_output(path, force=force) as tmp:
+        Image.fromarray(np.ascontiguousarray(image)).save(tmp, format="PNG")
+    return path
+
+
+def check_out_dir(out_dir: str | os.PathLike) -> Path:
+    p = Path(out_dir)
+    if p.exists() and not p.is_dir():
+        raise InvalidParameterError(f"{p} is a file; expected an output folder")
+    p.mkdir(parents=True, exist_ok=True)
+    return p
+
+
+def check_name(name: str) -> str:
+    if not name or any(ch in name for ch in "/\\:*?\"<>|") or name.startswith("."):
+        raise InvalidParameterError(f"--name must be a plain file name, got {name!r}")
+    return name

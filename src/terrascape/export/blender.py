@@ -1,0 +1,62 @@
+"""Blender: a float32 TIFF displacement map (real heights) or a textured glb.
+
+TIFF: add a Plane of the terrain's extent, subdivide it, add a Displace modifier with an image
+texture of the TIFF (Color Space "Non-Color", Extension "Extend"), Strength 1 and Midlevel 0:
+the float samples are the heights themselves. glb: File > Import > glTF 2.0 — the mesh is in
+metres with the baked colour texture (Blender converts glTF's Y up to its Z up).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from terrascape.errors import InvalidParameterError
+from terrascape.export._common import ExportOptions, check_name, check_out_dir, write_text
+from terrascape.heightmap import Heightmap
+
+NAME = "blender"
+SUMMARY = "Blender: float32 TIFF displacement (Displace modifier) or a textured glb."
+FORMATS = ("tiff", "glb")
+
+
+def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
+    out = check_out_dir(out_dir)
+    name = check_name(options.name)
+    fmt = options.format or "tiff"
+    if fmt not in FORMATS:
+        raise InvalidParameterError(f"blender --format must be tiff or glb, got {fmt!r}")
+    if options.tiles != 1:
+        raise InvalidParameterError("blender takes one map (no tiles)")
+    hm = heightmap
+    ex, ez = hm.extent
+    if fmt == "tiff":
+        from terrascape.io.tiff import write_tiff
+
+        path = write_tiff(hm, out / f"{name}.tif", force=options.force)
+        lines = [
+            f"Blender displacement for {name} (written by terrascape)",
+            "",
+            f"Add > Mesh > Plane; Size 1; scale X {ex:.6g}  Y {ez:.6g}  Z 1 (apply scale)",
+            f"Edit mode > Subdivide: {hm.cols - 1} × {hm.rows - 1} cuts (one vertex per sample)"
+            " or a Subdivision Surface (Simple) modifier",
+            f"Displace modifier: texture = Image {path.name}, Color Space Non-Color, "
+            "Extension Extend; Texture Coordinates UV; Direction Z; Strength 1; Midlevel 0",
+            f"Heights are real world units: {hm.min:.6g} … {hm.max:.6g}",
+            f"Sample spacing {hm.spacing[0]:.6g} × {hm.spacing[1]:.6g}; the TIFF's first row is "
+            "the plane's +Y edge (north)",
+        ]
+    else:
+        from terrascape.export.glb import write_terrain_glb
+
+        max_error = 0.5 if options.max_error is None else options.max_error
+        path, mesh = write_terrain_glb(hm, out / f"{name}.glb", max_error=max_error,
+                                       force=options.force)
+        lines = [
+            f"Blender glTF import for {name} (written by terrascape)",
+            "",
+            f"File > Import > glTF 2.0 (.glb) > {path.name}; defaults (+Y Up converted)",
+            f"{len(mesh.faces)} triangles, maximum vertical error {max_error:g} world units",
+            f"Size: {ex:.6g} × {ez:.6g}, heights {hm.min:.6g} … {hm.max:.6g} (metres)",
+        ]
+    note = write_text(out / f"{name}_import.txt", "\n".join(lines) + "\n", force=options.force)
+    return [path, note]

@@ -1,0 +1,221 @@
+"""Cesium terrain: a quantized-mesh 1.0 tile pyramid with ``layer.json``.
+
+Tiles follow Cesium's geographic TMS scheme (EPSG:4326, 2 × 1 tiles at level 0, ``y`` from
+the south). Each tile samples the map bilinearly on a 65 × 65 lon/lat grid (its edges shared
+with the neighbours), is meshed by the static RTIN mesher (:func:`terrascape.lod.rtin.rtin_mesh`)
+at the level's error, and is encoded by ``quantized-mesh-encoder`` with the edge-index lists
+Cesium uses to stitch skirts, the ``octvertexnormals`` and ``watermask`` extensions, and gzip
+(serve with ``Content-Encoding: gzip``). Outside the data the tiles are at height 0 and marked
+water.
+
+The level error is ``max_error · 2**(finest − level)`` (default 1 m at the finest level): it
+halves from level to level as Cesium's own ``levelMaximumGeometricError`` does (its tiles
+double their sample density per level), and never exceeds that Cesium value,
+``2π·a/4 / (65·2) / 2**level`` (``a`` the WGS84 equatorial radius). The mesh of a tile is
+within that error of the tile's samples (a true bound, measured on every sample by RTIN);
+quantized-mesh then stores heights in 15 bits over the tile's height range, truncating (a
+further ``(max − min) / 32767`` at most).
+
+Tiles are encoded in parallel worker processes, each with one numba thread: a tile is small
+and many in flight keep both cores busy without numba's thread start-up per tiny kernel.
+
+References
+----------
+Cesium, "quantized-mesh-1.0 terrain format", https://github.com/CesiumGS/quantized-mesh.
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from terrascape.errors import InvalidParameterError
+from terrascape.export._common import ExportOptions, check_out_dir, write_bytes, write_text
+from terrascape.export._geo import GeoGrid, geo_grid, tms_geographic_bounds, tms_geographic_range
+from terrascape.heightmap import Heightmap
+
+NAME = "cesium"
+SUMMARY = "Cesium quantized-mesh 1.0 pyramid (RTIN tiles, normals, water mask, layer.json)."
+TILE_SAMPLES = 65
+_WGS84_A = 6378137.0
+
+
+def cesium_geometric_error(level: int) -> float:
+    """CesiumJS's ``levelMaximumGeometricError`` of a 65-sample heightmap tiling (metres)."""
+    return 2.0 * math.pi * _WGS84_A * 0.25 / (TILE_SAMPLES * 2) / (1 << level)
+
+
+def level_error(level: int, finest: int, max_error: float = 1.0) -> float:
+    """Vertical error allowed in the tiles of ``level`` (metres); see the module docstring."""
+    return min(float(max_error) * 2.0 ** (finest - level), cesium_geometric_error(level))
+
+
+def finest_level(grid: GeoGrid) -> int:
+    """The first level whose tile samples are as dense as the map's (latitude spacing)."""
+    return max(0, math.ceil(math.log2(180.0 / ((TILE_SAMPLES - 1) * grid.dlat))))
+
+
+def tile_samples(grid: GeoGrid, z: int, x: int, y: int) -> tuple[np.ndarray, ...]:
+    """``(lon, lat, heights, inside, bounds)`` of the 65 × 65 tile grid (row 0 = north edge);
+    heights outside the data (``inside`` false) are 0."""
+    w, s, e, n = tms_geographic_bounds(z, x, y)
+    t = np.linspace(0.0, 1.0, TILE_SAMPLES)
+    lon = np.broadcast_to(w + t * (e - w), (TILE_SAMPLES, TILE_SAMPLES))
+    lat = np.broadcast_to((n - t * (n - s))[:, None], (TILE_SAMPLES, TILE_SAMPLES))
+    h, inside = grid.sample(lon, lat)
+    return lon, lat, np.where(inside, h, 0.0), inside, (w, s, e, n)
+
+
+def encode_tile(grid: GeoGrid, z: int, x: int, y: int, error: float) -> tuple[bytes, int]:
+    """The gzip-compressed quantized-mesh bytes of tile ``z/x/y`` meshed within ``error``
+    metres, and its triangle count."""
+    from quantized_mesh_encoder import VertexNormalsExtension, WaterMaskExtension, encode
+
+    from terrascape.lod.rtin import rtin_mesh
+
+    lon, lat, heights, inside, bounds = tile_samples(grid, z, x, y)
+    tile = Heightmap(heights.astype(np.float32))
+    tri = rtin_mesh(tile, max_error=error).astype(np.int64)
+    # High-water-mark index coding needs the vertices numbered in order of first use.
+    flat_tri = tri.reshape(-1)
+    used, first = np.unique(flat_tri, return_index=True)
+    used = used[np.argsort(first, kind="stable")]
+    number = np.empty(TILE_SAMPLES * TILE_SAMPLES, np.int64)
+    number[used] = np.arange(used.size)
+    positions = np.stack([lon.reshape(-1)[used], lat.reshape(-1)[used],
+                          tile.heights.reshape(-1)[used].astype(np.float64)], axis=1)
+    indices = number[flat_tri].reshape(-1, 3).astype(np.uint32)
+    water = ~inside | (heights <= 0.0)
+    if not water.any():
+        mask: np.ndarray | int = 0
+    elif water.all():
+        mask = 255
+    else:  # 256 × 256, row 0 = north, nearest tile sample
+        idx = np.rint(np.linspace(0, TILE_SAMPLES - 1, 256)).astype(int)
+        mask = np.where(water[np.ix_(idx, idx)], 255, 0).astype(np.uint8)
+    buf = io.BytesIO()
+    flat = positions.reshape(-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        encode(buf, flat, indices, bounds=list(bounds), sphere_method="naive",
+               extensions=[VertexNormalsExtension(indices=indices, positions=flat),
+                           WaterMaskExtension(data=mask)])
+    data = bytearray(buf.getvalue())
+    occlusion = np.frombuffer(bytes(data[64:88]), "<f8")
+    if not np.isfinite(occlusion).all():
+        # Tiles wider than a hemisphere (levels 0–1) have no horizon occlusion point; use a
+        # point far out above the tile's centre in ellipsoid-scaled space (never culled from
+        # the tile's own side of the globe).
+        centre = np.frombuffer(bytes(data[0:24]), "<f8")
+        norm = float(np.linalg.norm(centre))
+        far = centre / norm * 1e3 if norm > 0 else np.array([1e3, 0.0, 0.0])
+        data[64:88] = far.astype("<f8").tobytes()
+    return gzip.compress(bytes(data), compresslevel=6, mtime=0), len(tri)
+
+
+_WORKER_GRID: GeoGrid | None = None
+
+
+def _init_worker(grid: GeoGrid) -> None:
+    import numba
+
+    global _WORKER_GRID
+    numba.set_num_threads(1)
+    _WORKER_GRID = grid
+
+
+def _encode_job(job: tuple[int, int, int, float]) -> tuple[tuple[int, int, int], bytes, int]:
+    z, x, y, error = job
+    data, n = encode_tile(_WORKER_GRID, z, x, y, error)  # type: ignore[arg-type]
+    return (z, x, y), data, n
+
+
+def tile_jobs(grid: GeoGrid, bottom: int, top: int, max_error: float
+              ) -> tuple[list[tuple[int, int, int, float]], list]:
+    """Every ``(z, x, y, error)`` of the pyramid and layer.json's ``available`` ranges."""
+    jobs, available = [], []
+    for z in range(bottom, top + 1):
+        if z == 0:
+            x0, y0, x1, y1 = 0, 0, 1, 0  # Cesium asks for both root tiles
+        else:
+            x0, y0, x1, y1 = tms_geographic_range(z, grid.bounds)
+        available.append([{"startX": x0, "startY": y0, "endX": x1, "endY": y1}])
+        error = level_error(z, top, max_error)
+        jobs += [(z, x, y, error) for x in range(x0, x1 + 1) for y in range(y0, y1 + 1)]
+    return jobs, available
+
+
+def encode_pyramid(grid: GeoGrid, jobs, *, workers: int = 2):
+    """Yield ``((z, x, y), gzip bytes, triangles)`` for ``jobs``, in worker processes."""
+    if workers <= 1 or len(jobs) < 400:  # spawning workers costs seconds
+        import numba
+
+        previous = numba.get_num_threads()
+        numba.set_num_threads(1)
+        try:
+            for z, x, y, error in jobs:
+                data, n = encode_tile(grid, z, x, y, error)
+                yield (z, x, y), data, n
+        finally:
+            numba.set_num_threads(previous)
+        return
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    context = multiprocessing.get_context("spawn")  # no forked numba thread pools
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=_init_worker,
+                             initargs=(grid,)) as pool:
+        yield from pool.map(_encode_job, jobs, chunksize=16)
+
+
+def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
+    out = check_out_dir(out_dir)
+    grid = geo_grid(heightmap, options.lonlat)
+    top = finest_level(grid) if options.max_zoom is None else options.max_zoom
+    bottom = options.min_zoom or 0
+    if bottom > top:
+        raise InvalidParameterError(f"--min-zoom {bottom} is above --max-zoom {top}")
+    max_error = 1.0 if options.max_error is None else options.max_error
+    written: list[Path] = []
+    data_bounds = grid.bounds
+    jobs, available = tile_jobs(grid, bottom, top, max_error)
+    for (z, x, y), data, _ in encode_pyramid(grid, jobs, workers=options.workers):
+        path = out / str(z) / str(x) / f"{y}.terrain"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        written.append(write_bytes(path, data, force=options.force))
+    layer = {
+        "tilejson": "2.1.0",
+        "name": options.name,
+        "format": "quantized-mesh-1.0",
+        "version": "1.0.0",
+        "scheme": "tms",
+        "projection": "EPSG:4326",
+        "tiles": ["{z}/{x}/{y}.terrain?v={version}"],
+        "bounds": [-180.0, -90.0, 180.0, 90.0],
+        "minzoom": bottom,
+        "maxzoom": top,
+        "available": available if bottom == 0 else [[]] * bottom + available,
+        "extensions": ["octvertexnormals", "watermask"],
+        "attribution": "terrascape",
+    }
+    written.append(write_text(out / "layer.json", json.dumps(layer, indent=1) + "\n",
+                              force=options.force))
+    w, s, e, n = data_bounds
+    note = [
+        f"Cesium quantized-mesh terrain for {options.name} (written by terrascape)",
+        "",
+        f"Levels {bottom} … {top}; data bounds lon {w:.8g} … {e:.8g}, lat {s:.8g} … {n:.8g}",
+        "Serve the folder over HTTP with 'Content-Encoding: gzip' on *.terrain and",
+        "Content-Type application/vnd.quantized-mesh, then in CesiumJS:",
+        "  viewer.terrainProvider = await Cesium.CesiumTerrainProvider.fromUrl("
+        "'http://HOST/PATH/', {requestVertexNormals: true, requestWaterMask: true});",
+        "Per-level error (m): " + ", ".join(f"{z}:{level_error(z, top, max_error):.3g}"
+                                            for z in range(bottom, top + 1)),
+    ]
+    written.append(write_text(out / f"{options.name}_import.txt", "\n".join(note) + "\n",
+                              force=options.force))
+    return written

@@ -1,0 +1,58 @@
+"""Shared fixtures for export tests: the Khronos glTF-Validator (npm), installed on demand."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+IN_CI = os.environ.get("CI", "").lower() in {"1", "true", "yes"}
+NODE_DIR = Path(os.environ.get("TERRASCAPE_NODE_CACHE", Path.home() / ".cache/terrascape/node"))
+
+_RUNNER = """
+const fs = require('fs');
+const validator = require('gltf-validator');
+const data = new Uint8Array(fs.readFileSync(process.argv[2]));
+validator.validateBytes(data, {maxIssues: 50}).then(
+  (report) => { console.log(JSON.stringify(report.issues)); },
+  (error) => { console.error(String(error)); process.exit(3); });
+"""
+
+
+def _unavailable(reason: str):
+    if IN_CI:
+        pytest.fail(f"CI must run the glTF validator, but {reason}")
+    pytest.skip(reason)
+
+
+@pytest.fixture(scope="session")
+def gltf_validator():
+    """``validate(path) -> issues dict`` (numErrors, numWarnings, messages) via node."""
+    node = shutil.which("node")
+    if node is None:
+        _unavailable("node is not installed")
+    package = NODE_DIR / "node_modules" / "gltf-validator"
+    if not package.exists():
+        NODE_DIR.mkdir(parents=True, exist_ok=True)
+        npm = shutil.which("npm")
+        if npm is None:
+            _unavailable("npm is not installed")
+        done = subprocess.run([npm, "install", "--no-audit", "--no-fund", "--prefix",
+                               str(NODE_DIR), "gltf-validator"], capture_output=True,
+                              text=True, timeout=300)
+        if done.returncode != 0 or not package.exists():
+            _unavailable(f"npm install gltf-validator failed: {done.stderr[-300:]}")
+    runner = NODE_DIR / "validate_glb.js"
+    runner.write_text(_RUNNER)
+
+    def validate(path) -> dict:
+        done = subprocess.run([node, str(runner), str(path)], capture_output=True, text=True,
+                              timeout=120, cwd=NODE_DIR)
+        assert done.returncode == 0, done.stderr
+        return json.loads(done.stdout)
+
+    return validate
