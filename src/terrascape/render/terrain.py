@@ -52,6 +52,9 @@ _SAMPLER_TYPES = frozenset(
 _SPARE_UNIT = 16
 # Texture units of the geometry buffer in the deferred shading pass (below the spare units).
 _GBUFFER_UNIT = 12
+# Texture units of the daylight look's own textures (terrain shadows + sky view, heights).
+_SUN_SKY_UNIT = 10
+_HEIGHT_UNIT = 11
 _FALLBACK = "plain"
 # Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
 # (129 ≢ 0, ±1 mod 256, llvmpipe's vertex-cache hash) with few draw calls (64 at 1025²).
@@ -255,6 +258,14 @@ class TerrainRenderer:
         # triangles), made on the chunk's first culled frame
         self._cull_state: dict[int, tuple[np.ndarray, np.ndarray, Any]] = {}
         self.mesh = mesh = terrain_mesh(heightmap, exaggeration=self.exaggeration)
+        # The terrain as drawn (heights × exaggeration): shadows and water depths use it.
+        self.world = heightmap if self.exaggeration == 1.0 else heightmap.scaled(
+            self.exaggeration)
+        self._env: dict[str, tuple[Any, Any]] = {}  # daylight textures: name -> (tex, key)
+        self._sky_visibility: np.ndarray | None = None
+        self._edge_albedo: dict[int, np.ndarray] = {}
+        self._water_vao = None
+        self._water_buf = None
         self.chunks = mesh.chunks(chunk_size)
         self._chunk_vbos, self._chunk_ibos = self._upload_chunks()
         self._grid_vbos: list[Any] | None = None  # for set_indices, uploaded on first use
@@ -438,6 +449,14 @@ class TerrainRenderer:
             "wireframe",
             "shadows",
             "lightmap_ambient",
+            "turbidity",
+            "exposure",
+            "haze",
+            "sun_radius",
+            "shadow_samples",
+            "sea_level",
+            "water_depth",
+            "surround",
             "slope_rule",
             "detail_size",
             "bump_height",
@@ -448,6 +467,16 @@ class TerrainRenderer:
             if isinstance(value, (bool, np.bool_)):
                 value = int(value)
             u[f"u_{key}"] = value
+        if params["lighting"] == "daylight":
+            from terrascape.render.atmosphere import daylight_uniforms
+
+            seed = int(params.get("seed", 0))
+            if seed not in self._edge_albedo:
+                from terrascape.render.atmosphere import edge_albedo
+
+                self._edge_albedo[seed] = edge_albedo(self.heightmap, seed)
+            u.update(daylight_uniforms(self.world, params, edge_albedo=self._edge_albedo[seed],
+                                       exaggeration=self.exaggeration))
         if "detail_size" in params:
             d = params["detail_size"]
             u["u_detail_size"] = tile / 5.0 if d is None else check_positive(d, "detail_size")
@@ -572,6 +601,9 @@ class TerrainRenderer:
         for unit, name in enumerate(samplers):
             self._textures[name][0].use(location=unit)
         self._bind(deferred or program, uniforms, samplers)
+        daylight = p["lighting"] == "daylight"
+        if daylight:
+            self._bind_environment(deferred or program, p)
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.front_face = "ccw"
         wire = bool(p["wireframe"])
@@ -598,6 +630,8 @@ class TerrainRenderer:
             finally:
                 ctx.wireframe = False
         ctx.disable(moderngl.CULL_FACE)
+        if daylight and p["sea_level"] is not None:
+            self._draw_water(fbo, uniforms)
         if p["sky"]:
             # Drawn last at depth 1.0 with LEQUAL: only pixels no terrain covered are shaded,
             # instead of a full-screen pass that the terrain then overdraws.
@@ -787,6 +821,77 @@ class TerrainRenderer:
             vao = self._fullscreen_vaos[program.glo] = self.ctx.vertex_array(program, [])
         vao.render(moderngl.TRIANGLES, vertices=3)
 
+    # --- daylight: terrain shadows, sky view, water ------------------------------------
+    def _env_texture(self, name: str, key: Any, build) -> Any:
+        have = self._env.get(name)
+        if have is not None and have[1] == key:
+            return have[0]
+        tex = upload_texture(self.ctx, build(), name=name, limits=self.limits)
+        if have is not None:
+            have[0].release()
+        self._env[name] = (tex, key)
+        return tex
+
+    def sun_sky_visibility(self, params: Mapping[str, Any]) -> np.ndarray:
+        """float32 ``(rows, cols, 2)``: visible share of the sun's disc (soft terrain
+        shadows, :func:`~terrascape.lighting.soft_shadow` on the exaggerated terrain) and
+        the sky-view factor, the per-vertex texture the daylight model samples per pixel."""
+        from terrascape.lighting.daylight import local_sky_visibility
+        from terrascape.lighting.shadows import soft_shadow
+
+        az, el = _vec(params["sun"], 2, "sun (azimuth, elevation)")
+        if self._sky_visibility is None:
+            self._sky_visibility = local_sky_visibility(self.world).astype(np.float32)
+        if not params["shadows"]:
+            sun = np.ones(self.world.shape, np.float32)
+        elif el <= 0.0:
+            sun = np.zeros(self.world.shape, np.float32)
+        else:
+            sun = soft_shadow(self.world, az, el, sun_radius_deg=float(params["sun_radius"]),
+                              samples=int(params["shadow_samples"]))
+        return np.ascontiguousarray(np.stack([sun, self._sky_visibility], axis=-1))
+
+    def _bind_environment(self, program, params: Mapping[str, Any]) -> None:
+        key = tuple(repr(params[k]) for k in ("sun", "shadows", "sun_radius", "shadow_samples"))
+        if "u_sun_sky" in program:
+            tex = self._env_texture(
+                "u_sun_sky", key,
+                lambda: TextureData(self.sun_sky_visibility(params), repeat=False))
+            tex.use(location=_SUN_SKY_UNIT)
+            program["u_sun_sky"].value = _SUN_SKY_UNIT
+        self._env_texture(
+            "u_height", "heights",
+            lambda: TextureData(np.ascontiguousarray(self.world.heights, np.float32),
+                                repeat=False, mipmaps=False))
+
+    def _draw_water(self, fbo, uniforms: Mapping[str, Any]) -> None:
+        """The sea over the terrain: a quad at sea level, depth-tested, alpha-blended."""
+        import moderngl
+
+        prog = load_program(self.ctx, "water")
+        ex, ez = self.mesh.extent
+        y = float(uniforms["u_sea_level"])
+        quad = np.array([[0, y, 0], [0, y, ez], [ex, y, 0], [ex, y, 0], [0, y, ez], [ex, y, ez]],
+                        dtype=np.float32)
+        if self._water_buf is None:
+            self._water_buf = self.ctx.buffer(reserve=quad.nbytes)
+            self._water_vao = self.ctx.vertex_array(prog, [(self._water_buf, "3f",
+                                                            "in_position")])
+        self._water_buf.write(quad.tobytes())
+        set_uniforms(prog, **uniforms)
+        self._env["u_height"][0].use(location=_HEIGHT_UNIT)
+        prog["u_height"].value = _HEIGHT_UNIT
+        ctx = self.ctx
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        fbo.depth_mask = False  # the sky pass fills only pixels no terrain was drawn on
+        try:
+            self._water_vao.render(moderngl.TRIANGLES)
+        finally:
+            fbo.depth_mask = True
+            ctx.disable(moderngl.BLEND)
+
     def _draw_sky(self, uniforms: Mapping[str, Any]) -> None:
         import moderngl
 
@@ -794,6 +899,9 @@ class TerrainRenderer:
         if self._sky_vao is None or self._sky_vao.program.glo != prog.glo:
             self._sky_vao = self.ctx.vertex_array(prog, [])
         set_uniforms(prog, **uniforms)
+        if "u_height" in prog and "u_height" in self._env:
+            self._env["u_height"][0].use(location=_HEIGHT_UNIT)
+            prog["u_height"].value = _HEIGHT_UNIT
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.depth_func = "<="
         try:
@@ -821,6 +929,13 @@ class TerrainRenderer:
         self._textures.clear()
         if self._sky_vao is not None:
             self._sky_vao.release()
+        for tex, _ in self._env.values():
+            tex.release()
+        self._env.clear()
+        if self._water_vao is not None:
+            self._water_vao.release()
+            self._water_buf.release()
+            self._water_vao = self._water_buf = None
         for vao in self._fullscreen_vaos.values():
             vao.release()
         self._fullscreen_vaos.clear()
