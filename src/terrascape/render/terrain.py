@@ -266,6 +266,7 @@ class TerrainRenderer:
         self._edge_albedo: dict[int, np.ndarray] = {}
         self._water_vao = None
         self._water_buf = None
+        self._lake: tuple | None = None  # (key, vertex array, buffers) of the lakes' surface
         self.chunks = mesh.chunks(chunk_size)
         self._chunk_vbos, self._chunk_ibos = self._upload_chunks()
         self._grid_vbos: list[Any] | None = None  # for set_indices, uploaded on first use
@@ -630,8 +631,8 @@ class TerrainRenderer:
             finally:
                 ctx.wireframe = False
         ctx.disable(moderngl.CULL_FACE)
-        if daylight and p["sea_level"] is not None:
-            self._draw_water(fbo, uniforms)
+        if daylight and (p["sea_level"] is not None or p["water_depth"] is not None):
+            self._draw_water(fbo, uniforms, p)
         if p["sky"]:
             # Drawn last at depth 1.0 with LEQUAL: only pixels no terrain covered are shaded,
             # instead of a full-screen pass that the terrain then overdraws.
@@ -864,30 +865,78 @@ class TerrainRenderer:
             lambda: TextureData(np.ascontiguousarray(self.world.heights, np.float32),
                                 repeat=False, mipmaps=False))
 
-    def _draw_water(self, fbo, uniforms: Mapping[str, Any]) -> None:
-        """The sea over the terrain: a quad at sea level, depth-tested, alpha-blended."""
+    def _water_geometry(self, params: Mapping[str, Any]) -> list[tuple[Any, Any]]:
+        """(vertex array, vertex count or None) of the sea quad and the lakes' surface."""
+        prog = load_program(self.ctx, "water")
+        out = []
+        if params["sea_level"] is not None:
+            ex, ez = self.mesh.extent
+            y = float(params["sea_level"]) * self.exaggeration
+            quad = np.array([[0, y, 0], [0, y, ez], [ex, y, 0], [ex, y, 0], [0, y, ez],
+                             [ex, y, ez]], dtype=np.float32)
+            if self._water_buf is None:
+                self._water_buf = self.ctx.buffer(reserve=quad.nbytes)
+                self._water_vao = self.ctx.vertex_array(
+                    prog, [(self._water_buf, "3f", "in_position")])
+            self._water_buf.write(quad.tobytes())
+            out.append(self._water_vao)
+        if params["water_depth"] is not None:
+            out.append(self._lake_vao(prog, params["water_depth"]))
+        return [vao for vao in out if vao is not None]
+
+    def _lake_vao(self, prog, depth: Any):
+        """The surface of lakes: grid cells with water at a corner, at terrain + depth."""
+        d = np.asarray(depth, dtype=np.float32)
+        if d.shape != self.heightmap.shape or not np.isfinite(d).all():
+            raise InvalidParameterError(
+                f"water_depth must be a finite float array of shape {self.heightmap.shape}, "
+                f"got {d.dtype} {d.shape}")
+        key = (d.shape, hash(d.tobytes()))
+        if self._lake is not None and self._lake[0] == key:
+            return self._lake[1]
+        self._release_lake()
+        wet = d > 0
+        cell = wet[:-1, :-1] | wet[1:, :-1] | wet[:-1, 1:] | wet[1:, 1:]
+        r, c = np.nonzero(cell)
+        if r.size == 0:
+            self._lake = (key, None, [])
+            return None
+        cols = self.heightmap.cols
+        a = r * cols + c
+        b, e, f = a + cols, a + 1, a + cols + 1
+        idx = np.stack([a, b, e, e, b, f], axis=1).astype(np.uint32)
+        pos = self.mesh.positions.reshape(-1, 3).copy()
+        pos[:, 1] += d.reshape(-1) * np.float32(self.exaggeration)
+        vbo = self.ctx.buffer(pos.astype(np.float32).tobytes())
+        ibo = self.ctx.buffer(idx.tobytes())
+        vao = self.ctx.vertex_array(prog, [(vbo, "3f", "in_position")], ibo, 4)
+        self._lake = (key, vao, [vbo, ibo])
+        return vao
+
+    def _release_lake(self) -> None:
+        if self._lake is not None:
+            if self._lake[1] is not None:
+                self._lake[1].release()
+            for buf in self._lake[2]:
+                buf.release()
+            self._lake = None
+
+    def _draw_water(self, fbo, uniforms: Mapping[str, Any], params: Mapping[str, Any]) -> None:
+        """Sea quad and lakes: depth-tested against the terrain, alpha-blended over it."""
         import moderngl
 
         prog = load_program(self.ctx, "water")
-        ex, ez = self.mesh.extent
-        y = float(uniforms["u_sea_level"])
-        quad = np.array([[0, y, 0], [0, y, ez], [ex, y, 0], [ex, y, 0], [0, y, ez], [ex, y, ez]],
-                        dtype=np.float32)
-        if self._water_buf is None:
-            self._water_buf = self.ctx.buffer(reserve=quad.nbytes)
-            self._water_vao = self.ctx.vertex_array(prog, [(self._water_buf, "3f",
-                                                            "in_position")])
-        self._water_buf.write(quad.tobytes())
+        vaos = self._water_geometry(params)
         set_uniforms(prog, **uniforms)
         self._env["u_height"][0].use(location=_HEIGHT_UNIT)
         prog["u_height"].value = _HEIGHT_UNIT
         ctx = self.ctx
-        ctx.enable(moderngl.BLEND)
+        ctx.enable(moderngl.BLEND | moderngl.DEPTH_TEST)
         ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-        self.ctx.enable(moderngl.DEPTH_TEST)
         fbo.depth_mask = False  # the sky pass fills only pixels no terrain was drawn on
         try:
-            self._water_vao.render(moderngl.TRIANGLES)
+            for vao in vaos:
+                vao.render(moderngl.TRIANGLES)
         finally:
             fbo.depth_mask = True
             ctx.disable(moderngl.BLEND)
@@ -936,6 +985,7 @@ class TerrainRenderer:
             self._water_vao.release()
             self._water_buf.release()
             self._water_vao = self._water_buf = None
+        self._release_lake()
         for vao in self._fullscreen_vaos.values():
             vao.release()
         self._fullscreen_vaos.clear()

@@ -1,6 +1,7 @@
-// Water over the terrain: a flat quad at sea level covering the terrain, drawn after it with
-// the depth test (terrain above the water hides it) and alpha blending (shallow water shows
-// the terrain below); common/water.glsl shades it.
+// Water over the terrain: a flat quad at sea level covering the terrain, or the surface of
+// lakes (terrain + a water-depth map), drawn after the terrain with the depth test (terrain
+// above the water hides it) and alpha blending (shallow water shows the terrain below);
+// common/water.glsl shades it. The depth is the surface height minus the terrain's.
 #if defined VERTEX_SHADER
 in vec3 in_position;
 uniform mat4 u_view_proj;
@@ -17,7 +18,7 @@ uniform vec3 u_camera_pos;
 in vec3 v_world;
 out vec4 f_color;
 void main() {
-    float depth = u_sea_level - terrain_height_at(v_world.xz);
+    float depth = v_world.y - terrain_height_at(v_world.xz);
     if (depth <= 0.0) discard;
     vec4 w = water_shade(v_world, u_camera_pos, depth, vec3(0.0), false);
     f_color = vec4(display(aerial_perspective(w.rgb, v_world, u_camera_pos)), w.a);
