@@ -316,6 +316,8 @@ def _far_terrain(rng_seed=3, side=257):
     return diamond_square(side, seed=rng_seed, roughness=0.6).normalised(0.0, 30.0)
 
 
+# The tests below compare renderer options on a far overview (several triangles per pixel):
+# the orbit overview at 35° that was the default camera before the landscape view.
 def _on_and_off(renderer, switch, cam, tech, params=None):
     """(image, stats) with the renderer option ``switch`` on, then with it off."""
     out = []
@@ -331,7 +333,7 @@ def test_small_triangle_cull_draws_the_same_image_from_a_fraction_of_the_triangl
     r = OffscreenRenderer(gl_ctx, _far_terrain(), size=(160, 90))
     try:
         (culled_img, stats), (full_img, full_stats) = _on_and_off(
-            r, "small_triangle_cull", r.default_camera(), tech)
+            r, "small_triangle_cull", r.default_camera(elevation=35.0), tech)
     finally:
         r.release()
     assert stats["chunks_small_cull"] == stats["chunks"] > 0
@@ -349,7 +351,7 @@ def test_small_triangle_cull_leaves_close_views_and_lod_meshes_alone(gl_ctx):
         r.render(cam, "plain")
         assert r.terrain.last_stats["chunks_small_cull"] == 0
         r.terrain.set_indices(r.terrain.mesh.triangles)  # LOD meshes are never culled
-        r.render(r.default_camera(), "plain")
+        r.render(r.default_camera(elevation=35.0), "plain")
         assert r.terrain.last_stats["chunks_small_cull"] == 0
     finally:
         r.release()
@@ -375,7 +377,7 @@ def test_deferred_shading_draws_what_forward_shading_draws(gl_ctx, tech):
         # so relief is compared under Phong lighting as before the daylight default.
         params = {"lighting": "vertex"} if tech == "relief" else None
         (deferred, stats), (forward, _) = _on_and_off(
-            r, "deferred_shading", r.default_camera(), tech, params)
+            r, "deferred_shading", r.default_camera(elevation=35.0), tech, params)
     finally:
         r.release()
     from terrascape.render.techniques import get_technique
@@ -422,7 +424,7 @@ def test_small_triangle_cull_on_a_map_of_odd_size(gl_ctx, rng):
     h = gaussian_filter(rng.random((211, 300)), 3).astype(np.float32) * 40.0
     r = OffscreenRenderer(gl_ctx, Heightmap(h), size=(120, 80))
     try:
-        (culled, stats), (full, _) = _on_and_off(r, "small_triangle_cull", r.default_camera(),
+        (culled, stats), (full, _) = _on_and_off(r, "small_triangle_cull", r.default_camera(elevation=35.0),
                                                  "plain")
     finally:
         r.release()

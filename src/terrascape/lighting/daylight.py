@@ -55,6 +55,9 @@ _XYZ_TO_RGB = np.array(
     [[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415], [0.0557, -0.2040, 1.0570]]
 )
 _LUMA = np.array([0.2126, 0.7152, 0.0722])
+# Preetham's chromaticity fit drifts below the Planckian locus (magenta) toward the horizon;
+# keeping y >= x + this keeps the low sky neutral to blue after the white balance.
+_MAGENTA_GUARD = 0.004
 # Below this the sun model is evaluated at the horizon (the Preetham fit is for a sun above).
 MIN_SUN_ELEVATION = 0.5
 
@@ -167,7 +170,7 @@ class Daylight:
         f0 = _perez(self.perez, np.ones((1, 1)), np.full((1, 1), theta_s))
         yxy = self.zenith[:, None] * f / f0
         lum, x, y = yxy
-        y = np.maximum(y, 1e-4)
+        y = np.maximum(np.maximum(y, x + _MAGENTA_GUARD), 1e-4)
         xyz = np.stack([x * lum / y, lum, (1.0 - x - y) * lum / y], axis=1)
         rgb = np.maximum(xyz @ _XYZ_TO_RGB.T, 0.0) * self.white_balance
         return rgb.reshape(*shape, 3)

@@ -82,12 +82,12 @@ def daylight_uniforms(
     diag = math.sqrt(ex * ex + ez * ez + (world.max - world.min) ** 2)
     haze = params["haze"]
     if haze is None:
-        # Optical depth 0.35 (green) over one terrain diagonal at the terrain's base.
-        haze = 0.35 / diag
+        # Optical depth 0.2 (green) over one terrain diagonal at the terrain's base.
+        haze = 0.2 / diag
     haze = check_positive(haze, "haze", allow_zero=True)
     u["u_haze_beta"] = tuple(_HAZE_RGB / _HAZE_RGB[1] * haze)
     u["u_haze_base"] = world.min
-    u["u_haze_height"] = max(0.5 * (world.max - world.min), 0.02 * diag, 1e-6)
+    u["u_haze_height"] = max(world.max - world.min, 0.02 * diag, 1e-6)
     surround = resolve_surround(params)
     sea = params.get("sea_level")
     u["u_surround"] = SURROUNDS[surround]
@@ -128,7 +128,12 @@ def edge_albedo(heightmap: Heightmap, seed: int = 0) -> np.ndarray:
         warnings.simplefilter("ignore")
         tex = region_texture(small, seed=seed).astype(np.float64) / 255.0
     border = np.concatenate([tex[0], tex[-1], tex[:, 0], tex[:, -1]])
-    return srgb_to_linear(np.median(border, axis=0))
+    # Texels painted as water (blue above red and green) are not ground: the sea is drawn
+    # as water; the plane continues the land.
+    land = border[~((border[:, 2] > border[:, 0]) & (border[:, 2] > border[:, 1]))]
+    if len(land) == 0:
+        land = tex.reshape(-1, 3)
+    return srgb_to_linear(np.median(land, axis=0))
 
 
 __all__ = [

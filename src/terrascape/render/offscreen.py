@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from terrascape._validate import check_int, check_positive, check_range
-from terrascape.camera import Camera, frame_terrain
+from terrascape.camera import Camera, frame_landscape, frame_terrain
 from terrascape.errors import FileFormatError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.io.atomic import atomic_output, check_output_path
@@ -48,11 +48,23 @@ def default_camera(
     size: tuple[int, int],
     *,
     exaggeration: float = 1.0,
-    azimuth: float = 210.0,
-    elevation: float = 35.0,
+    azimuth: float | None = None,
+    elevation: float | None = None,
 ) -> Camera:
-    """The camera that frames the whole terrain (``frame_terrain``) for an output size."""
+    """The camera that frames the whole terrain for an output size.
+
+    Default: a landscape view (:func:`~terrascape.camera.frame_landscape`: the horizon a
+    quarter below the top, the terrain in front). With an ``elevation`` (degrees), an orbit
+    overview at that elevation that fits the terrain's box (``frame_terrain``).
+    ``azimuth`` (degrees, the side seen from): default 180 (from the south, along the grid,
+    so the terrain spans the image) for the landscape view, 210 for the overview.
+    """
     lo, hi = heightmap.min * exaggeration, heightmap.max * exaggeration
+    if elevation is None:
+        return frame_landscape(heightmap.extent, (lo, hi),
+                               azimuth=180.0 if azimuth is None else azimuth,
+                               aspect=size[0] / size[1])
+    azimuth = 210.0 if azimuth is None else azimuth
     return frame_terrain(
         heightmap.extent, (lo, hi), azimuth=azimuth, elevation=elevation, aspect=size[0] / size[1]
     )
