@@ -424,8 +424,8 @@ def test_small_triangle_cull_on_a_map_of_odd_size(gl_ctx, rng):
     h = gaussian_filter(rng.random((211, 300)), 3).astype(np.float32) * 40.0
     r = OffscreenRenderer(gl_ctx, Heightmap(h), size=(120, 80))
     try:
-        (culled, stats), (full, _) = _on_and_off(r, "small_triangle_cull", r.default_camera(elevation=35.0),
-                                                 "plain")
+        (culled, stats), (full, _) = _on_and_off(
+            r, "small_triangle_cull", r.default_camera(elevation=35.0), "plain")
     finally:
         r.release()
     np.testing.assert_array_equal(culled, full)
