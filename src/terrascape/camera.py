@@ -221,14 +221,17 @@ def frame_landscape(
     aspect: float = 16 / 9,
     horizon: float = 0.25,
     height: float = 0.22,
+    edge_height: float | None = None,
 ) -> Camera:
     """A landscape-photo camera: over the terrain's near edge, looking across it, with the
     horizon ``horizon`` (fraction of the image height) below the top edge.
 
     Seen from ``azimuth`` (clockwise from north, as in :func:`frame_terrain`), the eye stands
-    ``height`` × the terrain's depth along the view above its mid height (and above its
-    highest point), pitched so that the horizon sits at ``horizon``; it is moved along the
-    view until the bottom edge of the image meets the lowest height at the near edge.
+    ``height`` × the terrain's depth along the view above its mid height (at least half
+    that above its highest point), pitched so that the horizon sits at ``horizon``; it is
+    moved along the view until the bottom edge of the image crosses the near edge at
+    ``edge_height`` (the highest height of the terrain's border; default the highest of the
+    terrain), so no ray passes under the terrain's edge (the mesh has no side walls).
     The terrain then fills the image from the bottom up to its far edge just below the
     horizon — the renderer's surround (sea, plane or haze) continues it to the horizon —
     instead of a small tile floating in an empty frame.
@@ -247,10 +250,10 @@ def frame_landscape(
     along = corners @ fwd[[0, 2]]
     depth = float(along.max() - along.min())
     mid = centre[1]
-    eye_y = max(mid + height * depth, hi + 0.02 * depth)
-    back = (eye_y - lo) / math.tan(bottom)  # the bottom edge meets the lowest height
-    # 5 % of the depth inside the near edge: the image's bottom corners stay on the terrain
-    eye_h = centre[[0, 2]] + fwd[[0, 2]] * (float(along.min()) + 0.05 * depth - back)
+    cross = hi if edge_height is None else min(check_finite(edge_height, "edge height"), hi)
+    eye_y = max(mid + height * depth, cross + 0.5 * height * depth)
+    back = (eye_y - cross) / math.tan(bottom)
+    eye_h = centre[[0, 2]] + fwd[[0, 2]] * (float(along.min()) + 0.02 * depth - back)
     eye = np.array([eye_h[0], eye_y, eye_h[1]])
     far_pts = np.array([[x, y, z] for x in (0.0, w) for y in (lo, hi) for z in (0.0, d)])
     far = float(np.linalg.norm(far_pts - eye, axis=1).max()) * 1.1

@@ -56,8 +56,8 @@ _XYZ_TO_RGB = np.array(
 )
 _LUMA = np.array([0.2126, 0.7152, 0.0722])
 # Preetham's chromaticity fit drifts below the Planckian locus (magenta) toward the horizon;
-# keeping y >= x + this keeps the low sky neutral to blue after the white balance.
-_MAGENTA_GUARD = 0.004
+# keeping y >= x + this (0.01) keeps the low sky neutral to blue after the white balance.
+_MAGENTA_GUARD = 0.01
 # Below this the sun model is evaluated at the horizon (the Preetham fit is for a sun above).
 MIN_SUN_ELEVATION = 0.5
 

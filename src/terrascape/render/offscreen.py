@@ -61,13 +61,31 @@ def default_camera(
     """
     lo, hi = heightmap.min * exaggeration, heightmap.max * exaggeration
     if elevation is None:
-        return frame_landscape(heightmap.extent, (lo, hi),
-                               azimuth=180.0 if azimuth is None else azimuth,
-                               aspect=size[0] / size[1])
+        az = 180.0 if azimuth is None else azimuth
+        return frame_landscape(heightmap.extent, (lo, hi), azimuth=az,
+                               aspect=size[0] / size[1],
+                               edge_height=_near_edge_height(heightmap, az) * exaggeration)
     azimuth = 210.0 if azimuth is None else azimuth
     return frame_terrain(
         heightmap.extent, (lo, hi), azimuth=azimuth, elevation=elevation, aspect=size[0] / size[1]
     )
+
+
+def _near_edge_height(heightmap: Heightmap, azimuth: float) -> float:
+    """Highest border sample on the side of the terrain a camera at ``azimuth`` faces
+    (within a tenth of the terrain's depth along the view from the nearest corner)."""
+    import math
+
+    h = heightmap.heights
+    rows, cols = h.shape
+    dx, dz = heightmap.spacing
+    r = np.r_[np.zeros(cols, int), np.full(cols, rows - 1), np.arange(rows), np.arange(rows)]
+    c = np.r_[np.arange(cols), np.arange(cols), np.zeros(rows, int), np.full(rows, cols - 1)]
+    a = math.radians(azimuth)
+    # toward the camera: (sin a, -cos a) in (x, z); the near side has the largest projection
+    toward = c * dx * math.sin(a) - r * dz * math.cos(a)
+    near = toward >= toward.max() - 0.1 * (toward.max() - toward.min())
+    return float(h[r[near], c[near]].max())
 
 
 def _check_camera(camera: Any) -> Camera:

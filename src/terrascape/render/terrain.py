@@ -872,8 +872,12 @@ class TerrainRenderer:
         if params["sea_level"] is not None:
             ex, ez = self.mesh.extent
             y = float(params["sea_level"]) * self.exaggeration
-            quad = np.array([[0, y, 0], [0, y, ez], [ex, y, 0], [ex, y, 0], [0, y, ez],
-                             [ex, y, ez]], dtype=np.float32)
+            # the terrain and a margin of sea around it: underwater terrain seen from beyond
+            # its edge is under this water too
+            m = 4.0 * math.hypot(ex, ez)
+            x0, z0, x1, z1 = -m, -m, ex + m, ez + m
+            quad = np.array([[x0, y, z0], [x0, y, z1], [x1, y, z0], [x1, y, z0], [x0, y, z1],
+                             [x1, y, z1]], dtype=np.float32)
             if self._water_buf is None:
                 self._water_buf = self.ctx.buffer(reserve=quad.nbytes)
                 self._water_vao = self.ctx.vertex_array(
@@ -933,12 +937,11 @@ class TerrainRenderer:
         ctx = self.ctx
         ctx.enable(moderngl.BLEND | moderngl.DEPTH_TEST)
         ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-        fbo.depth_mask = False  # the sky pass fills only pixels no terrain was drawn on
+        # Depth is written: the sky pass after it fills only pixels nothing was drawn on.
         try:
             for vao in vaos:
                 vao.render(moderngl.TRIANGLES)
         finally:
-            fbo.depth_mask = True
             ctx.disable(moderngl.BLEND)
 
     def _draw_sky(self, uniforms: Mapping[str, Any]) -> None:

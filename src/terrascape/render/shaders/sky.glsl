@@ -28,18 +28,14 @@ uniform vec3 u_camera_pos;
 uniform int u_lighting;
 uniform int u_surround;          // 0 fade (haze), 1 plane, 2 sea
 uniform float u_surround_height; // world height of the plane / sea
-uniform vec3 u_surround_albedo;  // linear albedo of the plane (the terrain's edge colour)
-uniform float u_shelf_slope;     // depth gained per world unit beyond the terrain's edge
 in vec3 v_ray;
 out vec4 f_color;
 
 vec3 surround_radiance(vec3 p) {
+    // u_surround_albedo (common/water.glsl): the terrain's edge colour
     vec3 ground = daylight_radiance(u_surround_albedo, vec3(0.0, 1.0, 0.0), 1.0, 1.0);
     if (u_surround == 2) {
-        // Beyond the edge the sea floor falls away from the edge's height (a shelf), so the
-        // coast of the map continues as a shore and the open sea is deep.
-        vec2 q = clamp(p.xz, vec2(0.0), u_height_extent);
-        float depth = u_sea_level - terrain_height_at(q) + distance(p.xz, q) * u_shelf_slope;
+        float depth = u_sea_level - water_floor(p.xz);
         return water_shade(p, u_camera_pos, depth, ground, true).rgb;
     }
     return ground;

@@ -33,8 +33,8 @@ vec3 sky_radiance(vec3 d) {
     vec3 yxy = u_sky_zenith * vec3(perez_term(0, ct, gamma), perez_term(1, ct, gamma),
                                    perez_term(2, ct, gamma));
     float Y = yxy.x;
-    // y >= x + 0.004: Preetham's chromaticity drifts magenta toward the horizon (daylight.py)
-    float y = max(max(yxy.z, yxy.y + 0.004), 1e-4);
+    // y >= x + 0.01: Preetham's chromaticity drifts magenta toward the horizon (daylight.py)
+    float y = max(max(yxy.z, yxy.y + 0.01), 1e-4);
     vec3 xyz = vec3(yxy.y * Y / y, Y, (1.0 - yxy.y - y) * Y / y);
     mat3 to_rgb = mat3(3.2406, -0.9689, 0.0557,
                        -1.5372, 1.8758, -0.2040,

@@ -9,11 +9,25 @@ uniform float u_time;             // seconds (ripples move)
 uniform float u_wave_length;      // world units of the longest ripple
 uniform vec3 u_water_extinction;  // per world unit of depth (RGB)
 uniform float u_foam_depth;       // depth below which the shore foams
+uniform float u_shelf_slope;      // sea floor drop per world unit beyond the terrain's edge
+uniform vec3 u_surround_albedo;   // linear albedo of the ground beyond the terrain
 
 float terrain_height_at(vec2 xz) {
     vec2 size = vec2(textureSize(u_height, 0));
     vec2 uv = (clamp(xz / u_height_extent, 0.0, 1.0) * (size - 1.0) + 0.5) / size;
     return texture(u_height, uv).r;
+}
+
+// Height of the ground under the water at xz: the terrain, and beyond its edge a sea floor
+// that falls away from the edge's height (a shelf), so the coast continues as a shore and
+// the open sea is deep.
+float water_floor(vec2 xz) {
+    vec2 q = clamp(xz, vec2(0.0), u_height_extent);
+    return terrain_height_at(q) - distance(xz, q) * u_shelf_slope;
+}
+
+bool inside_terrain(vec2 xz) {
+    return all(greaterThanEqual(xz, vec2(0.0))) && all(lessThanEqual(xz, u_height_extent));
 }
 
 // Sum of directional sine ripples: slope (dh/dx, dh/dz) at xz.
