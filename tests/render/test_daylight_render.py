@@ -216,3 +216,27 @@ def test_high_quality_supersamples(gl_ctx):
         assert r.render(None, "plain").shape == (36, 64, 4)
     finally:
         r.release()
+
+
+def test_gpu_daylight_is_the_cpu_formula(gl_ctx):
+    """A flat grey plane lit by the daylight model: the GPU pixel equals the CPU model's
+    display value (same irradiance, exposure, tone curve and sRGB encoding)."""
+    from terrascape.lighting.daylight import daylight, srgb_to_linear
+
+    hm = Heightmap(np.zeros((17, 17), np.float32))
+    grey = np.full((17, 17, 3), 150, np.uint8)
+    r = OffscreenRenderer(gl_ctx, hm, size=(32, 32))
+    cam = Camera.look_at((8.0, 40.0, 8.0), (8.0, 0.0, 8.0), fov_y=10.0, near=1.0, far=100.0,
+                         aspect=1.0)
+    try:
+        for sun in ((135.0, 12.0), (200.0, 60.0)):
+            img = r.render(cam, "plain", {"sun": sun, "sky": False, "haze": 0.0,
+                                          "textures": {"u_color_tex": grey}})
+            day = daylight(*sun)
+            albedo = srgb_to_linear(np.full(3, 150 / 255.0))
+            e = day.surface_irradiance(np.array([0.0, 1.0, 0.0]), 1.0, 1.0)
+            want = np.rint(day.display(albedo * e / np.pi) * 255)
+            got = img[8:24, 8:24, :3].reshape(-1, 3).astype(float)
+            assert np.abs(got - want).max() <= 2, (sun, got.mean(0), want)
+    finally:
+        r.release()
