@@ -161,7 +161,8 @@ def test_first_frame_has_sky_and_terrain_and_keys_change_it(session):
     s, fbo = session
     stats = s.render(fbo, 0.02)
     img = _frame(fbo)
-    sky = (img[..., 2] > img[..., 0] + 20) & (img[..., 2] > 120)
+    # (+10: the daylight sky's hazy horizon is paler than the old gradient's horizon colour)
+    sky = (img[..., 2] > img[..., 0] + 10) & (img[..., 2] > 120)
     assert sky[:4].mean() > 0.95  # the top of the frame is sky
     assert 0.1 < (~sky).mean() < 0.95  # the terrain fills part of it
     assert stats["triangles"] == 2 * 32 * 32

@@ -229,8 +229,9 @@ def render_to_array(
     technique
         Registered technique (``plain``, ``regions``, ``texture3d``, ``splat``, ``bump``, …).
     camera
-        Default: :func:`~terrascape.camera.frame_terrain` (sees the whole terrain). Its aspect
-        is replaced by ``width/height``.
+        Default: :func:`default_camera` (a landscape view across the terrain,
+        :func:`~terrascape.camera.frame_landscape`). Its aspect is replaced by
+        ``width/height``.
     size
         ``(width, height)`` pixels.
     sun

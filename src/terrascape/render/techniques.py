@@ -16,7 +16,10 @@ Shader interface every technique program can rely on (see ``shaders/common/``):
 * fragment stage: ``#include "common/terrain_fragment.glsl"`` — the inputs above,
   ``out vec4 f_color``, ``grid_texcoord(sampler)`` (texel-centre lookup of textures aligned
   with the vertices), ``shade(albedo, N)`` (the ``lighting`` parameter: none / Phong with the
-  given normal / × lightmap), ``phong(...)`` and ``finish(color)`` (fog, alpha 1);
+  given normal / × lightmap / daylight — linear radiance with the per-pixel soft terrain
+  shadows and sky light of :mod:`terrascape.lighting.daylight`), ``phong(...)`` (daylight
+  too when it is on) and ``finish(color)`` (daylight: aerial perspective, exposure, ACES
+  tone map, sRGB; otherwise fog; alpha 1);
 * uniforms set by the renderer every frame: ``u_view_proj``, ``u_camera_pos``, ``u_extent``,
   ``u_spacing``, ``u_grid_size``, ``u_exaggeration``, ``u_height_range`` (world, exaggerated),
   ``u_sun_dir`` and every parameter ``name`` as ``u_name`` (skipped if the program lacks it).

@@ -135,6 +135,9 @@ def technique_params(state: ViewerState, accepted: Mapping[str, Any], *,
         p["haze"] = None if state.fog else 0.0
         p["time"] = float(time_s)
         p["sea_level"] = sea_level
+        # The viewer starts high above the terrain (the top of the frame below the horizon):
+        # beyond the terrain's edge the haze (or the sea), as the sky colour was before.
+        p["surround"] = "fade" if sea_level is None else "sea"
     else:
         p["lighting"] = "vertex"
     p.update(sky_colors(float(u["daylight"])))
