@@ -267,6 +267,8 @@ class TerrainRenderer:
         self._water_vao = None
         self._water_buf = None
         self._lake: tuple | None = None  # (key, vertex array, buffers) of the lakes' surface
+        self._skirt_buffers: list[Any] | None = None
+        self.draw_skirts = False  # set per frame: daylight frames close the terrain's sides
         self.chunks = mesh.chunks(chunk_size)
         self._chunk_vbos, self._chunk_ibos = self._upload_chunks()
         self._grid_vbos: list[Any] | None = None  # for set_indices, uploaded on first use
@@ -603,6 +605,8 @@ class TerrainRenderer:
             self._textures[name][0].use(location=unit)
         self._bind(deferred or program, uniforms, samplers)
         daylight = p["lighting"] == "daylight"
+        # Daylight frames show the world beyond the terrain: close its sides with skirts.
+        self.draw_skirts = daylight
         if daylight:
             self._bind_environment(deferred or program, p)
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
@@ -731,6 +735,8 @@ class TerrainRenderer:
             else:
                 self._vao(program, i).render(moderngl.TRIANGLES)
             drawn += n
+        if self.draw_skirts:
+            self._draw_skirts(program)
         return {"triangles": tris, "triangles_drawn": drawn, "chunks": len(visible),
                 "chunks_culled": len(self.chunks) - len(visible),
                 "chunks_small_cull": len(small_counts)}
@@ -823,6 +829,60 @@ class TerrainRenderer:
         vao.render(moderngl.TRIANGLES, vertices=3)
 
     # --- daylight: terrain shadows, sky view, water ------------------------------------
+    def _skirt_geometry(self) -> list[np.ndarray]:
+        """Vertical walls from the terrain's border down below its lowest point (positions,
+        outward normals, tangents; triangles as a flat list), so a view from beyond the edge
+        meets the terrain's side instead of looking under it."""
+        m = self.mesh
+        rows, cols = m.rows, m.cols
+        grid = m.positions.reshape(rows, cols, 3)
+        r = np.r_[np.zeros(cols - 1, int), np.arange(rows - 1), np.full(cols - 1, rows - 1),
+                  np.arange(rows - 1, 0, -1)]
+        c = np.r_[np.arange(cols - 1), np.full(rows - 1, cols - 1), np.arange(cols - 1, 0, -1),
+                  np.zeros(rows - 1, int)]
+        top = grid[r, c].astype(np.float32)
+        ex, ez = m.extent
+        rel = top[:, [0, 2]] - np.array([ex / 2, ez / 2], np.float32)
+        normal = np.zeros_like(top)
+        along_x = np.abs(rel[:, 0] / max(ex, 1e-9)) >= np.abs(rel[:, 1] / max(ez, 1e-9))
+        normal[along_x, 0] = np.sign(rel[along_x, 0])
+        normal[~along_x, 2] = np.sign(rel[~along_x, 1])
+        low = float(grid[..., 1].min())
+        relief = max(float(grid[..., 1].max()) - low, 1e-6)
+        bottom = top.copy()
+        bottom[:, 1] = low - 0.05 * relief
+        n = len(top)
+        a = np.arange(n)
+        b = (a + 1) % n
+        # top vertices 0..n-1, bottom n..2n-1; two triangles per border segment
+        tris = np.stack([a, a + n, b, b, a + n, b + n], axis=1).reshape(-1)
+        pos = np.concatenate([top, bottom])
+        nor = np.concatenate([normal, normal])
+        tan = np.zeros((2 * n, 4), np.float32)
+        tan[:, :3] = np.cross(nor, np.array([0.0, 1.0, 0.0], np.float32))
+        tan[:, 3] = 1.0
+        return [pos.astype(np.float32), nor.astype(np.float32), tan, tris.astype(np.uint32)]
+
+    def _draw_skirts(self, program) -> None:
+        import moderngl
+
+        if self._skirt_buffers is None:
+            pos, nor, tan, tris = self._skirt_geometry()
+            self._skirt_buffers = [self.ctx.buffer(a.tobytes()) for a in (pos, nor, tan, tris)]
+        key = (program.glo, "skirt", False)
+        vao = self._vaos.get(key)
+        if vao is None:
+            pos, nor, tan, ibo = self._skirt_buffers
+            vao = self.ctx.vertex_array(
+                program, [(pos, "3f", "in_position"), (nor, "3f", "in_normal"),
+                          (tan, "4f", "in_tangent")], ibo, 4, skip_errors=True)
+            self._vaos[key] = vao
+        self.ctx.disable(moderngl.CULL_FACE)  # seen from outside only; either winding
+        try:
+            vao.render(moderngl.TRIANGLES)
+        finally:
+            self.ctx.enable(moderngl.CULL_FACE)
+
     def _env_texture(self, name: str, key: Any, build) -> Any:
         have = self._env.get(name)
         if have is not None and have[1] == key:
@@ -989,6 +1049,9 @@ class TerrainRenderer:
             self._water_buf.release()
             self._water_vao = self._water_buf = None
         self._release_lake()
+        for buf in self._skirt_buffers or []:
+            buf.release()
+        self._skirt_buffers = None
         for vao in self._fullscreen_vaos.values():
             vao.release()
         self._fullscreen_vaos.clear()
