@@ -240,3 +240,29 @@ def test_gpu_daylight_is_the_cpu_formula(gl_ctx):
             assert np.abs(got - want).max() <= 2, (sun, got.mean(0), want)
     finally:
         r.release()
+
+
+def test_skirts_close_the_terrain_side(gl_ctx):
+    """From beyond the edge, below the terrain's border, a daylight frame shows the
+    terrain's side wall (down past its lowest point), not the clear colour under it."""
+    h = np.full((17, 17), 10.0, np.float32)
+    h[0, 0] = 0.0  # the lowest point, in the far corner: the skirts reach down to it
+    hm = Heightmap(h)
+    r = OffscreenRenderer(gl_ctx, hm, size=(64, 64))
+    cam = Camera.look_at((8.0, 14.0, 60.0), (8.0, 5.0, 16.0), fov_y=40.0, near=0.5,
+                         far=200.0, aspect=1.0)
+    magenta = {"sky": False, "fog_color": (1.0, 0.0, 1.0), "fog_density": 0.0}
+    try:
+        day = r.render(cam, "plain", magenta)
+        old = r.render(cam, "plain", {**magenta, "lighting": "vertex"})
+    finally:
+        r.release()
+    top, bottom = cam.project([[8.0, 10.0, 16.0], [8.0, 0.5, 16.0]], (64, 64))[:, 1]
+    rows = slice(int(top) + 2, int(bottom) - 1)
+    assert bottom - top > 6
+
+    def empty(img):
+        return (img[rows, 32, 0] == 255) & (img[rows, 32, 1] == 0) & (img[rows, 32, 2] == 255)
+
+    assert empty(old).all()  # without skirts: nothing below the border
+    assert not empty(day).any()
