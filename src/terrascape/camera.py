@@ -210,3 +210,52 @@ def frame_terrain(
     return Camera.orbit(
         centre, azimuth, elevation, distance, fov_y=fov_y, aspect=aspect, near=near, far=far
     )
+
+
+def frame_landscape(
+    extent: tuple[float, float],
+    height_range: tuple[float, float],
+    *,
+    azimuth: float = 210.0,
+    fov_y: float = 45.0,
+    aspect: float = 16 / 9,
+    horizon: float = 0.25,
+    height: float = 0.22,
+    edge_height: float | None = None,
+) -> Camera:
+    """A landscape-photo camera: over the terrain's near edge, looking across it, with the
+    horizon ``horizon`` (fraction of the image height) below the top edge.
+
+    Seen from ``azimuth`` (clockwise from north, as in :func:`frame_terrain`), the eye stands
+    ``height`` × the terrain's depth along the view above its mid height (at least half
+    that above its highest point), pitched so that the horizon sits at ``horizon``; it is
+    moved along the view until the bottom edge of the image crosses the near edge at
+    ``edge_height`` (the highest height of the terrain's border; default the highest of the
+    terrain), so no ray passes under the terrain's edge (the mesh has no side walls).
+    The terrain then fills the image from the bottom up to its far edge just below the
+    horizon — the renderer's surround (sea, plane or haze) continues it to the horizon —
+    instead of a small tile floating in an empty frame.
+    """
+    w, d = (check_positive(e, "terrain extent") for e in extent)
+    lo, hi = (check_finite(v, "height") for v in height_range)
+    check_range(horizon, "horizon (fraction of the image height)", 0.01, 0.5)
+    check_positive(height, "height (share of the terrain's depth)")
+    tan_y = math.tan(math.radians(fov_y) / 2.0)
+    pitch = -math.degrees(math.atan((1.0 - 2.0 * horizon) * tan_y))
+    bottom = math.radians(fov_y / 2.0 - pitch)  # depression of the image's bottom edge
+    yaw = (check_finite(azimuth, "azimuth") + 180.0) % 360.0
+    fwd = direction_from_angles(yaw, 0.0)
+    centre = np.array([w / 2.0, (lo + hi) / 2.0, d / 2.0])
+    corners = np.array([[x, z] for x in (0.0, w) for z in (0.0, d)]) - centre[[0, 2]]
+    along = corners @ fwd[[0, 2]]
+    depth = float(along.max() - along.min())
+    mid = centre[1]
+    cross = hi if edge_height is None else min(check_finite(edge_height, "edge height"), hi)
+    eye_y = max(mid + height * depth, cross + 0.5 * height * depth)
+    back = (eye_y - cross) / math.tan(bottom)
+    eye_h = centre[[0, 2]] + fwd[[0, 2]] * (float(along.min()) + 0.02 * depth - back)
+    eye = np.array([eye_h[0], eye_y, eye_h[1]])
+    far_pts = np.array([[x, y, z] for x in (0.0, w) for y in (lo, hi) for z in (0.0, d)])
+    far = float(np.linalg.norm(far_pts - eye, axis=1).max()) * 1.1
+    return Camera(position=tuple(eye), yaw=yaw, pitch=pitch, fov_y=fov_y, aspect=aspect,
+                  near=max(far * 2e-4, 1e-3), far=far)

@@ -112,10 +112,11 @@ def test_heightfromimage(tmp_path):
 def test_shade(tmp_path, hm_file):
     out = tmp_path / "light.png"
     args = ["shade", str(hm_file), "-o", str(out), "--sun-azimuth", "90",
-            "--sun-elevation", "20", "--ambient", "0.1", "-q"]
+            "--sun-elevation", "20", "--ambient", "0.1", "--lighting", "seed", "-q"]
     assert run_app(args) == 0
     img = np.array(Image.open(out))
-    expect = lightmap(read_heightmap(hm_file), 90.0, 20.0, ambient=0.1)
+    # `shade` defaults to the daylight model now; the seed formula is --lighting seed.
+    expect = lightmap(read_heightmap(hm_file), 90.0, 20.0, ambient=0.1, model="seed")
     np.testing.assert_array_equal(img, np.rint(expect * 255).astype(np.uint8))
     assert (img[16, :15] == round(0.1 * 255)).sum() >= 10  # shadow west of the spike
     out2 = tmp_path / "flat.png"

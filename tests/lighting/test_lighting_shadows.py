@@ -8,11 +8,14 @@ import pytest
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.lighting import (
-    lightmap,
     shadow_mask,
     shadow_mask_reference,
     soft_shadow,
 )
+
+# The seed's lightmap formula (terrascape.lighting.lightmap now defaults to the daylight
+# model; the seed formula stays in lighting.shadows and as model="seed").
+from terrascape.lighting.shadows import lightmap
 
 METHODS = [shadow_mask, shadow_mask_reference]
 

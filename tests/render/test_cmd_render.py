@@ -160,3 +160,40 @@ def test_needs_exactly_one_source(npy_map, capsys):
     assert run_app(["render", str(npy_map), "--generate", "hills", "-q"]) == 2
     assert run_app(["render", "--generate", "nope", "-q"]) == 2
     assert run_app([str(npy_map.with_name("missing.npy")), "-q"]) == 2
+
+
+def test_render_daylight_options(gl_ctx, npy_map, tmp_path, capsys):
+    from terrascape.io import read_heightmap
+    from terrascape.render.offscreen import render_to_array
+
+    hm = read_heightmap(npy_map)  # heights 0 … 6
+    out = tmp_path / "sea.png"
+    args = ["render", str(npy_map), "-o", str(out), "--size", "48x32", "-q", "--sun", "135,20"]
+    assert run_app([*args, "--sea-level", "2.5", "--surround", "fade"]) == 0
+    ref = render_to_array(hm, size=(48, 32), sun=(135, 20), ctx=gl_ctx,
+                          params={"sea_level": 2.5, "surround": "fade"})
+    np.testing.assert_array_equal(np.asarray(Image.open(out)), ref[..., :3])
+    dry = render_to_array(hm, size=(48, 32), sun=(135, 20), ctx=gl_ctx,
+                          params={"surround": "fade"})
+    assert np.abs(ref.astype(int) - dry.astype(int)).max() > 30  # the water is there
+    # a sea level above everything is a note on stderr, not an error
+    flood = tmp_path / "flood.png"
+    assert run_app([*args[:3], str(flood), *args[4:], "--sea-level", "100"]) == 0
+    assert "above the whole terrain" in capsys.readouterr().err
+    # the seed's look stays available
+    old = tmp_path / "old.png"
+    assert run_app([*args[:3], str(old), *args[4:], "--lighting", "vertex"]) == 0
+    hq = tmp_path / "hq.png"
+    assert run_app([*args[:3], str(hq), *args[4:], "--quality", "high"]) == 0
+    assert np.asarray(Image.open(hq)).shape == (32, 48, 3)
+    lake = tmp_path / "depth.npy"
+    np.save(lake, np.where(np.asarray(hm.heights) < 1.0, 0.5, 0.0).astype(np.float32))
+    assert run_app([*args[:3], str(tmp_path / "lake.png"), *args[4:], "--water-depth",
+                    str(lake)]) == 0
+    wrong = tmp_path / "wrong.npy"
+    np.save(wrong, np.zeros((5, 5), np.float32))
+    for extra in (["--surround", "ocean"], ["--quality", "ultra"], ["--lighting", "sun"],
+                  ["--water-depth", str(wrong)], ["--sea-level", "nan"]):
+        bad = tmp_path / "bad.png"
+        assert run_app([*args[:3], str(bad), *args[4:], *extra]) == 2, extra
+        assert not bad.exists()

@@ -26,7 +26,12 @@ def hm():
 
 
 def test_default_camera_frames_whole_terrain(gl_ctx, hm):
-    img = render_to_array(hm, size=(64, 48), ctx=gl_ctx, params={"sky": False})
+    # The overview (an elevation given) still fits the whole terrain; the default camera is
+    # now the landscape view (terrain filling the image below the horizon, checked below).
+    from terrascape.render.offscreen import default_camera
+
+    cam = default_camera(hm, (64, 48), elevation=35.0)
+    img = render_to_array(hm, size=(64, 48), ctx=gl_ctx, camera=cam, params={"sky": False})
     bg = img[0, 0]
     fg = np.any(img != bg, axis=-1)
     rows, cols = np.nonzero(fg)
@@ -34,6 +39,13 @@ def test_default_camera_frames_whole_terrain(gl_ctx, hm):
     assert fg.mean() > 0.05
     assert rows.min() > 0 and cols.min() > 0 and rows.max() < 47 and cols.max() < 63
     assert abs(cols.mean() - 32) < 8
+
+
+def test_default_camera_is_a_landscape_view(gl_ctx, hm):
+    img = render_to_array(hm, size=(64, 48), ctx=gl_ctx, params={"sky": False})
+    fg = np.any(img != img[0, 0], axis=-1)
+    assert not fg[:6].any()  # sky band at the top (the horizon a quarter down)
+    assert fg[-4:].all()  # the terrain reaches the bottom edge across the whole width
 
 
 def test_render_frames_matches_single_renders(gl_ctx, hm):

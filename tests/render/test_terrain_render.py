@@ -261,7 +261,10 @@ def test_sky_gradient(gl_ctx):
     hm = Heightmap(np.zeros((5, 5), np.float32))
     cam = Camera.look_at((2, 0.5, 30), (2, 3, 0), fov_y=60, aspect=1.0, near=0.1, far=100)
     img = render_to_array(
-        hm, camera=cam, size=(32, 32), ctx=gl_ctx, sun=(0, 5), params={"fog_density": 0.0}
+        hm, camera=cam, size=(32, 32), ctx=gl_ctx, sun=(0, 5),
+        # the colour-gradient sky of the non-daylight modes (daylight is the default now;
+        # its sky is checked in tests/render/test_daylight_render.py)
+        params={"fog_density": 0.0, "lighting": "vertex"},
     )
     top, low = img[0, 16, :3].astype(int), img[-1, 16, :3].astype(int)
     # zenith is bluer/darker than the horizon colour
@@ -313,12 +316,14 @@ def _far_terrain(rng_seed=3, side=257):
     return diamond_square(side, seed=rng_seed, roughness=0.6).normalised(0.0, 30.0)
 
 
-def _on_and_off(renderer, switch, cam, tech):
+# The tests below compare renderer options on a far overview (several triangles per pixel):
+# the orbit overview at 35° that was the default camera before the landscape view.
+def _on_and_off(renderer, switch, cam, tech, params=None):
     """(image, stats) with the renderer option ``switch`` on, then with it off."""
     out = []
     for value in (True, False):
         setattr(renderer.terrain, switch, value)
-        out.append((renderer.render(cam, tech), dict(renderer.terrain.last_stats)))
+        out.append((renderer.render(cam, tech, params), dict(renderer.terrain.last_stats)))
     return out
 
 
@@ -328,7 +333,7 @@ def test_small_triangle_cull_draws_the_same_image_from_a_fraction_of_the_triangl
     r = OffscreenRenderer(gl_ctx, _far_terrain(), size=(160, 90))
     try:
         (culled_img, stats), (full_img, full_stats) = _on_and_off(
-            r, "small_triangle_cull", r.default_camera(), tech)
+            r, "small_triangle_cull", r.default_camera(elevation=35.0), tech)
     finally:
         r.release()
     assert stats["chunks_small_cull"] == stats["chunks"] > 0
@@ -346,7 +351,7 @@ def test_small_triangle_cull_leaves_close_views_and_lod_meshes_alone(gl_ctx):
         r.render(cam, "plain")
         assert r.terrain.last_stats["chunks_small_cull"] == 0
         r.terrain.set_indices(r.terrain.mesh.triangles)  # LOD meshes are never culled
-        r.render(r.default_camera(), "plain")
+        r.render(r.default_camera(elevation=35.0), "plain")
         assert r.terrain.last_stats["chunks_small_cull"] == 0
     finally:
         r.release()
@@ -367,8 +372,12 @@ def test_small_triangle_cull_is_on_by_default_on_software_rasterisers(gl_ctx):
 def test_deferred_shading_draws_what_forward_shading_draws(gl_ctx, tech):
     r = OffscreenRenderer(gl_ctx, _far_terrain(), size=(160, 90), small_triangle_cull=True)
     try:
+        # Relief under the daylight default: its tone curve is steepest in the mid-tones the
+        # relief texture's LOD differences fall in; the geometry buffer is what is compared,
+        # so relief is compared under Phong lighting as before the daylight default.
+        params = {"lighting": "vertex"} if tech == "relief" else None
         (deferred, stats), (forward, _) = _on_and_off(
-            r, "deferred_shading", r.default_camera(), tech)
+            r, "deferred_shading", r.default_camera(elevation=35.0), tech, params)
     finally:
         r.release()
     from terrascape.render.techniques import get_technique
@@ -415,8 +424,8 @@ def test_small_triangle_cull_on_a_map_of_odd_size(gl_ctx, rng):
     h = gaussian_filter(rng.random((211, 300)), 3).astype(np.float32) * 40.0
     r = OffscreenRenderer(gl_ctx, Heightmap(h), size=(120, 80))
     try:
-        (culled, stats), (full, _) = _on_and_off(r, "small_triangle_cull", r.default_camera(),
-                                                 "plain")
+        (culled, stats), (full, _) = _on_and_off(
+            r, "small_triangle_cull", r.default_camera(elevation=35.0), "plain")
     finally:
         r.release()
     np.testing.assert_array_equal(culled, full)

@@ -100,7 +100,8 @@ def _scene_change(a: np.ndarray, b: np.ndarray) -> float:
 
 def _is_sky(px: np.ndarray) -> np.ndarray:
     r, g, b = px[..., 0], px[..., 1], px[..., 2]
-    return (b > r + 20) & (b >= g) & (b > 120)
+    # +10: the daylight sky's hazy horizon is paler than the old gradient's horizon colour
+    return (b > r + 10) & (b >= g) & (b > 120)
 
 
 def test_view_window_keys_and_quit(xvfb, tmp_path):

@@ -15,6 +15,14 @@ from terrascape.bench import BenchTable
 
 TECHNIQUES = ("plain", "regions", "texture3d", "splat", "bump")
 PATH_FRAMES = 6
+# The look comparison: the plain technique as it rendered before the daylight default
+# (Phong, gradient sky, fog) against the daylight look, drawn interleaved frame by frame.
+LOOKS = (
+    ("plain, Phong + fog (before)", {"lighting": "vertex"}),
+    ("daylight: sky, haze, shadows", {}),
+    ("daylight + water (sea)", {"sea_level": "share"}),
+)
+LOOK_TARGET = 1.3
 
 
 def camera_path(renderer, n: int = PATH_FRAMES):
@@ -72,6 +80,7 @@ def run(quick: bool = False) -> list[BenchTable]:
                         round(setup_s, 2),
                     ]
                 )
+            looks = _look_rows(r, ctx, cams, hm)
         finally:
             r.release()
     table = BenchTable(
@@ -110,4 +119,47 @@ def run(quick: bool = False) -> list[BenchTable]:
         if row[0] != "plain":
             table.check_target(f"{row[0]} time / plain's", table.value(row[0], "× plain"),
                                at_most=2, unit="×")
-    return [table]
+    look_table = BenchTable(
+        title=f"render look: plain before vs daylight, {side}² at {size[0]}×{size[1]}",
+        columns=["look", "ms/frame (median)", "frames/s", "× before", "setup s"],
+        rows=looks,
+        notes=[
+            "Interleaved: every camera of the path renders each look in turn (one warm-up "
+            "frame each first), so the ratios share the machine's load.",
+            "Setup of the daylight look: soft terrain shadows (6 sweeps) + sky-view factor.",
+            "sea: sea level at the 30th percentile of the heights.",
+            f"target: daylight ≤ {LOOK_TARGET}× the plain look before — "
+            + ("met" if all(row[3] <= LOOK_TARGET for row in looks[1:]) else "NOT met")
+            + " in this run.",
+        ],
+    )
+    for row in looks[1:]:
+        look_table.check_target(f"{row[0]} / the plain look before", row[3],
+                                at_most=LOOK_TARGET, unit="×")
+    return [table, look_table]
+
+
+def _look_rows(r, ctx, cams, hm) -> list[list]:
+    import numpy as np
+
+    sea = float(np.percentile(hm.heights, 30))
+    configs = []
+    for name, params in LOOKS:
+        p = {k: (sea if v == "share" else v) for k, v in params.items()}
+        t0 = time.perf_counter()
+        r.render(cams[0], "plain", p)
+        ctx.finish()
+        configs.append((name, p, time.perf_counter() - t0, []))
+    for cam in cams:
+        for _, p, _, times in configs:
+            t1 = time.perf_counter()
+            r.render(cam, "plain", p)
+            ctx.finish()
+            times.append(time.perf_counter() - t1)
+    base = statistics.median(configs[0][3]) * 1e3
+    rows = []
+    for name, _, setup_s, times in configs:
+        ms = statistics.median(times) * 1e3
+        rows.append([name, round(ms, 1), round(1e3 / ms, 2), round(ms / base, 2),
+                     round(setup_s, 2)])
+    return rows

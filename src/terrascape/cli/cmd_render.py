@@ -12,6 +12,7 @@ import typer
 
 from terrascape.camera import Camera
 from terrascape.cli.app import MAX_MEMORY, app, out, progress, timed, use_max_memory
+from terrascape.cli.app import console as err
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
 from terrascape.generate.registry import generator_names, names_help
@@ -112,6 +113,23 @@ def build_camera(hm, size, exaggeration, camera: str | None, target: str | None,
     return None
 
 
+def _load_water_depth(path: Path, hm) -> np.ndarray:
+    """A float32 water-depth map (.npy) of the heightmap's shape."""
+    if path.suffix.lower() != ".npy":
+        raise InvalidParameterError(f"--water-depth must be a .npy file, got {path.name!r}")
+    try:
+        depth = np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as exc:
+        raise FileFormatError(f"cannot read water depth {path}: {exc}") from exc
+    if depth.shape != hm.shape or not np.issubdtype(depth.dtype, np.floating):
+        raise InvalidParameterError(
+            f"--water-depth must be a float array of shape {hm.shape}, got {depth.dtype} "
+            f"{depth.shape}")
+    if not np.isfinite(depth).all():
+        raise InvalidParameterError("--water-depth contains NaN/inf")
+    return depth.astype(np.float32)
+
+
 @app.command("render")
 def render_command(
     heightmap: Path = typer.Argument(
@@ -167,7 +185,45 @@ def render_command(
         1.0, "--exaggeration", help="Vertical exaggeration factor (heights × F)."
     ),
     lighting: str = typer.Option(
-        "vertex", "--lighting", help="Lighting: vertex (Phong), lightmap (with shadows), none."
+        "daylight", "--lighting",
+        help="Lighting: daylight (sun + sky light, soft terrain shadows per pixel, analytic "
+        "sky, haze, filmic tone map), vertex (Phong, no shadows), lightmap (the seed's "
+        "lightmap with shadows), none.",
+    ),
+    sea_level: float = typer.Option(
+        None, "--sea-level",
+        help="Draw water up to this height (heightmap units, before --exaggeration). "
+        "[default: no water]",
+        show_default=False,
+    ),
+    water_depth: Path = typer.Option(
+        None, "--water-depth",
+        help="Lakes: a .npy float32 water-depth map of the heightmap's shape (e.g. from "
+        "erosion), drawn as water where > 0.",
+        show_default=False,
+    ),
+    surround: str = typer.Option(
+        None, "--surround",
+        help="Beyond the terrain's edge: sea (water to the horizon), plane (ground at the "
+        "lowest height, the edge's colour) or fade (haze). [default: sea with --sea-level, "
+        "else plane]",
+        show_default=False,
+    ),
+    quality: str = typer.Option(
+        "default", "--quality",
+        help="default, or high: 2×2 supersampling and 16 shadow sweeps (seconds a frame).",
+    ),
+    turbidity: float = typer.Option(
+        3.0, "--turbidity", help="Daylight: haze of the sky, 1.7 (very clear) to 10 (hazy)."
+    ),
+    exposure: float = typer.Option(
+        0.0, "--exposure", help="Daylight: exposure correction in stops (EV)."
+    ),
+    haze: float = typer.Option(
+        None, "--haze",
+        help="Daylight: aerial-perspective extinction per world unit (0 = off). "
+        "[default: automatic from the terrain size]",
+        show_default=False,
     ),
     wireframe: bool = typer.Option(False, "--wireframe", help="Overlay the triangle edges."),
     turntable: int = typer.Option(
@@ -222,6 +278,18 @@ def render_command(
     if fmt not in ("png", "mp4"):
         raise InvalidParameterError(f"--format must be png or mp4, got {fmt!r}")
     technique = get_technique(technique).name  # fail fast on a typo; old names → new
+    from terrascape.render.offscreen import QUALITIES
+    from terrascape.render.techniques import LIGHTING_MODES
+
+    if lighting not in LIGHTING_MODES:
+        raise InvalidParameterError(
+            f"--lighting must be one of {', '.join(LIGHTING_MODES)}, got {lighting!r}")
+    if quality not in QUALITIES:
+        raise InvalidParameterError(f"--quality must be default or high, got {quality!r}")
+    if surround is not None and surround not in ("sea", "plane", "fade"):
+        raise InvalidParameterError(f"--surround must be sea, plane or fade, got {surround!r}")
+    if sea_level is not None and not math.isfinite(sea_level):
+        raise InvalidParameterError(f"--sea-level must be finite, got {sea_level}")
     if output is None:
         output = Path("turntable.mp4" if turntable and fmt == "mp4" else "render.png")
     want = ".mp4" if turntable and fmt == "mp4" else ".png"
@@ -229,7 +297,9 @@ def render_command(
         raise InvalidParameterError(f"output must end in {want} here, got {output.name!r}")
     if not turntable:
         check_output_path(output, force=force)
-    params = {"lighting": lighting, "wireframe": wireframe, "seed": seed}
+    params = {"lighting": lighting, "wireframe": wireframe, "seed": seed,
+              "sea_level": sea_level, "surround": surround, "turbidity": turbidity,
+              "exposure": exposure, "haze": haze}
 
     use_max_memory(max_memory)
     if generate is not None:
@@ -244,6 +314,13 @@ def render_command(
         from terrascape.memory import check_grid
 
         check_grid("render", hm.rows, hm.cols, hint="render a smaller map (or raise --max-memory)")
+    if water_depth is not None:
+        params["water_depth"] = _load_water_depth(water_depth, hm)
+    from terrascape.render.atmosphere import sea_level_note
+
+    note = sea_level_note(hm, sea_level)
+    if note:
+        err.print(f"[yellow]warning:[/yellow] {note}")
     with contextlib.ExitStack() as stack:
         with timed("GL context", quiet=quiet):
             ctx = stack.enter_context(headless_context())
@@ -268,6 +345,7 @@ def render_command(
                     params=params,
                     force=force,
                     progress=lambda done, total: bar.update(task, completed=done),
+                    quality=quality,
                 )
             out.print(
                 f"{files[0]}"
@@ -276,7 +354,8 @@ def render_command(
             )
             return
         cam = build_camera(hm, wh, exaggeration, camera, target, orbit, camera_height)
-        renderer = OffscreenRenderer(ctx, hm, size=wh, exaggeration=exaggeration)
+        renderer = OffscreenRenderer(ctx, hm, size=wh, exaggeration=exaggeration,
+                                     quality=quality)
         try:
             with timed(f"render ({technique})", quiet=quiet):
                 img = renderer.render(cam, technique, {**params, "sun": (sun_az, sun_el)})

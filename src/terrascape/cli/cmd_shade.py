@@ -204,18 +204,36 @@ def shade_cmd(
         None, "--sun-azimuth", hidden=True, help="Deprecated: use --sun AZ,EL."),
     sun_elevation: float = typer.Option(
         None, "--sun-elevation", hidden=True, help="Deprecated: use --sun AZ,EL."),
-    ambient: float = typer.Option(0.2, "--ambient", help="Ambient light in [0, 1]."),
-    soft: bool = typer.Option(False, "--soft", help="Soft shadows from the sun's disc (0.27°)."),
+    lighting: str = typer.Option(
+        "daylight", "--lighting",
+        help="Light model: daylight (sun + blue sky + bounce, soft shadows, filmic tone map) "
+        "or seed (ambient + 0.5·(1 + N·L) where lit, ambient in shadow).",
+    ),
+    color: bool = typer.Option(
+        False, "--color", help="Daylight: write an RGB lightmap (blue sky light in shadows)."
+    ),
+    turbidity: float = typer.Option(
+        3.0, "--turbidity", help="Daylight: haze of the air, 1.7 (very clear) to 10 (hazy)."
+    ),
+    exposure: float = typer.Option(
+        -1.0, "--exposure", help="Daylight: exposure correction in stops (EV)."
+    ),
+    ambient: float = typer.Option(0.2, "--ambient", help="Seed model: ambient light in [0, 1]."),
+    soft: bool = typer.Option(
+        False, "--soft", help="Seed model: soft shadows from the sun's disc (0.27°); the "
+        "daylight model's shadows are always soft."
+    ),
     no_shadows: bool = typer.Option(False, "--no-shadows", help="Slope shading only."),
     method: str = typer.Option(
-        "fast", "--method", help="Shadow method: fast (O(n²) sweep) or reference (ray per sample)."
+        "fast", "--method",
+        help="Seed model shadow method: fast (O(n²) sweep) or reference (ray per sample).",
     ),
     force: bool = _FORCE,
     quiet: bool = _QUIET,
     max_memory: str = MAX_MEMORY,
 ) -> None:
-    """Lightmap with cast shadows: ambient + 0.5·(1 + N·L) where the sun is seen, ambient in
-    shadow."""
+    """Lightmap of the terrain under the sun: the daylight model (default), or ambient +
+    0.5·(1 + N·L) where the sun is seen and ambient in shadow (--lighting seed)."""
     import warnings
 
     from PIL import Image
@@ -231,17 +249,27 @@ def shade_cmd(
         sun_el = sun_el if sun_elevation is None else sun_elevation
 
     _require_png(output)
+    if lighting not in ("daylight", "seed"):
+        raise InvalidParameterError(f"--lighting must be daylight or seed, got {lighting!r}")
     if method not in ("fast", "reference"):
         raise InvalidParameterError(f"--method must be 'fast' or 'reference', got {method!r}")
+    if lighting == "seed" and color:
+        raise InvalidParameterError("--color needs --lighting daylight")
     check_output_path(output, force=force)
     with timed("read", quiet=quiet):
         hm = _read_heightmap(heightmap)
     _check_memory("shade", hm.rows, hm.cols, max_memory)
     with timed("lightmap", quiet=quiet):
-        light = lightmap(
-            hm, sun_az, sun_el, ambient=ambient, shadows=not no_shadows, soft=soft,
-            method=method,
-        )
+        if lighting == "seed":
+            light = lightmap(
+                hm, sun_az, sun_el, model="seed", ambient=ambient,
+                shadows=not no_shadows, soft=soft, method=method,
+            )
+        else:
+            light = lightmap(
+                hm, sun_az, sun_el, shadows=not no_shadows, color=color,
+                turbidity=turbidity, exposure=exposure,
+            )
     mean = float(light.mean())
     light *= np.float32(255.0)  # in place: the 8-bit codes are the only new array
     np.rint(light, out=light)
@@ -250,4 +278,6 @@ def shade_cmd(
     with timed("write", quiet=quiet), atomic_output(output, force=force) as tmp:
         Image.fromarray(codes).save(tmp, format="PNG")
     if not quiet:
-        out.print(f"{output}  {hm.cols}×{hm.rows} lightmap, mean {mean:.3f}")
+        kind = "RGB" if codes.ndim == 3 else "grey"
+        out.print(f"{output}  {hm.cols}×{hm.rows} {lighting} {kind} lightmap, "
+                  f"mean {mean:.3f}")

@@ -1,4 +1,5 @@
-"""Lighting: normals and normal maps, height from photos, slope shading, shadows, sky view.
+"""Lighting: normals and normal maps, height from photos, slope shading, shadows, sky view,
+and the daylight model (sun + sky + bounce, tone-mapped) that ``lightmap`` uses by default.
 
 MISSION T4 (slope shading, shadow maps by ray casting and a fast exact sweep; seed 001
 §3.2.2) and T6 (normal + height textures, height approximated from a photo; seed 000 §2.3.1,
@@ -6,6 +7,7 @@ MISSION T4 (slope shading, shadow maps by ray casting and a fast exact sweep; se
 """
 
 from terrascape.lighting.ambient_occlusion import sky_view_factor
+from terrascape.lighting.daylight import Daylight, daylight, daylight_lightmap, lightmap
 from terrascape.lighting.height_from_image import height_from_image, luminance
 from terrascape.lighting.normals import (
     normal_map,
@@ -14,7 +16,6 @@ from terrascape.lighting.normals import (
     unpack_normals,
 )
 from terrascape.lighting.shadows import (
-    lightmap,
     shadow_mask,
     shadow_mask_reference,
     soft_shadow,
@@ -23,6 +24,9 @@ from terrascape.lighting.slope_shading import lambert
 from terrascape.lighting.sun import sun_direction
 
 __all__ = [
+    "Daylight",
+    "daylight",
+    "daylight_lightmap",
     "height_from_image",
     "lambert",
     "lightmap",

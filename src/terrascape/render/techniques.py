@@ -16,7 +16,10 @@ Shader interface every technique program can rely on (see ``shaders/common/``):
 * fragment stage: ``#include "common/terrain_fragment.glsl"`` — the inputs above,
   ``out vec4 f_color``, ``grid_texcoord(sampler)`` (texel-centre lookup of textures aligned
   with the vertices), ``shade(albedo, N)`` (the ``lighting`` parameter: none / Phong with the
-  given normal / × lightmap), ``phong(...)`` and ``finish(color)`` (fog, alpha 1);
+  given normal / × lightmap / daylight — linear radiance with the per-pixel soft terrain
+  shadows and sky light of :mod:`terrascape.lighting.daylight`), ``phong(...)`` (daylight
+  too when it is on) and ``finish(color)`` (daylight: aerial perspective, exposure, ACES
+  tone map, sRGB; otherwise fog; alpha 1);
 * uniforms set by the renderer every frame: ``u_view_proj``, ``u_camera_pos``, ``u_extent``,
   ``u_spacing``, ``u_grid_size``, ``u_exaggeration``, ``u_height_range`` (world, exaggerated),
   ``u_sun_dir`` and every parameter ``name`` as ``u_name`` (skipped if the program lacks it).
@@ -36,7 +39,7 @@ import numpy as np
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 
-LIGHTING_MODES = {"none": 0, "vertex": 1, "lightmap": 2}
+LIGHTING_MODES = {"none": 0, "vertex": 1, "lightmap": 2, "daylight": 3}
 
 
 @dataclass(frozen=True)
@@ -261,7 +264,9 @@ def build_normal_height(hm: Heightmap, params: Mapping[str, Any]) -> TextureData
 # ----------------------------------------------------------------------------------------
 COMMON_PARAMS: dict[str, Any] = {
     "sun": (135.0, 45.0),  # (azimuth°, elevation°); terrascape.lighting.sun convention
-    "lighting": "vertex",  # none | vertex (Phong with the vertex normal) | lightmap
+    # none | vertex (Phong with the vertex normal) | lightmap | daylight (sun + sky + bounce
+    # with per-pixel soft terrain shadows, Preetham sky, aerial perspective, ACES tone map)
+    "lighting": "daylight",
     "ka": 0.35,
     "kd": 0.75,
     "ks": 0.0,
@@ -284,6 +289,16 @@ COMMON_PARAMS: dict[str, Any] = {
     "material_size": 256,
     "lightmap_ambient": 0.2,
     "shadows": True,
+    # daylight look (terrascape.lighting.daylight, terrascape.render.atmosphere)
+    "turbidity": 3.0,  # haze of the sky model, 1.7 (very clear) … 10 (hazy)
+    "exposure": 0.0,  # stops on top of the automatic exposure
+    "haze": None,  # aerial-perspective extinction per world unit; None = automatic, 0 = off
+    "sun_radius": 0.5,  # degrees: the sun's disc (and aureole) that softens the shadows
+    "shadow_samples": 6,  # shadow sweeps over the sun's disc (penumbra levels)
+    "sea_level": None,  # water surface height (heightmap units, before exaggeration)
+    "water_depth": None,  # float32 (rows, cols) water depth on the terrain (lakes), or None
+    "surround": None,  # beyond the terrain: sea | plane | fade; None = sea with a sea level
+    "time": 0.0,  # seconds, animates the water ripples
 }
 
 _REGISTRY: dict[str, Technique] = {}

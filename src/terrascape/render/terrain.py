@@ -52,6 +52,9 @@ _SAMPLER_TYPES = frozenset(
 _SPARE_UNIT = 16
 # Texture units of the geometry buffer in the deferred shading pass (below the spare units).
 _GBUFFER_UNIT = 12
+# Texture units of the daylight look's own textures (terrain shadows + sky view, heights).
+_SUN_SKY_UNIT = 10
+_HEIGHT_UNIT = 11
 _FALLBACK = "plain"
 # Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
 # (129 ≢ 0, ±1 mod 256, llvmpipe's vertex-cache hash) with few draw calls (64 at 1025²).
@@ -255,6 +258,17 @@ class TerrainRenderer:
         # triangles), made on the chunk's first culled frame
         self._cull_state: dict[int, tuple[np.ndarray, np.ndarray, Any]] = {}
         self.mesh = mesh = terrain_mesh(heightmap, exaggeration=self.exaggeration)
+        # The terrain as drawn (heights × exaggeration): shadows and water depths use it.
+        self.world = heightmap if self.exaggeration == 1.0 else heightmap.scaled(
+            self.exaggeration)
+        self._env: dict[str, tuple[Any, Any]] = {}  # daylight textures: name -> (tex, key)
+        self._sky_visibility: np.ndarray | None = None
+        self._edge_albedo: dict[int, np.ndarray] = {}
+        self._water_vao = None
+        self._water_buf = None
+        self._lake: tuple | None = None  # (key, vertex array, buffers) of the lakes' surface
+        self._skirt_buffers: list[Any] | None = None
+        self.draw_skirts = False  # set per frame: daylight frames close the terrain's sides
         self.chunks = mesh.chunks(chunk_size)
         self._chunk_vbos, self._chunk_ibos = self._upload_chunks()
         self._grid_vbos: list[Any] | None = None  # for set_indices, uploaded on first use
@@ -438,6 +452,14 @@ class TerrainRenderer:
             "wireframe",
             "shadows",
             "lightmap_ambient",
+            "turbidity",
+            "exposure",
+            "haze",
+            "sun_radius",
+            "shadow_samples",
+            "sea_level",
+            "water_depth",
+            "surround",
             "slope_rule",
             "detail_size",
             "bump_height",
@@ -448,6 +470,16 @@ class TerrainRenderer:
             if isinstance(value, (bool, np.bool_)):
                 value = int(value)
             u[f"u_{key}"] = value
+        if params["lighting"] == "daylight":
+            from terrascape.render.atmosphere import daylight_uniforms
+
+            seed = int(params.get("seed", 0))
+            if seed not in self._edge_albedo:
+                from terrascape.render.atmosphere import edge_albedo
+
+                self._edge_albedo[seed] = edge_albedo(self.heightmap, seed)
+            u.update(daylight_uniforms(self.world, params, edge_albedo=self._edge_albedo[seed],
+                                       exaggeration=self.exaggeration))
         if "detail_size" in params:
             d = params["detail_size"]
             u["u_detail_size"] = tile / 5.0 if d is None else check_positive(d, "detail_size")
@@ -572,6 +604,11 @@ class TerrainRenderer:
         for unit, name in enumerate(samplers):
             self._textures[name][0].use(location=unit)
         self._bind(deferred or program, uniforms, samplers)
+        daylight = p["lighting"] == "daylight"
+        # Daylight frames show the world beyond the terrain: close its sides with skirts.
+        self.draw_skirts = daylight
+        if daylight:
+            self._bind_environment(deferred or program, p)
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.front_face = "ccw"
         wire = bool(p["wireframe"])
@@ -598,6 +635,8 @@ class TerrainRenderer:
             finally:
                 ctx.wireframe = False
         ctx.disable(moderngl.CULL_FACE)
+        if daylight and (p["sea_level"] is not None or p["water_depth"] is not None):
+            self._draw_water(fbo, uniforms, p)
         if p["sky"]:
             # Drawn last at depth 1.0 with LEQUAL: only pixels no terrain covered are shaded,
             # instead of a full-screen pass that the terrain then overdraws.
@@ -696,6 +735,8 @@ class TerrainRenderer:
             else:
                 self._vao(program, i).render(moderngl.TRIANGLES)
             drawn += n
+        if self.draw_skirts:
+            self._draw_skirts(program)
         return {"triangles": tris, "triangles_drawn": drawn, "chunks": len(visible),
                 "chunks_culled": len(self.chunks) - len(visible),
                 "chunks_small_cull": len(small_counts)}
@@ -787,6 +828,182 @@ class TerrainRenderer:
             vao = self._fullscreen_vaos[program.glo] = self.ctx.vertex_array(program, [])
         vao.render(moderngl.TRIANGLES, vertices=3)
 
+    # --- daylight: terrain shadows, sky view, water ------------------------------------
+    def _skirt_geometry(self) -> list[np.ndarray]:
+        """Vertical walls from the terrain's border down below its lowest point (positions,
+        outward normals, tangents; triangles as a flat list), so a view from beyond the edge
+        meets the terrain's side instead of looking under it."""
+        m = self.mesh
+        rows, cols = m.rows, m.cols
+        grid = m.positions.reshape(rows, cols, 3)
+        r = np.r_[np.zeros(cols - 1, int), np.arange(rows - 1), np.full(cols - 1, rows - 1),
+                  np.arange(rows - 1, 0, -1)]
+        c = np.r_[np.arange(cols - 1), np.full(rows - 1, cols - 1), np.arange(cols - 1, 0, -1),
+                  np.zeros(rows - 1, int)]
+        top = grid[r, c].astype(np.float32)
+        ex, ez = m.extent
+        rel = top[:, [0, 2]] - np.array([ex / 2, ez / 2], np.float32)
+        normal = np.zeros_like(top)
+        along_x = np.abs(rel[:, 0] / max(ex, 1e-9)) >= np.abs(rel[:, 1] / max(ez, 1e-9))
+        normal[along_x, 0] = np.sign(rel[along_x, 0])
+        normal[~along_x, 2] = np.sign(rel[~along_x, 1])
+        low = float(grid[..., 1].min())
+        relief = max(float(grid[..., 1].max()) - low, 1e-6)
+        bottom = top.copy()
+        bottom[:, 1] = low - 0.05 * relief
+        n = len(top)
+        a = np.arange(n)
+        b = (a + 1) % n
+        # top vertices 0..n-1, bottom n..2n-1; two triangles per border segment
+        tris = np.stack([a, a + n, b, b, a + n, b + n], axis=1).reshape(-1)
+        pos = np.concatenate([top, bottom])
+        nor = np.concatenate([normal, normal])
+        tan = np.zeros((2 * n, 4), np.float32)
+        tan[:, :3] = np.cross(nor, np.array([0.0, 1.0, 0.0], np.float32))
+        tan[:, 3] = 1.0
+        return [pos.astype(np.float32), nor.astype(np.float32), tan, tris.astype(np.uint32)]
+
+    def _draw_skirts(self, program) -> None:
+        import moderngl
+
+        if self._skirt_buffers is None:
+            pos, nor, tan, tris = self._skirt_geometry()
+            self._skirt_buffers = [self.ctx.buffer(a.tobytes()) for a in (pos, nor, tan, tris)]
+        key = (program.glo, "skirt", False)
+        vao = self._vaos.get(key)
+        if vao is None:
+            pos, nor, tan, ibo = self._skirt_buffers
+            vao = self.ctx.vertex_array(
+                program, [(pos, "3f", "in_position"), (nor, "3f", "in_normal"),
+                          (tan, "4f", "in_tangent")], ibo, 4, skip_errors=True)
+            self._vaos[key] = vao
+        self.ctx.disable(moderngl.CULL_FACE)  # seen from outside only; either winding
+        try:
+            vao.render(moderngl.TRIANGLES)
+        finally:
+            self.ctx.enable(moderngl.CULL_FACE)
+
+    def _env_texture(self, name: str, key: Any, build) -> Any:
+        have = self._env.get(name)
+        if have is not None and have[1] == key:
+            return have[0]
+        tex = upload_texture(self.ctx, build(), name=name, limits=self.limits)
+        if have is not None:
+            have[0].release()
+        self._env[name] = (tex, key)
+        return tex
+
+    def sun_sky_visibility(self, params: Mapping[str, Any]) -> np.ndarray:
+        """float32 ``(rows, cols, 2)``: visible share of the sun's disc (soft terrain
+        shadows, :func:`~terrascape.lighting.soft_shadow` on the exaggerated terrain) and
+        the sky-view factor, the per-vertex texture the daylight model samples per pixel."""
+        from terrascape.lighting.daylight import local_sky_visibility
+        from terrascape.lighting.shadows import soft_shadow
+
+        az, el = _vec(params["sun"], 2, "sun (azimuth, elevation)")
+        if self._sky_visibility is None:
+            self._sky_visibility = local_sky_visibility(self.world).astype(np.float32)
+        if not params["shadows"]:
+            sun = np.ones(self.world.shape, np.float32)
+        elif el <= 0.0:
+            sun = np.zeros(self.world.shape, np.float32)
+        else:
+            sun = soft_shadow(self.world, az, el, sun_radius_deg=float(params["sun_radius"]),
+                              samples=int(params["shadow_samples"]))
+        return np.ascontiguousarray(np.stack([sun, self._sky_visibility], axis=-1))
+
+    def _bind_environment(self, program, params: Mapping[str, Any]) -> None:
+        key = tuple(repr(params[k]) for k in ("sun", "shadows", "sun_radius", "shadow_samples"))
+        if "u_sun_sky" in program:
+            tex = self._env_texture(
+                "u_sun_sky", key,
+                lambda: TextureData(self.sun_sky_visibility(params), repeat=False))
+            tex.use(location=_SUN_SKY_UNIT)
+            program["u_sun_sky"].value = _SUN_SKY_UNIT
+        self._env_texture(
+            "u_height", "heights",
+            lambda: TextureData(np.ascontiguousarray(self.world.heights, np.float32),
+                                repeat=False, mipmaps=False))
+
+    def _water_geometry(self, params: Mapping[str, Any]) -> list[tuple[Any, Any]]:
+        """(vertex array, vertex count or None) of the sea quad and the lakes' surface."""
+        prog = load_program(self.ctx, "water")
+        out = []
+        if params["sea_level"] is not None:
+            ex, ez = self.mesh.extent
+            y = float(params["sea_level"]) * self.exaggeration
+            # the terrain and a margin of sea around it: underwater terrain seen from beyond
+            # its edge is under this water too
+            m = 4.0 * math.hypot(ex, ez)
+            x0, z0, x1, z1 = -m, -m, ex + m, ez + m
+            quad = np.array([[x0, y, z0], [x0, y, z1], [x1, y, z0], [x1, y, z0], [x0, y, z1],
+                             [x1, y, z1]], dtype=np.float32)
+            if self._water_buf is None:
+                self._water_buf = self.ctx.buffer(reserve=quad.nbytes)
+                self._water_vao = self.ctx.vertex_array(
+                    prog, [(self._water_buf, "3f", "in_position")])
+            self._water_buf.write(quad.tobytes())
+            out.append(self._water_vao)
+        if params["water_depth"] is not None:
+            out.append(self._lake_vao(prog, params["water_depth"]))
+        return [vao for vao in out if vao is not None]
+
+    def _lake_vao(self, prog, depth: Any):
+        """The surface of lakes: grid cells with water at a corner, at terrain + depth."""
+        d = np.asarray(depth, dtype=np.float32)
+        if d.shape != self.heightmap.shape or not np.isfinite(d).all():
+            raise InvalidParameterError(
+                f"water_depth must be a finite float array of shape {self.heightmap.shape}, "
+                f"got {d.dtype} {d.shape}")
+        key = (d.shape, hash(d.tobytes()))
+        if self._lake is not None and self._lake[0] == key:
+            return self._lake[1]
+        self._release_lake()
+        wet = d > 0
+        cell = wet[:-1, :-1] | wet[1:, :-1] | wet[:-1, 1:] | wet[1:, 1:]
+        r, c = np.nonzero(cell)
+        if r.size == 0:
+            self._lake = (key, None, [])
+            return None
+        cols = self.heightmap.cols
+        a = r * cols + c
+        b, e, f = a + cols, a + 1, a + cols + 1
+        idx = np.stack([a, b, e, e, b, f], axis=1).astype(np.uint32)
+        pos = self.mesh.positions.reshape(-1, 3).copy()
+        pos[:, 1] += d.reshape(-1) * np.float32(self.exaggeration)
+        vbo = self.ctx.buffer(pos.astype(np.float32).tobytes())
+        ibo = self.ctx.buffer(idx.tobytes())
+        vao = self.ctx.vertex_array(prog, [(vbo, "3f", "in_position")], ibo, 4)
+        self._lake = (key, vao, [vbo, ibo])
+        return vao
+
+    def _release_lake(self) -> None:
+        if self._lake is not None:
+            if self._lake[1] is not None:
+                self._lake[1].release()
+            for buf in self._lake[2]:
+                buf.release()
+            self._lake = None
+
+    def _draw_water(self, fbo, uniforms: Mapping[str, Any], params: Mapping[str, Any]) -> None:
+        """Sea quad and lakes: depth-tested against the terrain, alpha-blended over it."""
+        import moderngl
+
+        prog = load_program(self.ctx, "water")
+        vaos = self._water_geometry(params)
+        set_uniforms(prog, **uniforms)
+        self._env["u_height"][0].use(location=_HEIGHT_UNIT)
+        prog["u_height"].value = _HEIGHT_UNIT
+        ctx = self.ctx
+        ctx.enable(moderngl.BLEND | moderngl.DEPTH_TEST)
+        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        # Depth is written: the sky pass after it fills only pixels nothing was drawn on.
+        try:
+            for vao in vaos:
+                vao.render(moderngl.TRIANGLES)
+        finally:
+            ctx.disable(moderngl.BLEND)
+
     def _draw_sky(self, uniforms: Mapping[str, Any]) -> None:
         import moderngl
 
@@ -794,6 +1011,9 @@ class TerrainRenderer:
         if self._sky_vao is None or self._sky_vao.program.glo != prog.glo:
             self._sky_vao = self.ctx.vertex_array(prog, [])
         set_uniforms(prog, **uniforms)
+        if "u_height" in prog and "u_height" in self._env:
+            self._env["u_height"][0].use(location=_HEIGHT_UNIT)
+            prog["u_height"].value = _HEIGHT_UNIT
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.depth_func = "<="
         try:
@@ -821,6 +1041,17 @@ class TerrainRenderer:
         self._textures.clear()
         if self._sky_vao is not None:
             self._sky_vao.release()
+        for tex, _ in self._env.values():
+            tex.release()
+        self._env.clear()
+        if self._water_vao is not None:
+            self._water_vao.release()
+            self._water_buf.release()
+            self._water_vao = self._water_buf = None
+        self._release_lake()
+        for buf in self._skirt_buffers or []:
+            buf.release()
+        self._skirt_buffers = None
         for vao in self._fullscreen_vaos.values():
             vao.release()
         self._fullscreen_vaos.clear()

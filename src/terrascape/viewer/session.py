@@ -84,7 +84,8 @@ def sky_colors(daylight: float) -> dict[str, tuple[float, float, float]]:
 
 
 def technique_params(state: ViewerState, accepted: Mapping[str, Any], *,
-                     has_lightmap: bool, fog_density: float | None = None) -> dict[str, Any]:
+                     has_lightmap: bool, fog_density: float | None = None,
+                     time_s: float = 0.0, sea_level: float | None = None) -> dict[str, Any]:
     """Renderer parameters of one frame from the viewer state (the seed's constant callback).
 
     Parameters
@@ -98,14 +99,21 @@ def technique_params(state: ViewerState, accepted: Mapping[str, Any], *,
         offered to those).
     fog_density
         Fog density per world unit when fog is on (``None``: the renderer's automatic one).
+    time_s
+        Seconds since the viewer started (animates the water).
+    sea_level
+        Water surface height (heightmap units), or None.
 
     Notes
     -----
     The viewer's "parallax scale" (seed 000 §2.6.4: ``parametar``) is the relief depth
     ``depth`` of every relief technique, and ``parallax_scale`` with the bias ``-scale`` of
     the parallax ones (``h' = scale·h + bias``), so one key changes every technique alike.
-    A sun at or below the horizon has no lightmap (cast shadows would cover everything);
-    vertex lighting with the dimmed night colours is used instead.
+    With the sun above the horizon the daylight model lights every technique (sky, haze,
+    per-pixel soft shadows; the shadow key switches the shadows, the fog key the haze). A
+    sun at or below the horizon has no daylight (cast shadows would cover everything);
+    vertex lighting with the dimmed night colours is used instead. ``has_lightmap`` is kept
+    for callers; daylight does not need a lightmap slot.
     """
     u = state.uniforms()
     p: dict[str, Any] = {}
@@ -122,9 +130,15 @@ def technique_params(state: ViewerState, accepted: Mapping[str, Any], *,
     p["fog_density"] = fog_density if state.fog else 0.0
     el = float(state.sun_elevation)
     p["sun"] = (float(state.sun_azimuth), el)
-    if has_lightmap and state.lightmap and el > 0.0:
-        p["lighting"] = "lightmap"
-        p["shadows"] = True
+    if el > 0.0:
+        p["lighting"] = "daylight"
+        p["shadows"] = bool(state.lightmap)
+        p["haze"] = None if state.fog else 0.0
+        p["time"] = float(time_s)
+        p["sea_level"] = sea_level
+        # The viewer starts high above the terrain (the top of the frame below the horizon):
+        # beyond the terrain's edge the haze (or the sea), as the sky colour was before.
+        p["surround"] = "fade" if sea_level is None else "sea"
     else:
         p["lighting"] = "vertex"
     p.update(sky_colors(float(u["daylight"])))
@@ -299,13 +313,16 @@ class ViewerSession:
         ROAM's per-frame split/merge time budget (``None``: converge every frame).
     warn
         Called once per warning (technique fallback, unavailable LOD); default: stderr.
+    sea_level
+        Water up to this height (heightmap units), rippling with the viewer's clock.
     """
 
     def __init__(self, ctx, heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
                  technique: str = "plain", lod: str = "none", texture: np.ndarray | None = None,
                  exaggeration: float = 1.0, hud: bool = True, font_size: int | None = None,
                  lod_time_budget_ms: float | None = 12.0,
-                 warn: Callable[[str], None] | None = None) -> None:
+                 warn: Callable[[str], None] | None = None,
+                 sea_level: float | None = None) -> None:
         from terrascape.render.techniques import TextureData, technique_names
         from terrascape.render.terrain import TerrainRenderer
 
@@ -337,6 +354,8 @@ class ViewerSession:
         self.lod_ms = Smoothed(0.5)
         self.warn = warn or _stderr_warning
         self._warned: set[str] = set()
+        self.sea_level = sea_level
+        self._start = time.monotonic()
         self._messages: list[tuple[str, float]] = []
         self.stats: dict[str, int] = {}
         self.frames = 0
@@ -386,7 +405,9 @@ class ViewerSession:
         tech = get_technique(technique or self.state.technique)
         has_lm = any(s.uniform == "u_lightmap" for s in tech.textures)
         return technique_params(self.state, tech.parameters(), has_lightmap=has_lm,
-                                fog_density=self.fog_density)
+                                fog_density=self.fog_density,
+                                time_s=time.monotonic() - self._start,
+                                sea_level=self.sea_level)
 
     def _update_lod(self, camera: Camera, viewport: tuple[int, int]) -> None:
         st = self.state

@@ -1,5 +1,6 @@
 // Fragment-stage helpers shared by every terrain technique: inputs, lighting mode, fog.
 #include "common/lighting.glsl"
+#include "common/atmosphere.glsl"
 #include "common/fog.glsl"
 
 #ifdef DEFERRED
@@ -64,8 +65,12 @@ out vec4 f_color;
 
 uniform vec3 u_camera_pos;
 uniform float u_exaggeration;
-uniform int u_lighting;          // 0 none, 1 Phong with the given normal, 2 lightmap
+uniform int u_lighting;          // 0 none, 1 Phong with the given normal, 2 lightmap, 3 daylight
 uniform sampler2D u_lightmap;    // one value per vertex (terrascape.lighting.lightmap)
+// Daylight: per vertex, R = visible share of the sun's disc (soft cast shadows from the
+// terrain, terrascape.lighting.soft_shadow), G = sky-view factor; sampled bilinearly per
+// fragment, so shadow edges are as smooth as the penumbra, not the triangles.
+uniform sampler2D u_sun_sky;
 
 // Texture coordinate of a texture whose texel (i, j) belongs to vertex (i, j) (region
 // texture, lightmap, splat maps): texel centres sit at (k + 0.5) / size, corners aligned.
@@ -77,8 +82,18 @@ vec3 view_dir() {
     return normalize(u_camera_pos - v_world);
 }
 
+// (sun visibility, sky visibility) of this fragment.
+vec2 sun_sky_visibility() {
+    return texture(u_sun_sky, grid_texcoord(vec2(textureSize(u_sun_sky, 0)))).rg;
+}
+
 // Colour of a surface point with albedo and unit normal N under the chosen lighting mode.
+// Daylight returns linear radiance (the albedo is sRGB-decoded); finish() displays it.
 vec3 shade(vec3 albedo, vec3 N) {
+    if (u_lighting == 3) {
+        vec2 vis = sun_sky_visibility();
+        return daylight_radiance(srgb_to_linear(albedo), N, vis.x, vis.y);
+    }
     if (u_lighting == 1) {
         return phong(albedo, N, normalize(u_sun_dir), view_dir());
     }
@@ -89,6 +104,25 @@ vec3 shade(vec3 albedo, vec3 N) {
     return albedo;
 }
 
+// Techniques that light with phong() themselves (bump, relief) get the daylight model too
+// when it is on: diffuse daylight with the cast shadows, plus their specular highlight.
+vec3 terrain_phong(vec3 albedo, vec3 N, vec3 L, vec3 V) {
+    if (u_lighting == 3) {
+        vec2 vis = sun_sky_visibility();
+        vec3 c = daylight_radiance(srgb_to_linear(albedo), N, vis.x, vis.y);
+        if (u_ks > 0.0 && dot(N, L) > 0.0) {
+            c += u_ks * 0.05 * vis.x * u_sun_irradiance
+               * pow(max(dot(reflect(-L, N), V), 0.0), u_shininess);
+        }
+        return c;
+    }
+    return phong(albedo, N, L, V);
+}
+#define phong terrain_phong
+
 vec4 finish(vec3 color) {
+    if (u_lighting == 3) {
+        return vec4(display(aerial_perspective(color, v_world, u_camera_pos)), 1.0);
+    }
     return vec4(apply_fog(color, distance(v_world, u_camera_pos)), 1.0);
 }

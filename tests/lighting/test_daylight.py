@@ -1,0 +1,109 @@
+"""Daylight model: tone-mapped lightmap without clipping, blue sky light in shadows, the sun
+colour follows its elevation, the Preetham sky is smooth at the horizon."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from terrascape.cli.app import run_app
+from terrascape.errors import InvalidParameterError
+from terrascape.generate import diamond_square
+from terrascape.heightmap import Heightmap
+from terrascape.io import write_heightmap
+from terrascape.lighting import daylight, lightmap, shadow_mask
+from terrascape.lighting.daylight import aces_filmic, linear_to_srgb
+
+
+@pytest.fixture(scope="module")
+def terrain():
+    return diamond_square(129, seed=3).scaled(25.0)
+
+
+@pytest.fixture(scope="module")
+def rgb(terrain):
+    return lightmap(terrain, 135.0, 20.0, color=True)
+
+
+def test_lightmap_does_not_clip(terrain, rgb):
+    grey = lightmap(terrain, 135.0, 20.0)
+    assert grey.shape == terrain.shape and grey.dtype == np.float32
+    codes = np.rint(grey * 255)
+    # the seed formula clips half of a sunlit map to white; the filmic curve rolls off
+    assert (codes >= codes.max()).mean() <= 0.05
+    assert (codes >= 250).mean() <= 0.05
+    seed = lightmap(terrain, 135.0, 20.0, model="seed")
+    assert (seed >= 1.0).mean() > 0.2  # what the old default did
+    assert grey.std() > 0.03  # slopes still read
+
+
+def test_shadows_are_blue_not_black(terrain, rgb):
+    mask = shadow_mask(terrain, 135.0, 20.0)
+    assert 0.02 < mask.mean() < 0.9
+    assert rgb.min() > 0.1  # no pure-black shadow sample
+    shadow = rgb[mask]
+    lit = rgb[~mask]
+    assert (shadow[:, 2] > shadow[:, 0] + 0.03).mean() > 0.95  # bluish: blue above red
+    assert shadow.mean() < lit.mean()
+
+
+def test_sun_colour_follows_elevation():
+    low, high = daylight(135.0, 8.0), daylight(135.0, 60.0)
+    r_low = low.sun_irradiance / low.sun_irradiance.max()
+    r_high = high.sun_irradiance / high.sun_irradiance.max()
+    assert r_low[2] < 0.5 * r_low[0]  # low sun: red
+    assert r_high[2] > 0.9 * r_high[0]  # high sun: near white (white-balanced)
+    assert low.sun_irradiance.sum() < high.sun_irradiance.sum()
+    # the sky is blue overhead at midday, and lights the ground less than the sun
+    zen = high.sky_radiance([0.0, 1.0, 0.0])
+    assert zen[2] > zen[0]
+    assert high.sky_irradiance.sum() < high.sun_irradiance.sum() * np.sin(np.radians(60))
+
+
+def test_sky_smooth_through_horizon():
+    day = daylight(135.0, 30.0)
+    el = np.radians(np.linspace(-5.0, 30.0, 351))
+    az = np.radians(315.0)  # away from the sun
+    dirs = np.stack([np.sin(az) * np.cos(el), np.sin(el), -np.cos(az) * np.cos(el)], axis=1)
+    lum = day.sky_radiance(dirs) @ [0.2126, 0.7152, 0.0722]
+    assert np.all(np.diff(lum) <= 1e-9)  # brighter toward the horizon, no dip
+    step = np.abs(np.diff(lum)).max()
+    assert np.abs(np.diff(lum, 2)).max() < 0.2 * step + 1e-6  # no kink
+
+
+def test_tone_curve():
+    x = np.linspace(0, 20, 1000)
+    y = aces_filmic(x)
+    assert np.all(np.diff(y) >= 0) and y[0] == 0 and y.max() <= 1.0
+    assert abs(float(linear_to_srgb(0.5)) - 0.7354) < 1e-3
+
+
+def test_validation():
+    flat = np.zeros((8, 8), np.float32)
+    with pytest.raises(InvalidParameterError, match="model"):
+        lightmap(flat, 0.0, 45.0, model="phong")
+    with pytest.raises(InvalidParameterError, match="turbidity"):
+        lightmap(flat, 0.0, 45.0, turbidity=50.0)
+    with pytest.raises(InvalidParameterError, match="color"):
+        lightmap(flat, 0.0, 45.0, model="seed", color=True)
+    with pytest.raises(InvalidParameterError):
+        lightmap(flat, 0.0, -5.0)
+
+
+def test_shade_cli_daylight_and_seed(tmp_path, terrain):
+    src = tmp_path / "hm.npy"
+    write_heightmap(Heightmap(terrain.heights), src)
+    out = tmp_path / "day.png"
+    assert run_app(["shade", str(src), "-o", str(out), "--sun-azimuth", "135",
+                    "--sun-elevation", "20", "--color", "-q"]) == 0
+    img = np.array(Image.open(out))
+    assert img.shape == (*terrain.shape, 3)
+    np.testing.assert_array_equal(
+        img, np.rint(lightmap(terrain.heights, 135.0, 20.0, color=True) * 255).astype(np.uint8))
+    bad = tmp_path / "bad.png"
+    assert run_app(["shade", str(src), "-o", str(bad), "--sun-azimuth", "135",
+                    "--sun-elevation", "20", "--lighting", "phong"]) == 2
+    assert run_app(["shade", str(src), "-o", str(bad), "--sun-azimuth", "135",
+                    "--sun-elevation", "20", "--lighting", "seed", "--color"]) == 2
+    assert not bad.exists()
