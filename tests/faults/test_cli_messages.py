@@ -50,7 +50,7 @@ def test_unknown_option_is_one_line(capsys):
 def test_sun_elevation_range_is_stated_as_checked(tmp_path, hm_file, capsys):
     for value in ("1000", "-10"):
         code, line = _run(capsys, ["shade", hm_file, "-o", tmp_path / "s.png",
-                                   "--sun-azimuth", "10", "--sun-elevation", value])
+                                   "--sun", f"10,{value}"])
         assert code == 2 and "must be in (0, 90] degrees" in line, line
     assert not (tmp_path / "s.png").exists()
 
@@ -78,7 +78,9 @@ def test_roam_max_triangles_without_roam_is_refused(tmp_path, hm_file, capsys):
 def test_mesh_size_error_names_the_real_option(tmp_path, capsys):
     path = tmp_path / "odd.npy"
     write_heightmap(Heightmap(np.zeros((30, 40), np.float32)), path)
-    code, line = _run(capsys, ["mesh", path, "-o", tmp_path / "m.obj", "--max-error", "1"])
+    # static meshes take any rectangle; the view-dependent schemes need a 2**n + 1 square
+    code, line = _run(capsys, ["mesh", path, "-o", tmp_path / "m.obj", "--camera", "0,50,0",
+                               "--target", "20,0,15", "--lod", "roam"])
     assert code == 2 and "--fit pad" in line and "--pad/--resample" not in line
 
 

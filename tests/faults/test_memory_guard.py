@@ -113,12 +113,12 @@ def test_bad_max_memory_is_usage_error(tmp_path, capsys):
 
 
 def test_a_memory_error_that_still_happens_is_one_line(tmp_path, capsys, monkeypatch):
-    import terrascape.generate
+    import terrascape.cli.cmd_generate
 
     def exhausted(*_args, **_kwargs):
         raise MemoryError
 
-    monkeypatch.setattr(terrascape.generate, "diamond_square", exhausted)
+    monkeypatch.setattr(terrascape.cli.cmd_generate, "generate", exhausted)
     code = run_app(["generate", "diamond-square", "--size", "65", "-o", str(tmp_path / "x.png")])
     line = _one_error_line(capsys.readouterr().err)
     assert code == 1 and line.startswith("error: out of memory") and "nothing was written" in line

@@ -142,5 +142,5 @@ def test_signal_after_one_of_two_outputs_says_what_was_kept(tmp_path, capsys, mo
     assert code == 143
     assert "interrupted (SIGTERM)" in err and "kept" in err and "hm.npy" in err
     assert "nothing was written" not in err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["hm.npy"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hm.npy", "hm.npy.json"]  # + spacing
     assert np.load(out).shape == (33, 33)

@@ -18,7 +18,13 @@ def _read_map(path: Path, name: str, shape: tuple[int, int]):
 
     from terrascape.io import read_heightmap
 
-    values = read_heightmap(path).heights
+    parameter_map = read_heightmap(path)
+    if parameter_map.metadata.get("filled"):
+        # Heights may have holes filled; a rain or talus map with holes is a mistake.
+        raise InvalidParameterError(
+            f"{name} {path.name} has {parameter_map.metadata['filled']} NaN/infinite sample(s); "
+            "a parameter map needs a finite value everywhere")
+    values = parameter_map.heights
     if values.shape != shape:
         raise InvalidParameterError(
             f"{name} {path.name} is {values.shape[1]}×{values.shape[0]}, the heightmap is "

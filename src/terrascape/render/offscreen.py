@@ -172,7 +172,7 @@ class OffscreenRenderer:
     def render(
         self,
         camera: Camera | None = None,
-        technique: str = "plain",
+        technique: str = "material",
         params: Mapping[str, Any] | None = None,
     ) -> np.ndarray:
         """One frame as ``uint8 (h, w, 4)``, row 0 at the top."""
@@ -211,7 +211,7 @@ def _sun_params(params: Mapping[str, Any] | None, sun) -> dict[str, Any]:
 def render_to_array(
     heightmap: Heightmap,
     *,
-    technique: str = "plain",
+    technique: str = "material",
     camera: Camera | None = None,
     size: tuple[int, int] = (1280, 720),
     sun: tuple[float, float] | None = (135.0, 45.0),
@@ -227,7 +227,7 @@ def render_to_array(
     heightmap
         Terrain (any size and spacing).
     technique
-        Registered technique (``plain``, ``regions``, ``texture3d``, ``splat``, ``bump``, …).
+        Registered technique (``material`` — the default —, ``plain``, ``regions``, ``bump``, …).
     camera
         Default: :func:`default_camera` (a landscape view across the terrain,
         :func:`~terrascape.camera.frame_landscape`). Its aspect is replaced by
@@ -264,7 +264,7 @@ def render_frames(
     heightmap: Heightmap,
     cameras: Iterable[Camera],
     *,
-    technique: str = "plain",
+    technique: str = "material",
     size: tuple[int, int] = (1280, 720),
     sun: tuple[float, float] | None = (135.0, 45.0),
     exaggeration: float = 1.0,
@@ -321,7 +321,7 @@ def turntable(
     output: str | os.PathLike,
     *,
     fmt: str = "png",
-    technique: str = "plain",
+    technique: str = "material",
     size=(1280, 720),
     sun=(135.0, 45.0),
     exaggeration=1.0,
