@@ -157,7 +157,9 @@ def test_water_exactly_below_the_sea_level(gl_ctx):
         wet = r.render(cam, "plain", {**common, "sea_level": sea})[..., :3].astype(int)
     finally:
         r.release()
-    changed = np.abs(wet - dry).max(-1) > 12
+    # > 6 codes: over the low ground the plain texture is itself water-blue, so the water
+    # surface changes those pixels less than elsewhere
+    changed = np.abs(wet - dry).max(-1) > 6
     h = hm.heights
     # where a sample is under water, its pixel is where the ray meets the water surface
     row, col, inside = _pixels_of_samples(cam, hm, np.minimum(h, sea))

@@ -62,6 +62,8 @@ WRITE_METADATA: dict[str, FormatMetadata] = {
     "tiff": FormatMetadata(True, True, True, "float32 + ModelPixelScale tag"),
     "npy": FormatMetadata(True, True, True, "float32 + .npy.json sidecar"),
     "ter": FormatMetadata(True, True, False, "int16 + SCAL and HeightScale"),
+    "exr": FormatMetadata(True, True, True, "float32 Y channel + terrascape attribute"),
+    "exr16": FormatMetadata(True, True, False, "half Y channel + terrascape attribute"),
 }
 LOSSLESS_HINT = ".png (16-bit), .r16, .tif, .r32 or .npy"
 
