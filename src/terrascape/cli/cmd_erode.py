@@ -38,7 +38,7 @@ def erode_cmd(
     iterations: int = typer.Option(
         None, "--iterations", "-n",
         help="Model steps (droplets: number of droplets).",
-        show_default="stream-power 30, grid 300, droplets 1 per sample, thermal 50"),
+        show_default="stream-power 20, grid 300, droplets 1 per sample, thermal 50"),
     strength: float = typer.Option(
         1.0, "--strength", help="Erosion rate relative to the model's default."),
     masks: Path = typer.Option(
