@@ -45,6 +45,15 @@ def erode_cmd(
         None, "--masks",
         help="Folder for float32 .npy masks: flow, deposition, wear, water.",
         show_default="none"),
+    rain: float = typer.Option(
+        None, "--rain", help="Grid model: rain per second (world units).",
+        show_default="0.01"),
+    dt: float = typer.Option(
+        None, "--dt", help="Grid model: time step in seconds (at most the stable limit).",
+        show_default="half the stable limit"),
+    evaporation: float = typer.Option(
+        None, "--evaporation", help="Grid model: evaporation per second.",
+        show_default="0.01"),
     rain_map: Path = typer.Option(
         None, "--rain-map", help="Grid model: rain per sample from a heightmap file.",
         show_default="uniform"),
@@ -87,7 +96,10 @@ def erode_cmd(
     with timed("read", quiet=quiet):
         hm = read_heightmap(input_path)
     original = hm.heights
-    rain = _read_map(rain_map, "--rain-map", hm.shape) if rain_map is not None else None
+    if rain_map is not None:
+        if rain is not None:
+            raise InvalidParameterError("give --rain or --rain-map, not both")
+        rain = _read_map(rain_map, "--rain-map", hm.shape)
     talus_angle = (_read_map(talus_map, "--talus-map", hm.shape) if talus_map is not None
                    else talus)
     result_masks = {}
@@ -99,7 +111,7 @@ def erode_cmd(
         name = model or "stream-power"
         with timed(f"{name} erosion", quiet=quiet):
             result = erode(hm, model=name, iterations=iterations, strength=strength, seed=seed,
-                           talus_angle=talus_angle, rain=rain)
+                           talus_angle=talus_angle, rain=rain, dt=dt, evaporation=evaporation)
         hm, result_masks = result.heightmap, result.masks
     import numpy as np
 

@@ -63,6 +63,8 @@ def erode(
     seed: int = 0,
     talus_angle: float | np.ndarray = 30.0,
     rain: float | np.ndarray | None = None,
+    dt: float | None = None,
+    evaporation: float | None = None,
 ) -> ErosionResult:
     """Erode ``heightmap`` with ``model`` and return the result with its masks.
 
@@ -84,6 +86,9 @@ def erode(
         Thermal talus in degrees, a number or a per-sample map.
     rain
         Grid rain per second, a number or a per-sample map (default 0.01).
+    dt, evaporation
+        Grid time step (default half the stable limit; above the limit is refused) and
+        evaporation per second (default 0.01; ``evaporation · dt`` must stay below 1).
     """
     if not isinstance(heightmap, Heightmap):
         raise InvalidParameterError(f"expected a Heightmap, got {type(heightmap).__name__}")
@@ -105,7 +110,8 @@ def erode(
     elif model == "grid":
         grid = virtual_pipe_erosion(heightmap, iterations=iterations,
                                     rain=0.01 if rain is None else rain,
-                                    capacity=0.05 * strength)
+                                    capacity=0.05 * strength, dt=dt,
+                                    evaporation=0.01 if evaporation is None else evaporation)
         out = grid.heightmap
         masks["flow"] = grid.flow
         masks["water"] = grid.water
