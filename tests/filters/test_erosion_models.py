@@ -112,6 +112,9 @@ def test_cli_erode_without_options_and_masks(tmp_path: Path) -> None:
         ["--model", "grid", "--strength", "-2"],
         ["--iterations", "-3"],
         ["--masks", "no-such-folder"],
+        ["--model", "grid", "--rain", "-0.5"],
+        ["--model", "grid", "--dt", "5"],
+        ["--model", "grid", "--evaporation", "100"],
     ],
 )
 def test_cli_bad_input_writes_nothing(tmp_path: Path, args: list[str]) -> None:

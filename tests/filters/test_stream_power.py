@@ -64,3 +64,15 @@ def test_uplift_raises_the_interior(hills: Heightmap) -> None:
 def test_bad_parameters(hills: Heightmap, kwargs: dict) -> None:
     with pytest.raises(InvalidParameterError):
         stream_power_erosion(hills, **kwargs)
+
+
+def test_routing_interval_keeps_the_surface_drained(hills: Heightmap) -> None:
+    every = stream_power_erosion(hills, iterations=12, strength=5e-3)
+    fourth = stream_power_erosion(hills, iterations=12, strength=5e-3, routing_interval=4)
+    assert depression_share(fourth.heightmap) == 0.0
+    assert not np.array_equal(every.heightmap.heights, fourth.heightmap.heights)
+    cut_every = hills.heights - every.heightmap.heights
+    cut_fourth = hills.heights - fourth.heightmap.heights
+    assert cut_fourth.mean() == pytest.approx(cut_every.mean(), rel=0.1)
+    with pytest.raises(InvalidParameterError):
+        stream_power_erosion(hills, routing_interval=0)

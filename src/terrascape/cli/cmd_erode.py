@@ -44,13 +44,22 @@ def erode_cmd(
     iterations: int = typer.Option(
         None, "--iterations", "-n",
         help="Model steps (droplets: number of droplets).",
-        show_default="stream-power 30, grid 300, droplets 1 per sample, thermal 50"),
+        show_default="stream-power 20, grid 300, droplets 1 per sample, thermal 50"),
     strength: float = typer.Option(
         1.0, "--strength", help="Erosion rate relative to the model's default."),
     masks: Path = typer.Option(
         None, "--masks",
         help="Folder for float32 .npy masks: flow, deposition, wear, water.",
         show_default="none"),
+    rain: float = typer.Option(
+        None, "--rain", help="Grid model: rain per second (world units).",
+        show_default="0.01"),
+    dt: float = typer.Option(
+        None, "--dt", help="Grid model: time step in seconds (at most the stable limit).",
+        show_default="half the stable limit"),
+    evaporation: float = typer.Option(
+        None, "--evaporation", help="Grid model: evaporation per second.",
+        show_default="0.01"),
     rain_map: Path = typer.Option(
         None, "--rain-map", help="Grid model: rain per sample from a heightmap file.",
         show_default="uniform"),
@@ -98,7 +107,10 @@ def erode_cmd(
     use_max_memory(max_memory)
     check_grid("erode", hm.rows, hm.cols, hint="erode a smaller map (or raise --max-memory)")
     original = hm.heights
-    rain = _read_map(rain_map, "--rain-map", hm.shape) if rain_map is not None else None
+    if rain_map is not None:
+        if rain is not None:
+            raise InvalidParameterError("give --rain or --rain-map, not both")
+        rain = _read_map(rain_map, "--rain-map", hm.shape)
     talus_angle = (_read_map(talus_map, "--talus-map", hm.shape) if talus_map is not None
                    else talus)
     result_masks = {}
@@ -110,7 +122,7 @@ def erode_cmd(
         name = model or "stream-power"
         with timed(f"{name} erosion", quiet=quiet):
             result = erode(hm, model=name, iterations=iterations, strength=strength, seed=seed,
-                           talus_angle=talus_angle, rain=rain)
+                           talus_angle=talus_angle, rain=rain, dt=dt, evaporation=evaporation)
         hm, result_masks = result.heightmap, result.masks
     import numpy as np
 

@@ -27,6 +27,7 @@ class DemoResult:
     written: list[tuple[Path, str, float]] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    masks: dict[str, np.ndarray] = field(default_factory=dict)
 
     def add(self, path: Path, what: str, seconds: float) -> None:
         self.written.append((path, what, seconds))
@@ -41,75 +42,97 @@ def _save_png(array: np.ndarray, path: Path, *, force: bool) -> None:
         Image.fromarray(array).save(tmp, format="PNG")
 
 
+def hero_terrain(size: int) -> tuple[Heightmap, dict[str, np.ndarray]]:
+    """The showcase terrain: the default diamond-square (4 m grid, relief 20 % of its
+    extent) eroded by the default river-erosion model, with its masks."""
+    from terrascape.filters import erode
+    from terrascape.generate.registry import generate
+
+    raw = generate("diamond-square", size, seed=7, spacing=4.0)
+    result = erode(raw)
+    return result.heightmap, result.masks
+
+
 def generate_stage(
     out: Path, result: DemoResult, *, size: int, force: bool
 ) -> dict[str, Heightmap]:
-    """One heightmap per generator: 16-bit PNG (world units restorable) + 8-bit preview."""
-    from terrascape.filters import hydraulic_erosion, thermal_erosion
-    from terrascape.generate import diamond_square, fault_formation, fbm, hills, ridged
-    from terrascape.io import write_heightmap, write_preview
+    """One heightmap per registered generator plus the eroded showcase terrain: 16-bit PNG
+    (world units restorable), RAW16 and an 8-bit preview; the erosion masks as .npy."""
+    from terrascape.generate.registry import generate, generator_names
+    from terrascape.io.atomic import atomic_output
 
     makers: dict[str, Callable[[int], Heightmap]] = {
-        "diamond_square": lambda n: diamond_square(n, roughness=0.55, seed=7, spacing=2.0)
-        .normalised(0, 180),
-        "fault": lambda n: fault_formation(n, iterations=400, falloff="cosine", width=24.0,
-                                           seed=7, spacing=2.0).normalised(0, 180),
-        "hills": lambda n: hills(n, count=300, seed=7, spacing=2.0).normalised(0, 180),
-        "fbm": lambda n: fbm(n, scale=n / 3, octaves=8, seed=7, spacing=2.0)
-        .normalised(0, 180),
-        "ridged": lambda n: ridged(n, scale=n / 3, octaves=8, seed=7, spacing=2.0)
-        .normalised(0, 180),
-        "eroded": lambda n: hydraulic_erosion(
-            thermal_erosion(diamond_square(n, roughness=0.55, seed=7, spacing=2.0)
-                            .normalised(0, 180), iterations=20),
-            droplets=20_000, seed=7),
+        name.replace("-", "_"): (lambda n, name=name: generate(name, n, seed=7, spacing=2.0))
+        for name in generator_names()
     }
     maps: dict[str, Heightmap] = {}
     for name, make in makers.items():
         make(17)  # numba compiles (or loads its cache) here, not inside the timed call
         t0 = time.perf_counter()
         hm = make(size)
-        seconds = time.perf_counter() - t0
         maps[name] = hm
-        path16 = out / f"{name}_heightmap.png"
-        write_heightmap(hm, path16, force=force)
-        result.add(path16, f"{name} heightmap, 16-bit PNG {hm.cols}×{hm.rows}", seconds)
-        preview = out / f"{name}_preview.png"
-        write_preview(hm, preview, force=force)
-        result.add(preview, f"{name} preview, 8-bit PNG", 0.0)
-        raw = out / f"{name}_heightmap.r16"
-        write_heightmap(hm, raw, force=force)
-        result.add(raw, f"{name} heightmap, RAW 16-bit", 0.0)
+        _write_heightmap_files(out, result, name, hm, time.perf_counter() - t0, force=force)
+    hero_terrain(17)  # compile, untimed
+    t0 = time.perf_counter()
+    eroded, masks = hero_terrain(size)
+    maps["eroded"] = eroded
+    _write_heightmap_files(out, result, "eroded", eroded, time.perf_counter() - t0,
+                           force=force, what="diamond-square + river erosion (stream power)")
+    for mask_name, mask in masks.items():
+        path = out / f"eroded_{mask_name}.npy"
+        with atomic_output(path, force=force) as tmp, open(tmp, "wb") as fh:
+            np.save(fh, mask)
+        result.add(path, f"erosion mask: {mask_name} (float32)", 0.0)
+    result.masks = masks
     return maps
 
 
-def texture_stage(out: Path, result: DemoResult, hm: Heightmap, *, force: bool) -> None:
-    """Region texture × shadowed lightmap (a textured, shaded top-down image), normal map,
-    splat maps."""
+def _write_heightmap_files(out: Path, result: DemoResult, name: str, hm: Heightmap,
+                           seconds: float, *, force: bool, what: str | None = None) -> None:
+    from terrascape.io import write_heightmap, write_preview
+
+    path16 = out / f"{name}_heightmap.png"
+    write_heightmap(hm, path16, force=force)
+    result.add(path16, f"{what or name} heightmap, 16-bit PNG {hm.cols}×{hm.rows}", seconds)
+    preview = out / f"{name}_preview.png"
+    write_preview(hm, preview, force=force)
+    result.add(preview, f"{name} preview, 8-bit PNG", 0.0)
+    raw = out / f"{name}_heightmap.r16"
+    write_heightmap(hm, raw, force=force)
+    result.add(raw, f"{name} heightmap, RAW 16-bit", 0.0)
+
+
+def texture_stage(out: Path, result: DemoResult, hm: Heightmap, *, force: bool,
+                  masks: dict[str, np.ndarray] | None = None) -> None:
+    """Daylight lightmap (sun, sky light and soft shadows, tone-mapped), the terrain's
+    default material × that light as a top-down map, the packed normal + height texture,
+    and splat maps (3 layers per RGB image) with a colour preview."""
+    from terrascape.cli.cmd_texture import layer_colour, splat_preview, splat_rgb_images
     from terrascape.lighting import lightmap, pack_normal_height
     from terrascape.texture import (
+        default_regions,
         material_ids_from_rules,
         pack_splat_maps,
-        region_texture,
         splat_weights,
     )
+    from terrascape.texture.terrain_material import material_texture
 
     small = hm.with_heights(hm.heights[:33, :33])  # numba compile/cache load, untimed
-    region_texture(small, scale=2, jitter=0.05, seed=7,
-                   lightmap=lightmap(small, 135.0, 25.0, ambient=0.25, shadows=True))
+    material_texture(small, lightmap=lightmap(small, 135.0, 25.0))
     pack_normal_height(small, bits=8)
     pack_splat_maps(splat_weights(material_ids_from_rules(small)))
     t0 = time.perf_counter()
-    light = lightmap(hm, 135.0, 25.0, ambient=0.25, shadows=True)
+    light = lightmap(hm, 135.0, 25.0)
     t_light = time.perf_counter() - t0
-    _save_png((light * 255).astype(np.uint8), out / "lightmap.png", force=force)
-    result.add(out / "lightmap.png", "lightmap with ray-cast shadows (sun 135°/25°)", t_light)
+    _save_png(np.rint(light * 255).astype(np.uint8), out / "lightmap.png", force=force)
+    result.add(out / "lightmap.png", "daylight lightmap: sun, sky light, soft shadows "
+               "(sun 135°/25°)", t_light)
 
     t0 = time.perf_counter()
-    tex = region_texture(hm, scale=2, jitter=0.05, seed=7, lightmap=light)
+    tex = material_texture(hm, masks=masks, scale=2, seed=7, lightmap=light)
     seconds = time.perf_counter() - t0
     _save_png(tex, out / "textured_topdown.png", force=force)
-    result.add(out / "textured_topdown.png", "region texture × lightmap, top-down", seconds)
+    result.add(out / "textured_topdown.png", "terrain material × daylight, top-down", seconds)
 
     t0 = time.perf_counter()
     packed = pack_normal_height(hm, bits=8)
@@ -118,12 +141,81 @@ def texture_stage(out: Path, result: DemoResult, hm: Heightmap, *, force: bool) 
     result.add(out / "normal_height.png", "normal map (RGB) + height (A)", seconds)
 
     t0 = time.perf_counter()
-    images = pack_splat_maps(splat_weights(material_ids_from_rules(hm)))
+    regions = default_regions(hm)
+    weights = splat_weights(material_ids_from_rules(hm), len(regions))
+    images = splat_rgb_images(pack_splat_maps(weights), len(regions))
+    preview = splat_preview(weights, [layer_colour(k, r.name) for k, r in enumerate(regions)])
     seconds = time.perf_counter() - t0
     for i, img in enumerate(images):
+        names = ", ".join(r.name for r in regions[3 * i:3 * i + 3])
         _save_png(img, out / f"splat_{i}.png", force=force)
-        result.add(out / f"splat_{i}.png", f"splat alpha maps, layers {4 * i}–{4 * i + 3}",
+        result.add(out / f"splat_{i}.png", f"splat weights (R, G, B = {names})",
                    seconds if i == 0 else 0.0)
+    _save_png(preview, out / "splat_preview.png", force=force)
+    result.add(out / "splat_preview.png", "splat layers blended in their colours", 0.0)
+
+
+def _shore_camera(hm: Heightmap, sea_level: float, aspect: float) -> Camera:
+    """A low camera looking along a coast: at the land sample nearest the map centre that is
+    a little above the sea, from the sea side, 25 m up."""
+    h = hm.heights
+    rows, cols = hm.shape
+    span = float(h.max() - h.min())
+    near_shore = (h > sea_level + 0.01 * span) & (h < sea_level + 0.06 * span)
+    if not near_shore.any():
+        return _close_up_camera(hm, aspect)
+    rr, cc = np.nonzero(near_shore)
+    k = int(np.argmin((rr - rows / 2) ** 2 + (cc - cols / 2) ** 2))
+    r, c = int(rr[k]), int(cc[k])
+    dx, dz = hm.spacing
+    # towards the lower neighbourhood (the sea), 12 % of the map's extent away
+    win = h[max(0, r - 8):r + 9, max(0, c - 8):c + 9]
+    lr, lc = np.unravel_index(int(np.argmin(win)), win.shape)
+    vz, vx = (lr + max(0, r - 8) - r) * dz, (lc + max(0, c - 8) - c) * dx
+    norm = float(np.hypot(vx, vz)) or 1.0
+    reach = 0.12 * max(hm.extent)
+    target = (c * dx, float(h[r, c]), r * dz)
+    eye = (target[0] + vx / norm * reach, sea_level + 25.0, target[2] + vz / norm * reach)
+    extent = max(hm.extent)
+    return Camera.look_at(eye, (target[0], float(h[r, c]) + 5.0, target[2]), aspect=aspect,
+                          near=0.5, far=4.0 * extent)
+
+
+def showcase_stage(out: Path, result: DemoResult, hm: Heightmap, masks: dict[str, np.ndarray],
+                   *, size: tuple[int, int], force: bool) -> None:
+    """The beauty renders: the eroded terrain at golden hour (landscape view), a low coast
+    with water and shadows at midday, and a top-down map — high quality (2×2 samples)."""
+    from terrascape.render.context import create_headless_context
+    from terrascape.render.offscreen import OffscreenRenderer
+
+    try:
+        ctx = create_headless_context()
+    except GLUnavailableError as exc:
+        result.skipped.append(f"showcase renders: {exc}")
+        return
+    sea = float(np.percentile(hm.heights, 12))
+    material = {name: masks[name] for name in ("flow", "deposition", "wear") if name in masks}
+    renderer = OffscreenRenderer(ctx, hm, size=size, quality="high")
+    try:
+        views = (
+            ("showcase_golden_hour.png", "eroded terrain at golden hour (sun 250°/8°)",
+             renderer.default_camera(), (250.0, 8.0)),
+            ("showcase_coast.png", "low view of the coast: water, soft shadows (sun 150°/35°)",
+             _shore_camera(hm, sea, size[0] / size[1]), (150.0, 35.0)),
+            ("showcase_map.png", "top-down map (sun 135°/40°)",
+             renderer.default_camera(elevation=89.0, azimuth=180.0), (135.0, 40.0)),
+        )
+        for name, what, camera, sun in views:
+            t0 = time.perf_counter()
+            image = renderer.render(camera, "material",
+                                    {**material, "sun": sun, "sea_level": sea})
+            _save_png(image[..., :3], out / name, force=force)
+            result.add(out / name, what, time.perf_counter() - t0)
+    finally:
+        renderer.release()
+        ctx.release()
+    result.notes.append(f"showcase: sea level {sea:.1f} m (12th percentile of the heights); "
+                        "render times include the shadow and sky-light setup")
 
 
 def _close_up_camera(hm: Heightmap, aspect: float):
@@ -244,9 +336,14 @@ def run_demo(
     output.mkdir(parents=True, exist_ok=True)
     result = DemoResult()
     maps = generate_stage(output, result, size=size, force=force)
-    hero = maps["diamond_square"]
+    hero = maps["eroded"]
+    if "render" in stages:
+        try:
+            showcase_stage(output, result, hero, result.masks, size=render_size, force=force)
+        except TerrascapeError as exc:
+            result.skipped.append(f"showcase renders: {exc}")
     if "texture" in stages:
-        texture_stage(output, result, hero, force=force)
+        texture_stage(output, result, hero, force=force, masks=result.masks)
     if "render" in stages:
         try:
             render_stage(output, result, hero, size=render_size, force=force)

@@ -172,6 +172,7 @@ def stream_power_erosion(
     m: float = 0.5,
     uplift: float | np.ndarray = 0.0,
     fill: float = 0.5,
+    routing_interval: int = 1,
 ) -> StreamPowerResult:
     """Erode ``heightmap`` with the implicit stream-power solver.
 
@@ -193,6 +194,11 @@ def stream_power_erosion(
     fill
         Share of each closed depression's depth that is filled before the rest is cut as a
         channel, ``[0, 1]`` (1 = flat lakes, 0 = pure breaching).
+    routing_interval
+        Recompute receivers, stack and drainage area every this many steps (``>= 1``).
+        Between updates the steps reuse the last routing — still exact for the implicit
+        scheme (heights never sink below their receivers), only the receivers lag the
+        steepest descent by a few steps; 2–3 saves about half the time.
 
     Returns
     -------
@@ -206,6 +212,7 @@ def stream_power_erosion(
     m = check_range(m, "m", 0.1, 1.0)
     up = _uplift_map(uplift, heightmap.shape)
     fill = check_range(fill, "fill", 0.0, 1.0)
+    routing_interval = check_int(routing_interval, "routing_interval", minimum=1)
     sx, sz = heightmap.spacing
     h0 = heightmap.heights.astype(np.float64)
     routing = _routing(h0, sx, sz)
@@ -219,8 +226,9 @@ def stream_power_erosion(
     ones = np.ones(n, dtype=np.float64)
     area = _accumulate(order, receivers, ones)
     floods = 1
+    coef = strength * width * (area / n) ** m / dist
     for it in range(iterations):
-        if it > 0:
+        if it > 0 and it % routing_interval == 0:
             _update_receivers(h, receivers, dist, float(sx), float(sz))
             if _build_stack(receivers, order) < n:
                 # A loop of receivers (possible where uplift varies): route over the
@@ -233,7 +241,7 @@ def stream_power_erosion(
                 order = routing.order.copy()
                 floods += 1
             area = _accumulate(order, receivers, ones)
-        coef = strength * width * (area / n) ** m / dist
+            coef = strength * width * (area / n) ** m / dist
         _implicit_step(h, order, receivers, coef, up)
     return StreamPowerResult(heightmap.with_heights(h.astype(np.float32)),
                              area.reshape(h.shape).astype(np.float32))
