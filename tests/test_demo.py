@@ -18,15 +18,23 @@ def test_demo_generate_and_texture_stages(tmp_path):
         assert f"{gen}_heightmap.png" in names and f"{gen}_heightmap.r16" in names
         hm = read_heightmap(tmp_path / f"{gen}_heightmap.png")
         assert hm.shape == (65, 65)
-        # normalised to 0..180 m and stored in 16 bits: the range survives the round trip
-        if gen != "eroded":  # erosion moves material after normalising
+        # the registry's default relief (20 % of the extent) survives the 16-bit round trip
+        if gen != "eroded":  # erosion moves material after scaling (and uses a 4 m grid)
             assert hm.min == pytest.approx(0.0, abs=0.01)
-            assert hm.max == pytest.approx(180.0, abs=0.01)
+            assert hm.max == pytest.approx(0.2 * 64 * 2.0, abs=0.01)
         assert float(np.ptp(hm.heights)) > 10.0
     for path, _, _ in result.written:
         assert path.exists() and path.stat().st_size > 0
     top = np.asarray(Image.open(tmp_path / "textured_topdown.png"))
     assert top.ndim == 3 and top.std() > 5  # a picture, not a flat fill
+    light = np.asarray(Image.open(tmp_path / "lightmap.png"))
+    assert (light >= 250).mean() <= 0.05 and light.min() > 0  # daylight: no clipping, no black
+    for mask in ("flow", "deposition", "wear", "water"):
+        values = np.load(tmp_path / f"eroded_{mask}.npy")
+        assert values.shape == (65, 65) and values.dtype == np.float32
+    assert np.load(tmp_path / "eroded_flow.npy").max() > 50  # water gathers into channels
+    splat = np.asarray(Image.open(tmp_path / "splat_0.png"))
+    assert splat.ndim == 3 and splat.shape[2] == 3  # opaque RGB weights, no hidden alpha
     # different generators give different terrains
     a = read_heightmap(tmp_path / "fault_heightmap.png").heights
     b = read_heightmap(tmp_path / "hills_heightmap.png").heights
@@ -67,6 +75,14 @@ def test_demo_render_stage(tmp_path, gl_ctx):
         assert img.std() > 3, name
         if name != "render_plain_closeup.png" and "texture3d" not in name:
             assert np.abs(img - plain).mean() > 0.5, name
+    # the showcase: real pictures, with water where the sea is, no black shadows
+    for name in ("showcase_golden_hour.png", "showcase_coast.png", "showcase_map.png"):
+        img = np.asarray(Image.open(tmp_path / name)).astype(int)
+        assert img.shape == (90, 160, 3) and img.std() > 5, name
+        assert (img.max(axis=-1) < 8).mean() < 0.001, name
+    top = np.asarray(Image.open(tmp_path / "showcase_map.png")).astype(int)
+    bluish = (top[..., 2] > top[..., 0] + 15).mean()
+    assert bluish > 0.05  # the sea around and on the terrain
     roam = np.asarray(Image.open(tmp_path / "lod_roam_wireframe.png")).astype(int)
     assert roam.shape == (90, 160, 3)
     assert (tmp_path / "lod_roam.obj").read_text().count("\nf ") > 100
