@@ -47,7 +47,7 @@ def _window(shape, bounds, halo):
 def shadow_halo(recipe, h_min: float, h_max: float) -> tuple[int, int, int, int]:
     """``(up, down, left, right)`` samples of terrain that can shade a chunk."""
     from terrascape.lighting._common import sun_above_horizon
-    from terrascape.lighting.shadows import _sweep_geometry
+    from terrascape.lighting.shadows import _NEAR, _sweep_geometry
 
     light = sun_above_horizon(recipe.shadow["azimuth"], recipe.shadow["elevation"])
     geo = _sweep_geometry(Heightmap(np.zeros((2, 2), np.float32),
@@ -56,7 +56,9 @@ def shadow_halo(recipe, h_min: float, h_max: float) -> tuple[int, int, int, int]
     if geo is None:
         return (m, m, m, m)
     transpose, da, db, rise = geo
-    steps = math.ceil((h_max - h_min) / rise) + 1 if rise > 0 else 1 << 40
+    # After `steps` steps a ray from the lowest sample is above the highest one; the window
+    # also holds each sample's first _NEAR steps (walked exactly by the sweep).
+    steps = max(math.ceil((h_max - h_min) / rise) + 1, _NEAR) if rise > 0 else 1 << 40
     major = [m, m]  # (toward -axis, toward +axis) of the sweep's axis 0
     minor = [m, m]
     major[1 if da > 0 else 0] += steps
@@ -120,8 +122,9 @@ def make_chunk(path: str, recipe, stage: str, i: int, j: int, extra: dict) -> in
         from terrascape.lighting.shadows import shadow_mask
 
         win, (oz, ox) = _height_window(group, "height", shape, bounds, extra["shadow_halo"])
+        # origin: the window's ray lines are the whole map's, so decisions match it exactly.
         mask = shadow_mask(Heightmap(win, sp), recipe.shadow["azimuth"],
-                           recipe.shadow["elevation"])
+                           recipe.shadow["elevation"], origin=(c0 - ox, r0 - oz))
         data = mask[oz:oz + r1 - r0, ox:ox + c1 - c0].astype(np.uint8)
     else:  # pragma: no cover - stages come from build.py
         raise ValueError(stage)
