@@ -122,10 +122,10 @@ class WorldInfo:
 
     def lines(self) -> list[str]:
         r = self.recipe
-        out = [f"world {self.path}: {r.cols}×{r.rows} samples, spacing {r.spacing:g}, "
+        out = [f"world {self.path}: {r.rows} rows × {r.cols} cols, spacing {r.spacing:g}, "
                f"seed {r.seed}, chunk {r.chunk}, {'complete' if self.complete else 'INCOMPLETE'}"]
         for name, (shape, chunks, dtype, done, total) in self.arrays.items():
-            out.append(f"  {name:<10} {dtype:<8} {'×'.join(map(str, shape)):<16} chunks "
+            out.append(f"  {name:<10} {dtype:<8} {' × '.join(map(str, shape)):<20} chunks "
                        f"{'×'.join(map(str, chunks))}  done {done}/{total}")
         out.append(f"  recipe {self.recipe.canonical_json()}")
         return out
