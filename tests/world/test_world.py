@@ -90,6 +90,16 @@ def test_tiled_world_equals_whole_map(client, tmp_path, chunk, generator, azimut
     assert group.attrs["recipe_hash"] == recipe.digest()
 
 
+def test_one_sample_last_chunks(client, tmp_path):
+    data = _recipe(64)
+    data["size"] = [129, 193]  # last chunk row and column are 1 sample wide
+    recipe = recipe_from_dict(data)
+    assert build_world(recipe, tmp_path / "w.zarr", client=client).complete
+    group = zarr.open_group(str(tmp_path / "w.zarr"), mode="r")
+    for name, expected in _whole_map(recipe).items():
+        assert np.array_equal(np.asarray(group[name][...]), expected), name
+
+
 def test_halo_is_needed(client, tmp_path):
     """The halos matter: the same chunks computed without them differ at chunk edges."""
     from terrascape.world.stages import chunk_bounds

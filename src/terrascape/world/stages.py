@@ -99,9 +99,11 @@ def make_chunk(path: str, recipe, stage: str, i: int, j: int, extra: dict) -> in
         from terrascape.generate import noise
 
         fn = noise.fbm if recipe.generator == "fbm" else noise.ridged
-        hm = fn((r1 - r0, c1 - c0), amplitude=recipe.relief, seed=recipe.seed, spacing=sp,
-                origin=(c0, r0), **recipe.params)
-        data = hm.heights
+        # The generators need 2 samples per side; a last chunk of 1 sample takes the first
+        # of 2 (the noise depends only on the absolute position, so it is the same value).
+        hm = fn((max(2, r1 - r0), max(2, c1 - c0)), amplitude=recipe.relief, seed=recipe.seed,
+                spacing=sp, origin=(c0, r0), **recipe.params)
+        data = hm.heights[:r1 - r0, :c1 - c0]
     elif stage == "height":
         from terrascape.filters.thermal_erosion import thermal_erosion
 
