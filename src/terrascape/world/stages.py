@@ -9,7 +9,8 @@ The halos make every chunk equal, bit for bit, to the same window of the whole-m
   factors, which read *their* neighbours, so information travels two samples per iteration;
   samples beyond that reach cannot change the chunk. At the map border the window ends where
   the map ends, so the closed boundary is the same.
-* normals — one sample (central differences; the map border keeps its one-sided stencils).
+* normals — two samples: central differences reach one, and the second-order one-sided
+  stencils of the map border reach two inward (a 1-sample last chunk needs both).
 * shadow — toward the sun, the number of ray steps after which a ray starting at the lowest
   sample has climbed above the highest one (``(h_max - h_min) / rise``), plus two samples
   across the ray lines: nothing farther can occlude.
@@ -115,7 +116,7 @@ def make_chunk(path: str, recipe, stage: str, i: int, j: int, extra: dict) -> in
     elif stage == "normals":
         from terrascape.lighting.normals import normal_map
 
-        win, (oz, ox) = _height_window(group, "height", shape, bounds, (1, 1, 1, 1))
+        win, (oz, ox) = _height_window(group, "height", shape, bounds, (2, 2, 2, 2))
         n = normal_map(Heightmap(win, sp), height_scale=recipe.normals["height_scale"])
         group[stage][r0:r1, c0:c1, :] = n[oz:oz + r1 - r0, ox:ox + c1 - c0]
         group[f"done/{stage}"][i, j] = 1
