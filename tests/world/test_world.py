@@ -207,6 +207,14 @@ def test_unreachable_scheduler_fails_fast():
     assert time.perf_counter() - start < 15.0
 
 
+def test_bad_cluster_options():
+    with pytest.raises(InvalidParameterError, match="--memory-limit"), \
+            connect("local", workers=1, memory_limit="lots"):
+        pass
+    with pytest.raises(InvalidParameterError, match="--workers"), connect("local", workers=0):
+        pass
+
+
 def test_cli_build_and_info(tmp_path):
     from typer.testing import CliRunner
 

@@ -53,6 +53,15 @@ def connect(scheduler: str = "local", *, workers: int = 2, memory_limit: str | N
     if scheduler == "local":
         if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
             raise InvalidParameterError(f"--workers must be a whole number ≥ 1, got {workers!r}")
+        if memory_limit is not None:
+            from dask.utils import parse_bytes
+
+            try:
+                parse_bytes(memory_limit)
+            except (ValueError, TypeError):
+                raise InvalidParameterError(
+                    f"--memory-limit must be a size like 2GB or 512MiB, got {memory_limit!r}"
+                ) from None
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=processes,
                                memory_limit=memory_limit, dashboard_address=None)
         try:
