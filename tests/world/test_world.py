@@ -193,6 +193,8 @@ def test_recipe_files(tmp_path):
     js = tmp_path / "r.json"
     js.write_text(json.dumps(recipe.to_dict()))
     assert load_recipe(js).digest() == recipe.digest()
+    switched = recipe_from_dict({**recipe.to_dict(), "normals": True, "shadow": False})
+    assert switched.normals == {"height_scale": 1.0} and switched.shadow is None
     bad = tmp_path / "bad.toml"
     bad.write_text("size = [1, \n")
     with pytest.raises(FileFormatError, match="not valid TOML"):

@@ -126,7 +126,7 @@ def _integer(value: Any, key: str, *, lo: int, hi: int) -> int:
 
 def _table(data: dict, key: str) -> dict | None:
     value = data.get(key)
-    if value is None:
+    if value is None or value is False:  # `normals = false`: the step is off
         return None
     if value is True:
         return {}
