@@ -63,7 +63,7 @@ def connect(scheduler: str = "local", *, workers: int = 2, memory_limit: str | N
                     f"--memory-limit must be a size like 2GB or 512MiB, got {memory_limit!r}"
                 ) from None
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=processes,
-                               memory_limit=memory_limit, dashboard_address=None)
+                               memory_limit=memory_limit, dashboard_address=":0")
         try:
             with Client(cluster) as client:
                 yield client
