@@ -180,20 +180,35 @@ def shadow_mask_reference(
 # Fast exact: line sweep of shadow heights
 # --------------------------------------------------------------------------------------------
 @njit(cache=CACHE)
-def _ray_line_span(n0, n1, e):
+def _ray_line_span(n0, n1, e, base0=0.0):
     """Index range of the ray lines that touch the grid: ``(j_lo, nj)``.
 
-    Ray line ``j`` crosses grid line ``a`` at ``p_j(a) = j + a·e``; it touches the grid when
-    that lies in ``[0, n1 - 1]`` for some ``a`` (two lines of margin on each side).
+    Ray line ``j`` crosses grid line ``a`` at ``p_j(a) = j + base0 + a·e``; it touches the
+    grid when that lies in ``[0, n1 - 1]`` for some ``a`` (two lines of margin on each side).
     """
-    span = (n0 - 1) * e
-    j_lo = math.floor(min(0.0, -span)) - 2
-    j_hi = math.ceil(max(0.0, -span)) + n1 + 2
+    first = -base0
+    last = -(base0 + (n0 - 1) * e)
+    j_lo = math.floor(min(first, last)) - 2
+    j_hi = math.ceil(max(first, last)) + n1 + 2
     return j_lo, j_hi - j_lo + 1
 
 
+@njit(cache=CACHE)
+def _line_offset(a, a_org, b_org, e):
+    """Where the ray lines cross grid line ``a``: ``(fl, fr)`` with ``fl`` whole (grid
+    coordinates) and ``fr`` in [0, 1).
+
+    The ray lines are anchored to the absolute grid (line ``a_org + a``, column
+    ``b_org + b``), so a window of a bigger map (``origin``) carries exactly the big map's
+    ray lines and gives the same decisions.
+    """
+    absolute = (a + a_org) * e
+    whole = math.floor(absolute)
+    return whole - b_org, absolute - whole
+
+
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi):
+def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, a_org=0, b_org=0):
     """Sweep the ray lines ``lo … hi`` (indices from ``j_lo``) and shade their samples.
 
     Ray line ``j`` crosses grid line ``a`` at ``p_j(a) = j + a·e`` with ``e = da·db``. Grid
@@ -221,9 +236,7 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi):
     ring = np.full((near, width), neg_inf, dtype=np.float64)
     a = n0 - 1 if da > 0 else 0
     for t in range(n0):
-        base = a * e
-        fl = math.floor(base)
-        fr = base - fl
+        fl, fr = _line_offset(a, a_org, b_org, e)
         far = ring[t % near]  # shadow heights of the ray lines at grid line a + near·da
         have_far = t >= near
         # Samples of this block: i0 = b - fl - 1 - j_lo (or b - fl - j_lo on a grid line
@@ -298,20 +311,23 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _line_sweep_kernel(h, da, db, rise, near, out, blocks):
+def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0):
     """The shadow-height sweep over ``blocks`` independent blocks of ray lines, in parallel.
 
     Each sample is written by exactly one block and decided from the same values whatever
     the number of blocks or threads: the result is identical to one serial sweep.
+    ``(a_org, b_org)``: the absolute grid position of ``h[0, 0]`` (see :func:`_line_offset`).
     """
     n0, n1 = h.shape
-    j_lo, nj = _ray_line_span(n0, n1, da * db)
+    e = da * db
+    fl0, fr0 = _line_offset(0, a_org, b_org, e)
+    j_lo, nj = _ray_line_span(n0, n1, e, fl0 + fr0)
     size = (nj + blocks - 1) // blocks
     for k in prange(blocks):
         lo = k * size
         hi = min(nj - 1, lo + size - 1)
         if lo <= hi:
-            _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi)
+            _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, a_org, b_org)
 
 
 def _sweep_blocks(n_cols: int) -> int:
@@ -323,17 +339,21 @@ def _sweep_blocks(n_cols: int) -> int:
     return max(1, min(4 * numba.get_num_threads(), n_cols // 64))
 
 
-def _fast_mask_for_light(hm: Heightmap, light: np.ndarray) -> np.ndarray:
+def _fast_mask_for_light(hm: Heightmap, light: np.ndarray,
+                         origin: tuple[int, int] = (0, 0)) -> np.ndarray:
     geo = _sweep_geometry(hm, light)
     if geo is None:
         return np.zeros(hm.shape, dtype=np.bool_)
     transpose, da, db, rise = geo
     h, full, out = _oriented(hm, transpose)
-    _line_sweep_kernel(h, da, db, rise, _NEAR, out, _sweep_blocks(h.shape[1]))
+    x0, z0 = origin
+    a_org, b_org = (x0, z0) if transpose else (z0, x0)
+    _line_sweep_kernel(h, da, db, rise, _NEAR, out, _sweep_blocks(h.shape[1]), a_org, b_org)
     return full
 
 
-def shadow_mask(heightmap: Any, sun_azimuth: float, sun_elevation: float) -> np.ndarray:
+def shadow_mask(heightmap: Any, sun_azimuth: float, sun_elevation: float, *,
+                origin: tuple[int, int] = (0, 0)) -> np.ndarray:
     """Shadow map in O(rows·cols) by a shadow-height sweep; same decisions as the reference.
 
     Parameters
@@ -357,9 +377,19 @@ def shadow_mask(heightmap: Any, sun_azimuth: float, sun_elevation: float) -> np.
     sample apart (module docstring).
     Identical to the reference for axis-aligned and diagonal light; elsewhere it differs on a
     sub-sample band along shadow edges.
+
+    ``origin=(x0, z0)``: the absolute (column, row) of this map's first sample when it is a
+    window of a bigger map. The ray lines are then those of the bigger map, so a window that
+    holds every sample that can shade its middle (a halo toward the sun) gives the bigger
+    map's decisions there, bit for bit — shadows can be computed tile by tile.
     """
     hm = as_heightmap(heightmap)
-    return _fast_mask_for_light(hm, sun_above_horizon(sun_azimuth, sun_elevation))
+    try:
+        x0, z0 = (int(v) for v in origin)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(
+            f"origin must be (x0, z0) in samples, got {origin!r}") from None
+    return _fast_mask_for_light(hm, sun_above_horizon(sun_azimuth, sun_elevation), (x0, z0))
 
 
 # --------------------------------------------------------------------------------------------

@@ -1,0 +1,166 @@
+"""Build a world chunk by chunk on a dask.distributed cluster, resumably, into zarr.
+
+Each array of the store is built by one task per chunk (:func:`~terrascape.world.stages.
+make_chunk`) submitted to a :class:`distributed.Client`: a :class:`distributed.LocalCluster`
+by default, or any running scheduler (``scheduler="tcp://host:8786"``, e.g. one started by
+dask-jobqueue or dask-kubernetes). Arrays are built in dependency order (raw heights,
+eroded heights, then normals, shadow and the pyramid levels); within one array every chunk
+is independent. A chunk's ``done`` marker is written after its data, so a build that is
+killed and run again skips the finished chunks and gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import dask.array as da
+import numpy as np
+
+from terrascape.errors import EnvironmentFailure, InvalidParameterError
+from terrascape.world.recipe import Recipe
+from terrascape.world.stages import make_chunk, shadow_halo
+from terrascape.world.store import array_specs, chunk_grid, create_or_resume
+
+#: Seconds to wait for a scheduler given by address before giving up.
+CONNECT_TIMEOUT = 5.0
+
+
+@dataclass
+class BuildResult:
+    """What one :func:`build_world` call did."""
+
+    path: Path
+    written: int = 0
+    skipped: int = 0
+    complete: bool = False
+    seconds: float = 0.0
+    stage_seconds: dict[str, float] = field(default_factory=dict)
+    height_range: tuple[float, float] | None = None
+
+
+@contextlib.contextmanager
+def connect(scheduler: str = "local", *, workers: int = 2, memory_limit: str | None = "2GB",
+            processes: bool = True, timeout: float = CONNECT_TIMEOUT) -> Iterator[object]:
+    """A :class:`distributed.Client`: a new LocalCluster (``"local"``) or the scheduler at
+    ``scheduler`` (``tcp://host:port``); an address that does not answer within ``timeout``
+    seconds is an :class:`~terrascape.errors.EnvironmentFailure`, not a hang."""
+    from distributed import Client, LocalCluster
+
+    if scheduler == "local":
+        if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+            raise InvalidParameterError(f"--workers must be a whole number ≥ 1, got {workers!r}")
+        if memory_limit is not None:
+            from dask.utils import parse_bytes
+
+            try:
+                parse_bytes(memory_limit)
+            except (ValueError, TypeError):
+                raise InvalidParameterError(
+                    f"--memory-limit must be a size like 2GB or 512MiB, got {memory_limit!r}"
+                ) from None
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=processes,
+                               memory_limit=memory_limit, dashboard_address=":0")
+        try:
+            with Client(cluster) as client:
+                yield client
+        finally:
+            cluster.close()
+        return
+    try:
+        client = Client(scheduler, timeout=timeout)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise EnvironmentFailure(
+            f"no dask scheduler answers at {scheduler} within {timeout:g} s ({exc})") from None
+    with client:
+        yield client
+
+
+def _height_range(client, path: str) -> tuple[float, float]:
+    h = da.from_zarr(path, component="height")
+    lo, hi = client.compute([h.min(), h.max()], sync=True)
+    return float(lo), float(hi)
+
+
+def build_world(
+    recipe: Recipe,
+    path: str | Path,
+    *,
+    client=None,
+    scheduler: str = "local",
+    workers: int = 2,
+    memory_limit: str | None = "2GB",
+    processes: bool = True,
+    force: bool = False,
+    quiet: bool = True,
+    max_chunks: int | None = None,
+) -> BuildResult:
+    """Build (or continue building) the world of ``recipe`` at ``path``.
+
+    Parameters
+    ----------
+    client
+        A :class:`distributed.Client` to use; otherwise one is made from ``scheduler``,
+        ``workers``, ``memory_limit`` and ``processes`` (:func:`connect`).
+    force
+        Replace a store made by another recipe (or anything else at ``path``).
+    quiet
+        No progress bar.
+    max_chunks
+        Stop after writing this many chunks (the build is then incomplete and a later call
+        continues it) — for tests of resumption and for building in slices.
+
+    Returns
+    -------
+    BuildResult
+    """
+    path = Path(path)
+    group = create_or_resume(path, recipe, force=force)
+    if client is None:
+        with connect(scheduler, workers=workers, memory_limit=memory_limit,
+                     processes=processes) as own:
+            return build_world(recipe, path, client=own, quiet=quiet, max_chunks=max_chunks)
+    from distributed import progress
+
+    result = BuildResult(path)
+    start = time.perf_counter()
+    budget = max_chunks
+    url = str(path)
+    for name, (shape, _, _) in array_specs(recipe).items():
+        done = np.asarray(group[f"done/{name}"][...])
+        grid = chunk_grid(shape, recipe.chunk)
+        pending = [(i, j) for i in range(grid[0]) for j in range(grid[1]) if not done[i, j]]
+        result.skipped += len(done.nonzero()[0])
+        if not pending:
+            continue
+        extra: dict = {}
+        if name == "shadow":
+            result.height_range = _height_range(client, url)
+            extra["shadow_halo"] = shadow_halo(recipe, *result.height_range)
+        if budget is not None:
+            pending = pending[:budget]
+        t0 = time.perf_counter()
+        futures = client.map(make_chunk, [url] * len(pending), [recipe] * len(pending),
+                             [name] * len(pending), [i for i, _ in pending],
+                             [j for _, j in pending], [extra] * len(pending), pure=False)
+        if not quiet:
+            print(f"{name}: {len(pending)} chunks")
+            progress(futures)
+            print()
+        result.written += sum(client.gather(futures))
+        result.stage_seconds[name] = time.perf_counter() - t0
+        if budget is not None:
+            budget -= len(pending)
+            if budget <= 0 and name != list(array_specs(recipe))[-1]:
+                break
+    complete = all(np.asarray(group[f"done/{n}"][...]).all() for n in array_specs(recipe))
+    group.attrs["complete"] = complete
+    result.complete = complete
+    result.seconds = time.perf_counter() - start
+    return result
+
+
+__all__ = ["CONNECT_TIMEOUT", "BuildResult", "build_world", "connect"]

@@ -1,0 +1,154 @@
+"""The world store: one zarr group (``world.zarr``) holding every array of a world.
+
+Layout::
+
+    height          float32 (rows, cols), chunk × chunk
+    height_raw      float32, the generator's heights before thermal erosion (with [thermal])
+    normals         float32 (rows, cols, 3), world-space unit normals, Y up
+    shadow          uint8 (rows, cols), 1 = in shadow
+    levels/1 … k    float32, level k + 1 = every other sample of level k (level 0 = height)
+    done/<array>    uint8 (chunk rows, chunk cols): 1 where that chunk is finished
+
+Attributes: ``terrascape_world`` (format version), ``recipe`` (canonical JSON),
+``recipe_hash`` (its SHA-256), ``spacing``, ``seed``, ``shape``, ``chunk``, ``levels`` and
+``complete``. A store is only ever continued with the recipe that made it.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import zarr
+
+from terrascape.errors import FileFormatError, OutputExistsError
+from terrascape.world.recipe import Recipe, recipe_from_dict
+
+FORMAT_VERSION = 1
+
+
+def level_shapes(recipe: Recipe) -> list[tuple[int, int]]:
+    """Shapes of ``levels/1 … k``: halve (every other sample) until the side fits a chunk."""
+    shapes = []
+    rows, cols = recipe.shape
+    while max(rows, cols) > recipe.chunk:
+        rows, cols = (rows + 1) // 2, (cols + 1) // 2
+        shapes.append((rows, cols))
+    return shapes
+
+
+def array_specs(recipe: Recipe) -> dict[str, tuple[tuple[int, ...], tuple[int, ...], Any]]:
+    """``name -> (shape, chunks, dtype)`` of every array, in build order."""
+    c = recipe.chunk
+    specs: dict[str, tuple[tuple[int, ...], tuple[int, ...], Any]] = {}
+    if recipe.thermal is not None:
+        specs["height_raw"] = (recipe.shape, (c, c), np.float32)
+    specs["height"] = (recipe.shape, (c, c), np.float32)
+    if recipe.normals is not None:
+        specs["normals"] = ((*recipe.shape, 3), (c, c, 3), np.float32)
+    if recipe.shadow is not None:
+        specs["shadow"] = (recipe.shape, (c, c), np.uint8)
+    for k, shape in enumerate(level_shapes(recipe), start=1):
+        specs[f"levels/{k}"] = (shape, (c, c), np.float32)
+    return specs
+
+
+def chunk_grid(shape: tuple[int, ...], chunk: int) -> tuple[int, int]:
+    return (-(-shape[0] // chunk), -(-shape[1] // chunk))
+
+
+def _is_world(path: Path) -> bool:
+    try:
+        return "terrascape_world" in zarr.open_group(str(path), mode="r").attrs
+    except Exception:  # anything that is not a readable zarr group
+        return False
+
+
+def create_or_resume(path: str | Path, recipe: Recipe, *, force: bool = False) -> zarr.Group:
+    """Open the store at ``path`` to build ``recipe`` into, creating it when needed.
+
+    A store made by the same recipe is resumed (its finished chunks are kept); one made by
+    another recipe, or anything else at ``path``, is refused unless ``force`` (then replaced).
+    """
+    p = Path(path)
+    if p.exists():
+        if _is_world(p):
+            group = zarr.open_group(str(p), mode="r+")
+            theirs = group.attrs.get("recipe_hash")
+            if theirs == recipe.digest():
+                return group
+            if not force:
+                raise OutputExistsError(
+                    f"{p} holds a world built from another recipe (hash {str(theirs)[:12]}…, "
+                    f"this recipe {recipe.digest()[:12]}…): never mixed; use --force to "
+                    "replace it or another output path")
+        elif not force:
+            raise OutputExistsError(f"{p} exists and is not a terrascape world; use --force "
+                                    "to replace it")
+        if p.is_dir():
+            shutil.rmtree(p)
+        else:
+            p.unlink()
+    group = zarr.open_group(str(p), mode="w")
+    for name, (shape, chunks, dtype) in array_specs(recipe).items():
+        group.create_array(name, shape=shape, chunks=chunks, dtype=dtype, fill_value=0)
+        grid = chunk_grid(shape, recipe.chunk)
+        group.create_array(f"done/{name}", shape=grid, chunks=(1, 1), dtype=np.uint8,
+                           fill_value=0)
+    group.attrs.update({
+        "terrascape_world": FORMAT_VERSION,
+        "recipe": recipe.canonical_json(),
+        "recipe_hash": recipe.digest(),
+        "spacing": recipe.spacing,
+        "seed": recipe.seed,
+        "shape": list(recipe.shape),
+        "chunk": recipe.chunk,
+        "levels": len(level_shapes(recipe)),
+        "complete": False,
+    })
+    return group
+
+
+@dataclass(frozen=True)
+class WorldInfo:
+    path: Path
+    recipe: Recipe
+    arrays: dict[str, tuple[tuple[int, ...], tuple[int, ...], str, int, int]]
+    complete: bool
+
+    def lines(self) -> list[str]:
+        r = self.recipe
+        out = [f"world {self.path}: {r.rows} rows × {r.cols} cols, spacing {r.spacing:g}, "
+               f"seed {r.seed}, chunk {r.chunk}, {'complete' if self.complete else 'INCOMPLETE'}"]
+        for name, (shape, chunks, dtype, done, total) in self.arrays.items():
+            out.append(f"  {name:<10} {dtype:<8} {' × '.join(map(str, shape)):<20} chunks "
+                       f"{'×'.join(map(str, chunks))}  done {done}/{total}")
+        out.append(f"  recipe {self.recipe.canonical_json()}")
+        return out
+
+
+def open_world(path: str | Path) -> tuple[zarr.Group, Recipe]:
+    """A finished or partial world store and the recipe it was built from."""
+    p = Path(path)
+    if not p.exists():
+        raise FileFormatError(f"{p} does not exist")
+    if not _is_world(p):
+        raise FileFormatError(f"{p} is not a terrascape world (no world attributes)")
+    group = zarr.open_group(str(p), mode="r")
+    return group, recipe_from_dict(json.loads(group.attrs["recipe"]))
+
+
+def world_info(path: str | Path) -> WorldInfo:
+    group, recipe = open_world(path)
+    arrays = {}
+    for name, (shape, chunks, dtype) in array_specs(recipe).items():
+        done = np.asarray(group[f"done/{name}"][...])
+        arrays[name] = (shape, chunks, np.dtype(dtype).name, int(done.sum()), int(done.size))
+    return WorldInfo(Path(path), recipe, arrays, bool(group.attrs.get("complete", False)))
+
+
+__all__ = ["array_specs", "create_or_resume", "level_shapes", "open_world", "world_info"]
