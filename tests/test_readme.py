@@ -130,7 +130,21 @@ def check_image_file(path: Path) -> np.ndarray:
     return pixels
 
 
+def check_export_folder(path: Path, argv: list[str]) -> None:
+    """An export's folder: its import notes, and what each destination's importer reads."""
+    assert path.is_dir(), f"{' '.join(argv)} did not write the folder {path}"
+    if argv[1] != "web":  # a page to open, not an import
+        notes = list(path.glob("*_import.txt"))
+        assert notes and notes[0].read_text().strip(), f"{path}: no import settings"
+    wanted = {"unity": "*.raw", "unreal": "*.png", "godot": "*.exr", "blender": "*.glb",
+              "cesium": "layer.json", "terrain_rgb": "*/*/*.png", "web": "index.html"}[argv[1]]
+    assert list(path.glob(wanted)), f"{path}: no {wanted}"
+
+
 def check_output(path: Path, argv: list[str]) -> None:
+    if argv[0] == "export":
+        check_export_folder(path, argv)
+        return
     assert path.is_file() and path.stat().st_size > 0, f"{' '.join(argv)} did not write {path}"
     suffix = path.suffix.lower()
     if argv[0] in HEIGHTMAP_COMMANDS:

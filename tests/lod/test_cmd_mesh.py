@@ -116,3 +116,25 @@ def test_view_dependent_budget_one_flag_and_old_alias(hm_path, tmp_path, capsys)
     assert run_app([*base, "--lod", "turner", "--tolerance", "2"]) == 2
     assert run_app([*base, "--lod", "roam", "--patch-size", "9"]) == 2
     assert not (tmp_path / "x.obj").exists()
+
+
+def test_greedy_mesher_meets_the_error_with_fewer_triangles(tmp_path):
+    import trimesh
+
+    from terrascape.cli.app import run_app as run
+    from terrascape.generate import diamond_square
+    from terrascape.io import write_heightmap
+
+    src = tmp_path / "hm.npy"
+    write_heightmap(diamond_square(65, roughness=20.0, seed=2), src)
+    counts = {}
+    for mesher in ("rtin", "greedy"):
+        out = tmp_path / f"{mesher}.obj"
+        assert run(["mesh", str(src), "-o", str(out), "--max-error", "1", "--mesher", mesher,
+                    "-q"]) == 0
+        counts[mesher] = len(trimesh.load(out, force="mesh").faces)
+    assert counts["greedy"] < counts["rtin"]
+    assert run(["mesh", str(src), "-o", str(tmp_path / "v.obj"), "--mesher", "greedy",
+                "--camera", "0,50,0", "--target", "30,0,30", "-q"]) == 2
+    assert run(["mesh", str(src), "-o", str(tmp_path / "b.obj"), "--max-error", "1",
+                "--mesher", "bogus", "-q"]) == 2

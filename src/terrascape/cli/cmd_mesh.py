@@ -93,6 +93,10 @@ def mesh_command(
         None, "--roam-max-triangles", hidden=True,
         help="Deprecated alias of --triangles (kept so old scripts run).",
     ),
+    mesher: str = typer.Option(
+        "rtin", "--mesher",
+        help="Static mesh: rtin (right triangles, crack-free tiles, fast) or greedy (Delaunay "
+             "greedy insertion: fewer triangles for the same error, any grid)."),
     fit: str = typer.Option(
         "none", "--fit",
         help="Non-(2**n+1) maps: none (static meshes take any size, view meshes refuse), "
@@ -183,7 +187,20 @@ def mesh_command(
         if fit != "none":
             hm = hm.to_pow2_plus1(fit)
 
-    if static_mode:
+    if mesher not in ("rtin", "greedy"):
+        raise InvalidParameterError(f"--mesher must be rtin or greedy, got {mesher!r}")
+    if mesher == "greedy" and not static_mode:
+        raise InvalidParameterError("--mesher greedy makes static meshes: use it with "
+                                    "--max-error/--triangles, not --camera/--target")
+    if static_mode and mesher == "greedy":
+        from terrascape.lod.greedy_tin import greedy_tin
+
+        with timed("greedy mesh", quiet=quiet):
+            tri = greedy_tin(hm, max_error=max_error, max_triangles=triangles)
+        with timed("measure", quiet=quiet):
+            measured = max_vertical_error(hm, tri)
+        summary = f"max vertical error {measured:.6g} (world units, measured on every sample)"
+    elif static_mode:
         from terrascape.export.meshing import rtin_rectangle
         from terrascape.lod.rtin import Rtin
 

@@ -165,9 +165,12 @@ def recipe_from_dict(data: dict[str, Any]) -> Recipe:
     relief = _number(gen_table.pop("relief", 0.2 * max(rows - 1, cols - 1) * spacing),
                      "generator.relief", lo=0.0, open_lo=True)
     gen = get_generator(name)
-    known = {p.name for p in gen.params}
+    # "relief" sets the height scale of a world (amplitude × raw noise), so the registry's
+    # own amplitude parameter is not a recipe key: one way to give the heights.
+    known = {p.name for p in gen.params} - {"amplitude"}
     _unknown(gen_table, known | {"name", "relief"}, "generator.")
     params = resolve_params(gen, (rows, cols), gen_table)
+    params.pop("amplitude", None)
 
     thermal = _table(data, "thermal")
     if thermal is not None:
