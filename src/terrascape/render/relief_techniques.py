@@ -66,9 +66,22 @@ def _relief_heights(params: Mapping[str, Any]) -> np.ndarray:
     )
 
 
+# The terrain's relief texture precision: 16-bit codes (relief_texture_data(bits=16)).
+TERRAIN_RELIEF_BITS = 16
+
+
+def _sampled_relief_heights(params: Mapping[str, Any]) -> np.ndarray:
+    """The relief field's heights as the 16-bit texture samples them: what the min/max
+    pyramid and the cone map must be built from so the tracers trace the drawn surface."""
+    from terrascape.relief.fields import sampled_heights
+
+    return sampled_heights(_relief_heights(params), TERRAIN_RELIEF_BITS)
+
+
 def build_relief_texture(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
     """Tiled RGBA (normal, height) texture of the ``relief_field`` test field (16-bit)."""
-    data = relief_texture_data(_relief_heights(params), depth=float(params["depth"]), bits=16)
+    data = relief_texture_data(_relief_heights(params), depth=float(params["depth"]),
+                               bits=TERRAIN_RELIEF_BITS)
     return TextureData(data, repeat=True, mipmaps=True)
 
 
@@ -76,7 +89,8 @@ def build_relief_height(hm: Heightmap, params: Mapping[str, Any]) -> TextureData
     """The height (A) channel of :func:`build_relief_texture` alone, one channel, same values
     and mipmaps: the terrain program's ray march reads only heights, and on llvmpipe a
     one-channel float texel costs a fraction of the RGBA one."""
-    data = relief_texture_data(_relief_heights(params), depth=float(params["depth"]), bits=16)
+    data = relief_texture_data(_relief_heights(params), depth=float(params["depth"]),
+                               bits=TERRAIN_RELIEF_BITS)
     return TextureData(np.ascontiguousarray(data[..., 3]), repeat=True, mipmaps=True)
 
 
@@ -85,7 +99,7 @@ def build_cone_map(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
     (Dummer 2006 cone step mapping; :func:`terrascape.relief.cone_map.footprint_cone_map`)."""
     from terrascape.relief.cone_map import footprint_cone_map
 
-    cone = footprint_cone_map(_relief_heights(params))
+    cone = footprint_cone_map(_sampled_relief_heights(params))
     return TextureData(np.ascontiguousarray(cone, dtype=np.float32), repeat=True,
                        mipmaps=False, nearest=True)
 
@@ -145,7 +159,7 @@ def build_minmax_pyramid(hm: Heightmap, params: Mapping[str, Any]) -> TextureDat
     from terrascape.relief.minmax_mip import packed_minmax_mip
 
     levels = [np.ascontiguousarray(lv, dtype=np.float32) for lv in
-              packed_minmax_mip(_relief_heights(params))]
+              packed_minmax_mip(_sampled_relief_heights(params))]
     return TextureData(levels[0], repeat=True, mipmaps=False, nearest=True,
                        levels=tuple(levels[1:]))
 
