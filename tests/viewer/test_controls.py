@@ -25,7 +25,7 @@ def test_seed_defaults_and_parallax_steps():
 
 
 def test_technique_cycles_both_ways():
-    s = ViewerState()
+    s = ViewerState(technique=TECHNIQUES[0])
     seen = [s.technique]
     for _ in range(len(TECHNIQUES)):
         s.handle_key("TAB")
@@ -110,3 +110,12 @@ def test_look_clamps_pitch():
     cam = look(Camera(), 0, -10_000)
     assert cam.pitch == pytest.approx(89.9)
     assert look(cam, float("nan"), 0) is cam
+
+
+def test_default_cycle_uses_the_registry_names():
+    from terrascape.render.techniques import technique_names
+    from terrascape.viewer.controls import TECHNIQUES
+    from terrascape.viewer.session import ordered_techniques
+
+    assert set(TECHNIQUES) <= set(technique_names())
+    assert ordered_techniques(technique_names())[:len(TECHNIQUES)] == TECHNIQUES

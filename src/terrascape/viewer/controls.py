@@ -18,20 +18,24 @@ import numpy as np
 from terrascape.camera import Camera
 from terrascape.lod.schemes import SCHEMES
 
+# The Tab cycle before a session fills in the registry's techniques (the same names as
+# render/techniques.py, in the session's PREFERRED_ORDER).
 TECHNIQUES: tuple[str, ...] = (
+    "material",
     "plain",
     "regions",
     "texture3d",
     "splat",
     "bump",
     "parallax",
-    "offset-limited",
-    "steep",
+    "parallax_limited",
+    "steep_parallax",
     "pom",
     "relief",
     "interval",
     "cone",
-    "by-distance",
+    "minmax",
+    "relief_by_distance",
 )
 LOD_MODES: tuple[str, ...] = ("none", *SCHEMES)  # L cycles these (lod/schemes.py)
 

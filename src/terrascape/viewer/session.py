@@ -31,7 +31,7 @@ from terrascape.viewer.controls import HELP, LOD_MODES, ViewerState, fly, look
 # Technique cycling order (Tab): the seed 001 texturing methods, then seed 000's relief
 # family from cheapest to most expensive; techniques registered later are appended sorted.
 PREFERRED_ORDER: tuple[str, ...] = (
-    "plain", "regions", "texture3d", "splat", "bump", "parallax", "parallax_limited",
+    "material", "plain", "regions", "texture3d", "splat", "bump", "parallax", "parallax_limited",
     "steep_parallax", "pom", "relief", "interval", "cone", "minmax", "relief_by_distance",
 )  # fmt: skip
 
