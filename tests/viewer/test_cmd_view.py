@@ -59,6 +59,7 @@ def test_check_display(monkeypatch):
         (["view", "--generate", "hills", "--lod", "octree"], "--lod must be one of"),
         (["view", "--generate", "hills", "--size", "12by3"], "--size"),
         (["view", "--generate", "hills", "--exaggeration", "0"], "--exaggeration"),
+        (["view", "--generate", "hills", "--sea-level", "nan"], "--sea-level"),
     ],
 )
 def test_bad_options_exit_2_before_opening_a_window(argv, message, monkeypatch, capsys):
@@ -103,3 +104,19 @@ def test_key_names_translate_window_codes():
     assert names[97] == "A" and names[65289] == "TAB" and names[65470] == "F1"
     assert names[65365] == "PAGE_UP" and 1 not in names
     assert names[0xFE20] == "TAB"  # X11 Shift+Tab
+
+
+def test_sea_level_reaches_the_viewer(monkeypatch, capsys):
+    import terrascape.viewer.app as viewer_app
+
+    seen = {}
+
+    def fake_run_viewer(hm, **kwargs):
+        seen.update(kwargs, shape=hm.shape)
+        return 0
+
+    monkeypatch.setattr(viewer_app, "run_viewer", fake_run_viewer)
+    monkeypatch.setattr(viewer_app, "check_display", lambda: None)
+    assert run_app(["view", "--generate", "hills", "--gen-size", "33", "--sea-level",
+                    "5"]) == 0
+    assert seen["sea_level"] == 5.0 and seen["shape"] == (33, 33)

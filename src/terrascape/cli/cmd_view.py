@@ -62,6 +62,9 @@ def view_cmd(
     size: str = typer.Option("1280x720", "--size", help="Window size WIDTHxHEIGHT in pixels."),
     fullscreen: bool = typer.Option(False, "--fullscreen", help="Open full screen."),
     exaggeration: float = typer.Option(1.0, "--exaggeration", help="Vertical scale factor."),
+    sea_level: float = typer.Option(
+        None, "--sea-level", help="Water surface height (world units), with animated ripples.",
+        show_default="no water"),
     pad: bool = typer.Option(
         False, "--pad", help="Pad the heightmap to a square 2^n+1 grid (needed by the LOD "
         "algorithms) by repeating edge samples."),
@@ -110,6 +113,8 @@ def view_cmd(
         raise InvalidParameterError(f"--exaggeration must be finite, got {exaggeration}")
     if screenshot_dir is not None and not screenshot_dir.is_dir():
         raise InvalidParameterError(f"--screenshot-dir {screenshot_dir} is not a folder")
+    if sea_level is not None and not math.isfinite(sea_level):
+        raise InvalidParameterError(f"--sea-level must be finite, got {sea_level}")
     check_display()
 
     if generate is not None:
@@ -125,6 +130,12 @@ def view_cmd(
     if pad and not hm.is_pow2_plus1:
         hm = hm.to_pow2_plus1("pad")
         console.print(f"[dim]padded to {hm.cols}×{hm.rows} for LOD[/]")
+    if sea_level is not None:
+        from terrascape.render.atmosphere import sea_level_note
+
+        note = sea_level_note(hm, sea_level)
+        if note:
+            console.print(f"[yellow]warning:[/yellow] {note}")
     tex = None
     if texture is not None:
         from terrascape.texture.materials import read_image_rgb
@@ -133,5 +144,5 @@ def view_cmd(
     frames_drawn = run_viewer(hm, size=(width, height), fullscreen=fullscreen,
                               technique=technique, lod=lod, texture=tex,
                               exaggeration=exaggeration, screenshot_dir=screenshot_dir,
-                              max_frames=frames, hud=not no_hud)
+                              max_frames=frames, hud=not no_hud, sea_level=sea_level)
     console.print(f"[dim]viewer closed after {frames_drawn} frames[/]")

@@ -206,7 +206,7 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
                fullscreen: bool = False, technique: str = "plain", lod: str = "none",
                texture: np.ndarray | None = None, exaggeration: float = 1.0,
                screenshot_dir: str | os.PathLike | None = None, max_frames: int = 0,
-               hud: bool = True) -> int:
+               hud: bool = True, sea_level: float | None = None) -> int:
     """Open the viewer window and fly over ``heightmap`` until Esc / the window is closed.
 
     Parameters
@@ -250,7 +250,8 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
     try:
         moderngl_window.activate_context(window=wnd)
         session = ViewerSession(wnd.ctx, heightmap, size=wnd.buffer_size, technique=technique,
-                                lod=lod, texture=texture, exaggeration=exaggeration, hud=hud)
+                                lod=lod, texture=texture, exaggeration=exaggeration, hud=hud,
+                                sea_level=sea_level)
         cls = make_window_config()
         config = cls(session, screenshot_dir=Path(screenshot_dir), max_frames=max_frames,
                      ctx=wnd.ctx, wnd=wnd)
