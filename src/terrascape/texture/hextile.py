@@ -109,19 +109,23 @@ def _vertex_uv(vx, vy, u, v, seed, rotation):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _bilinear_wrap(tex, u, v, c):
-    """Bilinear, wrapped lookup of channel ``c`` of ``tex (S, S, C)`` at uv (texel centres)."""
+def _wrap_cell(tex, u, v):
+    """The texel cell around uv (texel centres, wrapped): rows i0, i1, columns j0, j1 and
+    the bilinear weights fx, fy."""
     size_y, size_x = tex.shape[0], tex.shape[1]
     x = u * size_x - 0.5
     y = v * size_y - 0.5
     x0 = math.floor(x)
     y0 = math.floor(y)
-    fx = x - x0
-    fy = y - y0
     i0 = int(y0) % size_y
     j0 = int(x0) % size_x
-    i1 = (i0 + 1) % size_y
-    j1 = (j0 + 1) % size_x
+    return i0, j0, (i0 + 1) % size_y, (j0 + 1) % size_x, x - x0, y - y0
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _bilinear_wrap(tex, u, v, c):
+    """Bilinear, wrapped lookup of channel ``c`` of ``tex (S, S, C)`` at uv (texel centres)."""
+    i0, j0, i1, j1, fx, fy = _wrap_cell(tex, u, v)
     top = tex[i0, j0, c] + (tex[i0, j1, c] - tex[i0, j0, c]) * fx
     bottom = tex[i1, j0, c] + (tex[i1, j1, c] - tex[i1, j0, c]) * fx
     return top + (bottom - top) * fy
@@ -130,17 +134,7 @@ def _bilinear_wrap(tex, u, v, c):
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _bilinear_wrap_all(tex, u, v, out):
     """Every channel of a bilinear, wrapped lookup into ``out`` (one index computation)."""
-    size_y, size_x = tex.shape[0], tex.shape[1]
-    x = u * size_x - 0.5
-    y = v * size_y - 0.5
-    x0 = math.floor(x)
-    y0 = math.floor(y)
-    fx = x - x0
-    fy = y - y0
-    i0 = int(y0) % size_y
-    j0 = int(x0) % size_x
-    i1 = (i0 + 1) % size_y
-    j1 = (j0 + 1) % size_x
+    i0, j0, i1, j1, fx, fy = _wrap_cell(tex, u, v)
     for c in range(out.shape[0]):
         top = tex[i0, j0, c] + (tex[i0, j1, c] - tex[i0, j0, c]) * fx
         bottom = tex[i1, j0, c] + (tex[i1, j1, c] - tex[i1, j0, c]) * fx
