@@ -148,6 +148,12 @@ def _shadow_rows(size: int, rounds: int, table: BenchTable) -> list[bool]:
         table.rows.append([size, az, el, t_ours, t_peer, ratio, f"{lo:.2f}–{hi:.2f}", scale,
                            agree_ours, agree_peer])
         met.append(ratio <= SHADOW_TARGET and agree_ours >= AGREEMENT_TARGET)
+        table.check_target(f"sun {az:g}°/{el:g}°: ours ÷ insolation", ratio,
+                           at_most=SHADOW_TARGET, unit="×")
+        table.check_target(f"sun {az:g}°/{el:g}°: equal to the ray walk", agree_ours,
+                           at_least=AGREEMENT_TARGET, unit=" %")
+        table.check_target(f"sun {az:g}°/{el:g}°: two threads' speed-up", scale,
+                           at_least=1.8, unit="×")
     if not have_peer:
         table.notes.append("insolation is not installed: peer columns skipped")
     return met
@@ -204,6 +210,10 @@ def _tin_rows(quick: bool, rounds: int, table: BenchTable) -> list[bool]:
             table.rows.append([name, err, len(tri), n_peer, len(tri) / n_peer, ratio,
                                f"{lo:.2f}–{hi:.2f}", measured])
             met.append(len(tri) / n_peer <= TIN_TRIANGLE_TARGET and ratio <= TIN_SPEED_TARGET)
+            table.check_target(f"{name} at {err:g} m: triangles ÷ pydelatin's", len(tri) / n_peer,
+                               at_most=TIN_TRIANGLE_TARGET, unit="×")
+            table.check_target(f"{name} at {err:g} m: time ÷ pydelatin's", ratio,
+                               at_most=TIN_SPEED_TARGET, unit="×")
     if not have_peer:
         table.notes.append("pydelatin is not installed: peer columns skipped")
     return met
@@ -257,6 +267,8 @@ def run(quick: bool = False) -> list[BenchTable]:
         ["terrascape --help", _startup_seconds(
             ["-c", "from terrascape.cli import main; main(['--help'])"], r)],
     ]
+    startup.check_target("import terrascape", startup.rows[1][1], at_most=0.10, unit=" s")
+    startup.check_target("terrascape --help", startup.rows[2][1], at_most=0.25, unit=" s")
     startup.notes.append("targets: import terrascape ≤ 0.10 s, terrascape --help ≤ 0.25 s")
     return [shadows, tin, startup]
 
