@@ -1007,7 +1007,10 @@ class TerrainRenderer:
     def _draw_sky(self, uniforms: Mapping[str, Any]) -> None:
         import moderngl
 
-        prog = load_program(self.ctx, "sky")
+        mode = 0
+        if uniforms.get("u_lighting") == LIGHTING_MODES["daylight"]:
+            mode = 1 + int(uniforms.get("u_surround", 0))  # 1 haze, 2 plane, 3 sea
+        prog = load_program(self.ctx, "sky", {"SKY_MODE": mode})
         if self._sky_vao is None or self._sky_vao.program.glo != prog.glo:
             self._sky_vao = self.ctx.vertex_array(prog, [])
         set_uniforms(prog, **uniforms)
