@@ -149,6 +149,27 @@ def _priority_flood(h, filled, parent, order):  # pragma: no cover - compiled
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
+def _steepest_neighbour(h, z, x, sx, sz, dd):
+    """The D8 neighbour of interior sample (z, x) with the steepest strictly downward slope:
+    ``(flat index, distance)``, or ``(-1, 1.0)`` when none is lower."""
+    cols = h.shape[1]
+    best = 0.0
+    bj = -1
+    bd = 1.0
+    hc = h[z, x]
+    for k in range(8):
+        zz = z + _DZ8[k]
+        xx = x + _DX8[k]
+        d = dd if (_DZ8[k] != 0 and _DX8[k] != 0) else (sx if _DZ8[k] == 0 else sz)
+        s = (hc - h[zz, xx]) / d
+        if s > best:
+            best = s
+            bj = zz * cols + xx
+            bd = d
+    return bj, bd
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
 def _d8_receivers(filled, parent, receivers, dist, sx, sz):  # pragma: no cover - compiled
     rows, cols = filled.shape
     dd = math.sqrt(sx * sx + sz * sz)
@@ -159,19 +180,7 @@ def _d8_receivers(filled, parent, receivers, dist, sx, sz):  # pragma: no cover 
                 receivers[i] = -1
                 dist[i] = 1.0
                 continue
-            best = 0.0
-            bj = -1
-            bd = 1.0
-            hc = filled[z, x]
-            for k in range(8):
-                zz = z + _DZ8[k]
-                xx = x + _DX8[k]
-                d = dd if (_DZ8[k] != 0 and _DX8[k] != 0) else (sx if _DZ8[k] == 0 else sz)
-                s = (hc - filled[zz, xx]) / d
-                if s > best:
-                    best = s
-                    bj = zz * cols + xx
-                    bd = d
+            bj, bd = _steepest_neighbour(filled, z, x, sx, sz, dd)
             if bj < 0:  # on a filled flat: follow the flood back to the spill point
                 bj = parent[i]
                 pz = bj // cols

@@ -47,12 +47,9 @@ import numpy as np
 
 from terrascape._numba import CACHE, FASTMATH, njit
 from terrascape._validate import check_int, check_positive, check_range
-from terrascape.analysis.drainage import _accumulate, _carve, _routing
+from terrascape.analysis.drainage import _accumulate, _carve, _routing, _steepest_neighbour
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
-
-_DZ8 = np.array([-1, -1, -1, 0, 0, 1, 1, 1], dtype=np.int64)
-_DX8 = np.array([-1, 0, 1, -1, 1, -1, 0, 1], dtype=np.int64)
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -62,19 +59,7 @@ def _update_receivers(h, receivers, dist, sx, sz):  # pragma: no cover - compile
     dd = math.sqrt(sx * sx + sz * sz)
     for z in range(1, rows - 1):
         for x in range(1, cols - 1):
-            best = 0.0
-            bj = -1
-            bd = 1.0
-            hc = h[z, x]
-            for k in range(8):
-                zz = z + _DZ8[k]
-                xx = x + _DX8[k]
-                d = dd if (_DZ8[k] != 0 and _DX8[k] != 0) else (sx if _DZ8[k] == 0 else sz)
-                s = (hc - h[zz, xx]) / d
-                if s > best:
-                    best = s
-                    bj = zz * cols + xx
-                    bd = d
+            bj, bd = _steepest_neighbour(h, z, x, sx, sz, dd)
             if bj >= 0:
                 i = z * cols + x
                 receivers[i] = bj
