@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from terrascape.errors import InvalidParameterError, OutputExistsError
+from terrascape.errors import InvalidParameterError, OutputExistsError, TerrascapeError
 from terrascape.heightmap import Heightmap
 from terrascape.render.offscreen import (
     render_frames,
@@ -70,6 +70,26 @@ def test_turntable_png_sequence(gl_ctx, hm, tmp_path):
         turntable(hm, 2, tmp_path / "other.png", size=(32, 24), ctx=gl_ctx)
     assert not (tmp_path / "other_0000.png").exists()
     assert (tmp_path / "other_0001.png").read_bytes() == b"keep"
+
+
+def test_turntable_png_sequence_is_one_unit(gl_ctx, hm, tmp_path, monkeypatch):
+    """A failure on the last frame leaves no frame of the sequence behind."""
+    import terrascape.render.offscreen as offscreen
+
+    written = []
+    real = offscreen._write_png
+
+    def failing(path, image):
+        if len(written) == 2:
+            raise OSError(28, "No space left on device", str(path))
+        written.append(path)
+        real(path, image)
+
+    monkeypatch.setattr(offscreen, "_write_png", failing)
+    with pytest.raises(TerrascapeError, match="space"):
+        turntable(hm, 3, tmp_path / "spin.png", size=(32, 24), ctx=gl_ctx)
+    assert len(written) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
 
 
 def test_turntable_mp4(gl_ctx, hm, tmp_path):

@@ -21,7 +21,7 @@ from terrascape._validate import check_int, check_positive, check_range
 from terrascape.camera import Camera, frame_landscape, frame_terrain
 from terrascape.errors import FileFormatError, InvalidParameterError
 from terrascape.heightmap import Heightmap
-from terrascape.io.atomic import atomic_output, check_output_path
+from terrascape.io.atomic import atomic_output, atomic_outputs, check_output_path
 from terrascape.render.context import current
 
 QUALITIES = ("default", "high")
@@ -378,11 +378,13 @@ def turntable(
             params=params,
             quality=quality,
         )
-        for k, (t, img) in enumerate(zip(targets, frames, strict=True)):
-            with atomic_output(t, force=force) as tmp:
+        # The sequence is one output: its frames wait as temporaries and are committed
+        # together, so an interrupted run (a fault, SIGTERM) leaves no partial sequence.
+        with atomic_outputs(targets, force=force) as tmps:
+            for k, (tmp, img) in enumerate(zip(tmps, frames, strict=True)):
                 _write_png(tmp, img[..., :3])
-            if progress:
-                progress(k + 1, len(targets))
+                if progress:
+                    progress(k + 1, len(targets))
         return targets
     try:
         import imageio.v2 as imageio
