@@ -1,4 +1,4 @@
-"""Perspective camera: position + yaw/pitch (an FPS camera, seed 000 §2.6.4), look-at and orbit
+"""Perspective camera: position + yaw/pitch (an FPS camera), look-at and orbit
 constructors, view/projection matrices and frustum planes. Pure numpy, no OpenGL.
 
 Conventions: X east, Y up, Z south (see :mod:`terrascape.lighting.sun`). ``yaw`` is degrees
@@ -7,6 +7,12 @@ horizon, clamped to ±89.9 so looking straight up/down never yields a NaN matrix
 
 Matrices are float64 ``(4, 4)`` for column vectors (``clip = P @ V @ [x, y, z, 1]``), the
 OpenGL convention; upload them to GL as ``M.T.astype("f4").tobytes()`` (column-major).
+
+References
+----------
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.6.4.
 """
 
 from __future__ import annotations

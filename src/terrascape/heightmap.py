@@ -1,4 +1,4 @@
-"""The heightmap model (MISSION H1): float32 heights in world units on a regular X/Z grid, Y up.
+"""The heightmap model: float32 heights in world units on a regular X/Z grid, Y up.
 
 Arrays are indexed ``[row, col]`` = ``[z, x]``. ``spacing`` is the world distance between
 neighbouring samples along X (columns) and Z (rows).

@@ -1,8 +1,16 @@
-"""Reading and writing heightmap files (MISSION H2; seed 001 §2.1, seed 000 §2.1).
+"""Reading and writing heightmap files.
 
 :func:`read_heightmap` / :func:`write_heightmap` dispatch by extension (:data:`FORMATS`);
 each format also has its own module (``image``, ``raw``, ``tiff``, ``npy``, ``terragen``),
 ``fill`` fills nodata holes, and ``atomic`` makes every write all-or-nothing.
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §2.1.
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.1.
 """
 
 from terrascape.io.atomic import atomic_output, check_output_path

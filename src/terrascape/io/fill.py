@@ -1,7 +1,7 @@
 """Filling nodata holes in a heightmap from the nearest valid samples.
 
 Used for GeoTIFF ``GDAL_NODATA`` samples (and NaN in float TIFFs): a DEM with voids must
-become a complete float grid before any terrain algorithm (MISSION H2) can use it.
+become a complete float grid before any terrain algorithm can use it.
 """
 
 from __future__ import annotations

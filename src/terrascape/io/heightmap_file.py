@@ -1,4 +1,10 @@
-"""Format dispatch: :func:`read_heightmap` / :func:`write_heightmap` by file extension."""
+"""Format dispatch: :func:`read_heightmap` / :func:`write_heightmap` by file extension.
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §2.1.
+"""
 
 from __future__ import annotations
 
@@ -123,7 +129,7 @@ def read_heightmap(
     spacing: float | tuple[float, float] | None = None,
     vertical_scale: float | None = None,
 ) -> Heightmap:
-    """Read a heightmap file, choosing the reader by extension (seed 001 §2.1).
+    """Read a heightmap file, choosing the reader by extension.
 
     Parameters
     ----------

@@ -1,8 +1,8 @@
 """Heightmaps as images: 8/16-bit grayscale PNG/BMP/JPEG in, 16-bit PNG and 8-bit previews out.
 
 A height map "is a special kind of image with one colour channel; black is usually the lowest
-height and white the highest" (seed 000 §2.1), and reading one means "loading integers from
-the file and scaling them to the floats used in space" (seed 001 §2.1). Images carry no
+height and white the highest", and reading one means "loading integers from
+the file and scaling them to the floats used in space". Images carry no
 height units, so a plain image gives ``value / full_scale * vertical_scale`` (full scale 255
 for 8-bit, 65535 for 16-bit). PNGs written by terrascape carry a ``tEXt`` chunk named
 ``terrascape`` with the height offset/scale and the sample spacing; reading restores world
@@ -11,6 +11,14 @@ units from it to within half a quantisation step.
 Colour images are reduced to **Rec. 601 luma** on the stored (gamma-encoded) values,
 ``Y' = 0.299 R + 0.587 G + 0.114 B`` — the weights of JPEG/JFIF and of Pillow's ``"L"``
 conversion, computed here in float so no extra 8-bit rounding happens. Alpha is ignored.
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §2.1.
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.1.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Terragen terrain files (``.ter``), the format seed 000 §2.1 names among heightmap formats.
+"""Terragen terrain files (``.ter``), one of the formats the thesis names among heightmap formats.
 
 Layout (Planetside "Terragen Terrain file specification"), all little-endian:
 
@@ -21,6 +21,12 @@ Layout (Planetside "Terragen Terrain file specification"), all little-endian:
 Terragen's y axis points north with the first stored row at the south edge, whereas
 terrascape's row 0 is north (Z grows south, like image rows), so rows are flipped on read and
 write — the same orientation GDAL's Terragen driver produces.
+
+References
+----------
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.1.
 """
 
 from __future__ import annotations

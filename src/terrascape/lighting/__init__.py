@@ -1,9 +1,16 @@
 """Lighting: normals and normal maps, height from photos, slope shading, shadows, sky view,
 and the daylight model (sun + sky + bounce, tone-mapped) that ``lightmap`` uses by default.
 
-MISSION T4 (slope shading, shadow maps by ray casting and a fast exact sweep; seed 001
-§3.2.2) and T6 (normal + height textures, height approximated from a photo; seed 000 §2.3.1,
-§2.7). Pure numpy/numba — no OpenGL.
+Slope shading, shadow maps by ray casting and a fast exact sweep, normal + height textures
+and height approximated from a photo. Pure numpy/numba — no OpenGL.
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §3.2.2.
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.3.1, §2.7.
 """
 
 from terrascape.lighting.ambient_occlusion import sky_view_factor

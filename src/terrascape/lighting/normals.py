@@ -1,6 +1,6 @@
-"""Surface normals and packed normal + height textures (MISSION T6; seed 000 §2.3.1).
+"""Surface normals and packed normal + height textures.
 
-Seed 000 §2.3.1: parallax mapping reads two inputs, "a normal map (also used by bump mapping)
+Parallax mapping (§2.3.1) reads two inputs, "a normal map (also used by bump mapping)
 and a depth map", stored in *one* texture — RGB holds the normal map, alpha the height.
 :func:`pack_normal_height` produces exactly that texture from a heightmap.
 
@@ -9,6 +9,12 @@ Normals come from the height gradient with the real sample spacing ``(dx, dz)``:
 central differences inside and second-order one-sided differences on the border, so a
 plane *and* a quadratic surface get exact normals everywhere (the same stencils as
 ``numpy.gradient(..., edge_order=2)``).
+
+References
+----------
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.3.1, §2.5.
 """
 
 from __future__ import annotations
@@ -111,7 +117,7 @@ def tangent_space_normals(heightmap: Any, *, height_scale: float = 1.0) -> np.nd
 
     The frame is ``x`` along +u (columns, world +X), ``y`` along +v (rows, world +Z) and
     ``z`` = up (world +Y), so a flat map gives ``(0, 0, 1)``. A shader rebuilds the world
-    normal as ``x·T + y·B + z·N`` with ``T = +X``, ``B = +Z``, ``N = +Y`` (seed 000 §2.5).
+    normal as ``x·T + y·B + z·N`` with ``T = +X``, ``B = +Z``, ``N = +Y``.
 
     Returns
     -------
@@ -124,7 +130,7 @@ def tangent_space_normals(heightmap: Any, *, height_scale: float = 1.0) -> np.nd
 def pack_normal_height(
     heightmap: Any, *, height_scale: float = 1.0, bits: int = 8
 ) -> np.ndarray:
-    """The RGBA texture parallax/relief shaders read: RGB = normal, A = height (seed 000 §2.3.1).
+    """The RGBA texture parallax/relief shaders read: RGB = normal, A = height.
 
     Parameters
     ----------

@@ -1,8 +1,13 @@
-"""Slope (Lambert) shading: the first shadow component of seed 001 §3.2.2.
+"""Slope (Lambert) shading: the first shadow component of the thesis.
 
-Seed 001 §3.2.2 splits terrain shadowing into shading by the slope relative to the light
+The thesis (§3.2.2) splits terrain shadowing into shading by the slope relative to the light
 ("ordinary shading", identical to OpenGL's built-in lighting) and self-shadowing; this
 module is the first part, ``max(0, N·L)``.
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §3.2.2.
 """
 
 from __future__ import annotations

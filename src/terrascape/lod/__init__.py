@@ -1,4 +1,4 @@
-"""Level of detail (seed 001 §4–5): ROAM, Turner's ROAM, geomipmapping, quadtree culling, a
+"""Level of detail: ROAM, Turner's ROAM, geomipmapping, quadtree culling, a
 static RTIN mesher and the mesh checks they all share.
 
 Triangle format shared by all LOD code: ``uint32 (M, 3)`` grid vertex indices
@@ -8,6 +8,11 @@ The view-dependent schemes share one interface (:class:`~terrascape.lod.schemes.
 and are listed in :data:`~terrascape.lod.schemes.SCHEMES`. Names are imported on first use
 (PEP 562), so ``terrascape.lod.schemes`` — read by the CLI's ``--help`` — loads no numba
 kernels.
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §4–5.
 """
 
 from __future__ import annotations

@@ -5,6 +5,11 @@ in O(1) and a per-frame pass reads only the records, never the bintree.
 A record set is the tuple ``(ids, co, fl, ht, keys)`` described below; :func:`_alloc_records`
 makes one and :func:`_grow_records` enlarges it. What the float values ``fl`` mean (leaf or
 diamond) is the caller's (:mod:`terrascape.lod.roam`).
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §5.3.
 """
 
 from __future__ import annotations
@@ -16,7 +21,7 @@ from terrascape._numba import CACHE, FASTMATH, njit
 # The per-frame refresh must not touch the bintree: at 4097² its node array (4·S² bytes) and
 # the height/error grids (67 MB each) are far larger than the caches, and a walk over them
 # costs a cache miss per node — the refresh then grows with the map although the mesh does
-# not (seed 001 §5.3: the map size must not matter). Every leaf and every mergeable diamond
+# not (the map size must not matter). Every leaf and every mergeable diamond
 # therefore has a record in a dense array — its id, corner coordinates, wedgie thickness
 # and corner heights — created and deleted by the split/merge operations themselves. The
 # refresh reads only these O(triangles) contiguous records.

@@ -1,5 +1,5 @@
 """Binary triangle tree (bintree) over a square ``(2**n + 1)²`` grid — implicit numbering,
-geometry, neighbours and Duchaineau's nested error bounds (seed 001 §4.1.1–4.1.2).
+geometry, neighbours and Duchaineau's nested error bounds.
 
 Numbering (heap order, no per-triangle objects)
 -----------------------------------------------
@@ -9,9 +9,9 @@ children ``2t`` (``T0``) and ``2t + 1`` (``T1``); its level is ``bit_length(t) �
 ``S = 2**n`` cells per side the finest level is ``L = 2n`` (half grid cells) and every id is
 below ``4·S²``, so per-triangle flags fit in one flat array.
 
-A triangle is written ``(apex, v0, v1)`` — the seed's ``T = (v_a, v_0, v_1)``: ``v_a`` is
+A triangle is written ``(apex, v0, v1)`` — the thesis's ``T = (v_a, v_0, v_1)``: ``v_a`` is
 the right-angle vertex and ``v0–v1`` the hypotenuse. Splitting adds ``v_c``, the midpoint
-of the hypotenuse, and (seed §4.1.1) ``T0 = (v_c, v_a, v_0)``, ``T1 = (v_c, v_1, v_a)``.
+of the hypotenuse, and ``T0 = (v_c, v_a, v_0)``, ``T1 = (v_c, v_1, v_a)``.
 Both roots are counter-clockwise seen from above (+Y) and the split keeps the orientation,
 so every triangle of every bintree mesh is counter-clockwise seen from above: with
 ``x = col``, ``z = row`` the normal ``(v0 − v_a) × (v1 − v_a)`` points up (the convention of
@@ -26,7 +26,7 @@ root to the triangle of a given level containing a point (O(level) integer steps
 
 Error bounds
 ------------
-Duchaineau et al. 1997 (seed §4.1, "ugniježđene granice pogrešaka"): the wedgie thickness
+Duchaineau et al. 1997 ("ugniježđene granice pogrešaka"): the wedgie thickness
 
     e_T = max(e_T0, e_T1) + |z(v_c) − (z(v_0) + z(v_1)) / 2|,   e_T = 0 at the finest level,
 
@@ -36,6 +36,12 @@ by a linear function that is 0 at the two shared vertices and ``±|z(v_c) − me
 ``v_c``. Both triangles of a diamond share ``v_c``, so :func:`wedgie_errors` stores one value
 per grid vertex: the maximum of the two triangles' thicknesses (still a true, nested bound,
 and the diamond's merge priority needs exactly that maximum).
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §4.1, §4.1.1,
+  §4.1.1–4.1.2.
 """
 
 from __future__ import annotations
@@ -218,7 +224,7 @@ def _wedgie_errors(h, out):
 
 
 def wedgie_errors(heights) -> np.ndarray:
-    """Duchaineau's nested wedgie thicknesses, one per grid vertex (seed 001 §4.1).
+    """Duchaineau's nested wedgie thicknesses, one per grid vertex.
 
     ``out[r, c]`` bounds the vertical error (world units, same units as ``heights``) of both
     triangles whose hypotenuse midpoint is vertex ``(r, c)`` against every grid sample they

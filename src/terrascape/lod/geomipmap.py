@@ -1,4 +1,4 @@
-"""Geomipmapping (de Boer 2000; seed 001 §4.2): patches with level chains, per-frame level
+"""Geomipmapping (de Boer 2000): patches with level chains, per-frame level
 selection from precomputed errors, neighbours at most one level apart, crack-free joins.
 
 Patches have ``2**k + 1`` samples per side (17 in the original) and share their border
@@ -7,7 +7,7 @@ triangles of the patch square.
 
 Index pattern. Every level ``l`` below the coarsest is made of 2×2-cell blocks, each a fan of
 8 triangles around the block centre. A patch whose neighbour on one side is one level coarser
-skips the odd vertices along that side (seed 001 §4.2, Figure 24): in each block touching
+skips the odd vertices along that side: in each block touching
 that side the two triangles meeting at the skipped edge midpoint merge into one, so the edge
 has exactly the neighbour's vertices and no T-junction remains. The 16 neighbour masks
 (bit 1 = north/−Z/row 0, 2 = east/+X, 4 = south/+Z, 8 = west/col 0; bit set = that
@@ -29,6 +29,11 @@ levels; levels are then lowered (never raised) until neighbours differ by at mos
 (an exact city-block distance transform, iterated with the rule below to a fixed point). A
 patch that even at level 0 is closer than its stitched-level-0 distance forces its
 neighbours to level 0 too, so it is never stitched.
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §4.2, Figure 24.
 """
 
 from __future__ import annotations
@@ -386,7 +391,7 @@ class Geomipmap:
 
     # --- per frame ---------------------------------------------------------------------------
     def min_distances(self, camera: Camera, viewport, tolerance_px: float) -> np.ndarray:
-        """``D_n = |δ|·C`` (seed 001 Formula 3) per patch and level, with the stitched δ.
+        """``D_n = |δ|·C`` (the thesis's Formula 3) per patch and level, with the stitched δ.
 
         ``C = A/T``, ``A = n/|t|`` (near distance over the top of the near plane),
         ``T = 2τ/v_res``.

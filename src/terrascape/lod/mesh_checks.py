@@ -7,7 +7,13 @@ component, i.e. the 2-D cross product ``dx1·dz2 − dz1·dx2`` in the (x, z) pl
 (the Z axis points south, so "counter-clockwise from above" is clockwise in (col, row) maths).
 
 The checks here are exact (integer geometry on the grid) and independent of the algorithms
-that produce the meshes: ROAM (seed 001 §4.1), geomipmapping (§4.2) and the static RTIN.
+that produce the meshes: ROAM, geomipmapping (§4.2) and the static RTIN.
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §4.1, §4.2,
+  Formula 3.
 """
 
 from __future__ import annotations
@@ -151,7 +157,7 @@ def conformity_report(triangles, shape) -> ConformityReport:
       directions by its two triangles (consistent orientation);
     * edges used once (boundary edges) lie on the domain border;
     * no T-junction: no vertex used by the mesh lies strictly inside any triangle's edge —
-      the crack condition that ROAM's forced splits (seed 001 §4.1) and geomipmapping's
+      the crack condition that ROAM's forced splits and geomipmapping's
       changed edge indexing (§4.2, Figure 24) exist to prevent.
 
     Parameters
@@ -426,7 +432,7 @@ def max_screen_error(heightmap, triangles, camera, viewport) -> float:
 
     — the size on screen of a segment of length δ seen at distance d at the view centre. It
     is the quantity geomipmapping's precomputed distance ``D_n = |δ|·C``, ``C = A/T``,
-    ``A = n/|t|``, ``T = 2τ/v_res`` (seed 001 §4.2, Formula 3) bounds: since
+    ``A = n/|t|``, ``T = 2τ/v_res`` bounds: since
     ``A/T = v_res/(2τ·tan(fov/2)) = K/τ``, ``d ≥ D_n  ⇔  δ·K/d ≤ τ``. The view direction is
     ignored (every sample counts, visible or not), which makes the bound conservative and
     independent of frustum culling.

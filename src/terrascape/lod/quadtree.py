@@ -1,6 +1,6 @@
 """Quadtree of axis-aligned bounding boxes over terrain patches, with view-frustum culling.
 
-Seed 001 §4.2 and §5.2: the terrain is cut into patches; a quadtree of AABBs (min/max
+As in the thesis (§4.2, §5.2), the terrain is cut into patches; a quadtree of AABBs (min/max
 height per node) is built once, and each frame the tree is walked from the root: a node
 whose box is entirely outside one frustum plane is rejected with its whole subtree, a node
 entirely inside every plane is accepted with its whole subtree, and only boxes straddling a
@@ -10,6 +10,11 @@ The box-vs-plane test is the usual conservative "p-vertex / n-vertex" test (the 
 farthest along / against the plane normal), so a patch is never culled while any part of
 its box is inside the frustum; a box near a frustum corner may be kept although it is
 outside (as in any AABB culler).
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §4.2, §5.2.
 """
 
 from __future__ import annotations

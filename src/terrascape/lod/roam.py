@@ -1,8 +1,8 @@
-"""ROAM — Real-time Optimally Adapting Meshes (Duchaineau et al. 1997; seed 001 §4.1).
+"""ROAM — Real-time Optimally Adapting Meshes (Duchaineau et al. 1997).
 
 A binary triangle tree over a ``(2**n + 1)²`` heightmap (two root triangles,
 :mod:`terrascape.lod.bintree`) is kept as a triangulation that changes from frame to frame
-by *splits* (with recursive forced splits of the base neighbour, §4.1.2, Slika 21) and
+by *splits* (with recursive forced splits of the base neighbour, §4.1.2, Figure 21) and
 *merges* of mergeable diamonds. Two priority queues drive it (§4.1.3):
 
 * the split queue ``Q_s`` holds every leaf triangle, keyed by its priority;
@@ -10,17 +10,17 @@ by *splits* (with recursive forced splits of the base neighbour, §4.1.2, Slika 
   children leaves — keyed by ``max{p(T), p(T_B)}``.
 
 Each frame starts from the previous triangulation (frame coherence); the priorities of all
-queue elements are refreshed for the new camera (the seed's "osvježi prioritete za sve
+queue elements are refreshed for the new camera (the thesis's "osvježi prioritete za sve
 elemente Q_s, Q_m") and the greedy loop splits the highest-priority triangle or merges the
 lowest-priority diamond until the targets are met: a screen-space error tolerance (pixels),
 a triangle count, and a time budget, whichever comes first. With a triangle budget the loop
 keeps swapping (merge the lowest diamond, split the highest triangle) while the highest
-split priority exceeds the lowest merge priority, as in the seed's pseudocode. A split is
+split priority exceeds the lowest merge priority, as in the thesis's pseudocode. A split is
 taken only when it fits the budget together with its forced splits (otherwise the swap
 merges first): an overshoot would have to be merged back regardless of priority, which can
 undo the split and make the loop flip between the same splits and merges.
 
-Per-frame cost independent of the map size (seed §5.3)
+Per-frame cost independent of the map size
 -----------------------------------------------------
 The refresh never walks the bintree nor reads the height/error grids (at 4097² far larger
 than the caches): every leaf and mergeable diamond has a compact record (corners, heights,
@@ -44,7 +44,7 @@ parent's. Its priority is the largest possible screen size of a vertical segment
 where ``z_min`` is the smallest view-axis depth over the six wedgie corners, ``k_px`` the
 larger of the horizontal and vertical pixels per unit of tangent (``v_res / (2·tan(fov/2))``)
 and the square root bounds the off-axis magnification of the perspective divide. A wedgie
-entirely outside one frustum plane gets priority 0 (the seed's "outside → lowest"). Because
+entirely outside one frustum plane gets priority 0 (the thesis's "outside → lowest"). Because
 the wedgies are nested, ``p`` is monotonic (a child never has a higher priority than its
 parent), as the greedy queues require. A sample with vertical error δ at distance d inside
 the view therefore has ``δ·K'/d <= p(T)`` for the metric of
@@ -52,6 +52,12 @@ the view therefore has ``δ·K'/d <= p(T)`` for the metric of
 
 Output: ``uint32 (M, 3)`` grid vertex indices ``row·cols + col`` into the full-resolution
 grid, counter-clockwise seen from above (+Y), the winding of the full-resolution mesh.
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §4.1, §4.1.3,
+  §5.3.
 """
 
 from __future__ import annotations
@@ -540,7 +546,7 @@ def _force_split(t, tree, view, split_q, ns, merge_q, nm, stack, recs):
 def _split_cost(t, state, size):
     """Triangles a forced split of leaf ``t`` adds (what :func:`_force_split` would return),
     without changing the mesh: ``t`` and its base neighbour, plus the forced split of the
-    neighbour's parent when the neighbour is coarser, recursively (§4.1.2, Slika 21)."""
+    neighbour's parent when the neighbour is coarser, recursively (§4.1.2, Figure 21)."""
     need = 0
     x = t
     while True:
@@ -714,7 +720,7 @@ def _fill_merge(view, size, recs, merge_q):
 
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _roam_ops(tree, view, split_q, merge_q, stack, recs, ivars, tau, max_ops, per_op):
-    """Greedy split/merge loop of seed §4.1.3, at most ``max_ops`` operations.
+    """Greedy split/merge loop of, at most ``max_ops`` operations.
 
     ``ivars`` = [ns, nm, count, max_triangles, splits, merges, ops] is updated in place.
     Returns a status code (``_MORE`` when the operation budget ran out, or when a queue or

@@ -1,7 +1,7 @@
 """Static terrain mesh with a TRUE maximum vertical error: a right-triangulated irregular
 network (RTIN) over a ``2**n + 1`` grid.
 
-The triangles are those of the binary triangle tree used by ROAM (seed 001 §4.1): the square
+The triangles are those of the binary triangle tree used by ROAM: the square
 is cut along its diagonal into two right isosceles triangles, and a triangle is split at the
 midpoint of its hypotenuse into two halves, down to one-cell triangles. A triangle is split
 exactly when the grid vertex at its hypotenuse midpoint is "active", so the two triangles
@@ -35,6 +35,11 @@ ones reuse the order. One mesh for one error (:func:`rtin_mesh` with ``max_error
 skips most exact errors: a triangle's error is bounded by its midpoint error plus its
 children's bound, so only triangles near the final leaves are scanned, and a scan stops at
 the first sample beyond the error (:func:`_active_for_error`; same mesh, bit for bit).
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §4.1.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Turner's ROAM (Bryan Turner 2000, "Real-Time Dynamic Level of Detail Terrain Rendering
-with ROAM") — the implementation the seed chose (seed 001 §5.1–5.2, §5.3).
+with ROAM") — the implementation the thesis chose.
 
-Differences from Duchaineau's ROAM (:mod:`terrascape.lod.roam`), as the seed describes them:
+Differences from Duchaineau's ROAM (:mod:`terrascape.lod.roam`), as the thesis describes them:
 
 * the map is cut into square patches of ``patch_size = 2**k + 1`` samples (shared borders),
   each with two root triangles and its own *variance tree*;
@@ -12,7 +12,7 @@ Differences from Duchaineau's ROAM (:mod:`terrascape.lod.roam`), as the seed des
 * invisible patches are skipped using the quadtree of AABBs
   (:class:`terrascape.lod.quadtree.PatchQuadtree`);
 * the split threshold ("frame variance") is adjusted every frame by feedback so the triangle
-  count holds near a target (the seed's 80,000).
+  count holds near a target (the thesis's 80,000).
 
 Variance tree (Turner): for a triangle with hypotenuse ``v0–v1`` and midpoint ``v_c``
 
@@ -22,7 +22,7 @@ stored in an implicit heap array per patch for the first ``variance_depth`` leve
 ``2 … 2**(variance_depth+1) − 1``); like Turner, a triangle deeper than the stored tree is
 always split. Unlike Duchaineau's wedgie thickness this is a maximum, not a sum: a
 heuristic, not a bound. A triangle splits when ``var(T)·K / d > threshold``, ``d`` the 3-D
-distance from the eye to ``v_c`` (the seed's fix for Turner's 2-D distance, which assumed a
+distance from the eye to ``v_c`` (the thesis's fix for Turner's 2-D distance, which assumed a
 camera hovering just above the ground) and ``K`` pixels per radian, so the threshold is in
 pixels.
 
@@ -30,6 +30,12 @@ The tessellation is Turner's pointer bintree made flat: a node pool of int array
 (children, base/left/right neighbours, patch, local heap id, level, corner coordinates),
 reset every frame. Output as everywhere in :mod:`terrascape.lod`: ``uint32 (M, 3)`` grid
 vertex indices ``row·cols + col``, counter-clockwise seen from above (+Y).
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §4.1.1,
+  §5.1–5.2, §5.3.
 """
 
 from __future__ import annotations
@@ -188,7 +194,7 @@ def _split(t, n, lc, base, left, right, patch, tid, lvl, co, stack):
         ar, ac, r0, cc0, r1, cc1 = co[y, 0], co[y, 1], co[y, 2], co[y, 3], co[y, 4], co[y, 5]
         mr = (r0 + r1) >> 1
         mc = (cc0 + cc1) >> 1
-        # T0 = (v_c, v_a, v_0), T1 = (v_c, v_1, v_a)  (seed §4.1.1)
+        # T0 = (v_c, v_a, v_0), T1 = (v_c, v_1, v_a)
         co[c0, 0], co[c0, 1], co[c0, 2], co[c0, 3], co[c0, 4], co[c0, 5] = mr, mc, ar, ac, r0, cc0
         co[c1, 0], co[c1, 1], co[c1, 2], co[c1, 3], co[c1, 4], co[c1, 5] = mr, mc, r1, cc1, ar, ac
         for x in (c0, c1):
@@ -366,7 +372,7 @@ class TurnerRoam:
     patch_size
         Samples per patch side, ``2**k + 1`` (shared borders); default 65.
     target_triangles
-        Triangle count the feedback holds (default 80,000, the seed's figure).
+        Triangle count the feedback holds (default 80,000, the thesis's figure).
     variance_depth
         Levels stored in each patch's variance tree (default: all ``2k``); deeper
         triangles always split, as in Turner's code.

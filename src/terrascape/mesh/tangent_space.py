@@ -1,4 +1,4 @@
-"""Per-vertex tangent space (seed 000 §2.5, requirement R1).
+"""Per-vertex tangent space.
 
 Every vertex carries three mutually perpendicular unit vectors — tangent ``T``, bitangent
 (binormal) ``B`` and normal ``N`` — and an object-space vector ``O`` is taken to texture
@@ -16,6 +16,12 @@ fourth component, so a shader needs only ``N`` and ``(T', w)``.
 For terrascape's height fields with planar mapping (u along +X, v along +Z, Y up) the frame is
 left-handed in the ``T × B = N`` sense (``X × Z = −Y``), so ``w = −1`` everywhere; the sign is
 still computed, never assumed.
+
+References
+----------
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.5.
 """
 
 from __future__ import annotations

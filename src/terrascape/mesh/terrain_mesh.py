@@ -1,6 +1,6 @@
 """Regular-grid terrain mesh with per-vertex tangent space, planar uvs and chunked indices.
 
-The mesh mirrors the original program (seed 000 §2.6.4: a terrain mesh with tangents and
+The mesh mirrors the original program (a terrain mesh with tangents and
 planar texture mapping with a scale factor — Irrlicht's ``makePlanarTextureMapping(mesh,
 scale)``), in terrascape's conventions:
 
@@ -12,8 +12,16 @@ scale)``), in terrascape's conventions:
 * two triangles per cell, ``(i00, i10, i01)`` and ``(i01, i10, i11)``, counter-clockwise seen
   from above (+Y) — GL's default front face — so back-face culling keeps the top side;
 * chunks of ``2**k + 1`` vertices per side share their border vertices (geomipmapping-style
-  tiles, seed 001 §4.2), each with its own index list and bounding box, so very large maps
+  tiles), each with its own index list and bounding box, so very large maps
   (4097²) are drawn chunk by chunk and culled against the view frustum.
+
+References
+----------
+- D. Filipović, "Generiranje i prikaz terena" (Terrain generation and display), BSc thesis 221,
+  Faculty of Electrical Engineering and Computing, University of Zagreb, 2008, §4.2.
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.5, §2.6.4.
 """
 
 from __future__ import annotations
@@ -241,7 +249,7 @@ def terrain_mesh(
     heightmap
         Any size ≥ 2×2, any spacing.
     uv_scale
-        Texture repeats over the terrain (planar mapping scale, seed 000 §2.6.4); > 0.
+        Texture repeats over the terrain (planar mapping scale); > 0.
     exaggeration
         Vertical scale applied to heights (and therefore to normals and tangents); > 0.
 
@@ -249,7 +257,7 @@ def terrain_mesh(
     -------
     TerrainMesh
         float32 positions, unit normals (central differences, as ``Heightmap.normals``),
-        tangents with handedness (seed 000 §2.5); bitangents/uvs/triangles on demand.
+        tangents with handedness; bitangents/uvs/triangles on demand.
     """
     if not isinstance(heightmap, Heightmap):
         raise InvalidParameterError(

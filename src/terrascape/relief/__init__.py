@@ -1,7 +1,13 @@
-"""Relief texturing on the CPU (seed 000 §2.3–2.4): test height fields, the exact per-pixel
+"""Relief texturing on the CPU: test height fields, the exact per-pixel
 reference tracer, pre-warped relief texture mapping (Oliveira 2000), cone maps and min/max
 mip pyramids. No OpenGL here — the GLSL techniques live in ``terrascape.render``
 (``relief_quad``, ``relief_techniques``, ``shaders/relief/``).
+
+References
+----------
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.3–2.4.
 """
 
 from terrascape.relief.cone_map import cone_map, cone_map_bruteforce, footprint_cone_map

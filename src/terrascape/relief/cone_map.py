@@ -1,4 +1,4 @@
-"""Cone maps for cone step mapping (Dummer 2006) — the "next improvement" seed 000 §3 names.
+"""Cone maps for cone step mapping (Dummer 2006) — the "next improvement" the thesis names (§3).
 
 For every texel the cone map stores the widest upward-opening cone, apex on the texel's
 surface point, that contains no part of the height field: the ratio ``c`` = horizontal
@@ -25,6 +25,9 @@ References
    Algorithm.
 .. [2] Bán, R., Valasek, G., Bálint, Cs., Vad, V. A. (2024). Robust Cone Step Mapping.
    Eurographics Symposium on Rendering.
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §3.
 """
 
 from __future__ import annotations

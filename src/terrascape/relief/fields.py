@@ -2,10 +2,16 @@
 
 Both are *tileable* (periodic) ``float32`` arrays of heights in ``[0, 1]`` (1 = the polygon
 surface, 0 = the deepest point), indexed ``[row (v), col (u)]`` like every texture in
-terrascape. Relief shaders read *depth* ``1 - h`` (seed 000 §2.4.7: depth 0 at the polygon,
-1 at the bottom). The city is the hard case the seed's urban tests use (§2.7.2: blocks,
+terrascape. Relief shaders read *depth* ``1 - h`` (§2.4.7: depth 0 at the polygon,
+1 at the bottom). The city is the hard case the thesis's urban tests use (§2.7.2: blocks,
 streets, thin walls that a coarse linear search steps over); the natural field is the smooth
 case (§2.7.1 test 3).
+
+References
+----------
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.4.7, §2.7.
 """
 
 from __future__ import annotations
@@ -106,7 +112,7 @@ def natural_field(size: int = 256, *, seed: int = 0, beta: float = 3.2) -> np.nd
     Parameters
     ----------
     size
-        Texels per side, even, ≥ 8 (1280 reproduces seed 000 §2.7's natural texture).
+        Texels per side, even, ≥ 8 (1280 reproduces the thesis's natural texture, §2.7).
     seed
         Random seed.
     beta
@@ -219,7 +225,7 @@ def max_texel_step(heights) -> float:
 def has_walls(heights, step: float = WALL_STEP) -> bool:
     """Does the height field (heights in [0, 1]) have walls: neighbouring texels at least
     ``step`` of the depth range apart? Relief mapping's linear search steps over walls one
-    or two texels thick (seed 000 §2.4.7), so its default search is denser on such fields
+    or two texels thick, so its default search is denser on such fields
     (:class:`terrascape.render.relief_quad.ReliefSettings`)."""
     step = check_range(step, "wall step", 1e-6, 1.0)
     return max_texel_step(heights) >= step

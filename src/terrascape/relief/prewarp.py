@@ -1,5 +1,5 @@
 """Relief *texture* mapping by pre-warping (Oliveira, Bishop & McAllister 2000; seed 000
-§2.4.1–2.4.5, MISSION R9).
+§2.4.1–2.4.5).
 
 A relief texture is a colour image plus a per-texel orthogonal displacement. For a given
 camera it is first *pre-warped* — every texel slides inside the texture plane to where the
@@ -20,7 +20,7 @@ this package), so ``e_d < 0`` and ``1 + k3·d > 0`` never vanishes.
 
 Because ``u_i`` depends only on ``(u_s, d)`` and ``v_i`` only on ``(v_s, d)``, the warp is
 separable into two 1-D passes (§2.4.5): every row is warped horizontally (colour and the
-target ``v_i`` are interpolated linearly between neighbouring texels, the seed's
+target ``v_i`` are interpolated linearly between neighbouring texels, the thesis's
 pseudocode), then every column of that intermediate image is warped vertically. Visibility is
 resolved by McMillan's occlusion-compatible order: texels are processed from the far side
 *toward the epipole* ``(e_u, e_v)`` (the eye's orthogonal projection on the texture plane);
@@ -32,6 +32,12 @@ occlusion-compatible order backwards and the first writer of a pixel wins (no ov
 hidden walls), wrapped margin texels are added only on the side(s) from which texels can
 slide into the image (:func:`_margins`), rows (pass 1) and columns (pass 2) run in parallel
 and the intermediate image is stored column-major for pass 2.
+
+References
+----------
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.4.5.
 """
 
 from __future__ import annotations
@@ -88,7 +94,7 @@ _ROW_CHUNKS = 64
 def _warp_line(x, vals, ok, e, out, written):
     """Warp one line of samples (source order, target positions ``x``) into ``out``.
 
-    The occlusion-compatible order of seed §2.4.5 (McMillan) paints spans left of the
+    The occlusion-compatible order of §2.4.5 (McMillan) paints spans left of the
     epipole ``e`` left→right, those right of it right→left and the span containing it last,
     later writes winning. This walks that order *backwards* and lets the first writer win
     instead, which gives every pixel the same span and hence the same bytes, but a hidden
@@ -97,7 +103,7 @@ def _warp_line(x, vals, ok, e, out, written):
     by the roofs in front of them).
 
     ``out``/``written`` are cleared first; each span linearly interpolates ``vals`` at the
-    pixel centres it covers (seed §2.4.5 pseudocode).
+    pixel centres it covers (§2.4.5 pseudocode).
     """
     n = x.shape[0]
     m = out.shape[0]

@@ -5,7 +5,7 @@ Geometry (shared by every relief shader, so results compare pixel by pixel):
 * A :class:`ReliefQuad` is a parallelogram in world space: corner ``origin``, edges
   ``u_axis`` and ``v_axis``; texture coordinates run from ``(0, 0)`` at the origin to
   ``uv_scale`` at the far corner (``uv_scale > 1`` tiles the relief texture).
-* The relief hangs *below* the polygon (seed 000 §2.4.6–2.4.7, Policarpo et al. 2005): a
+* The relief hangs *below* the polygon (Policarpo et al. 2005): a
   texel of depth ``d ∈ [0, 1]`` (``d = 1 - height``) lies ``d · depth`` UV units under the
   face that the camera sees. ``depth`` is in UV units (0.1 = a tenth of the texture width).
 * Rays are expressed in *uvd* coordinates: ``(u, v)`` texture coordinates and ``d``
@@ -20,6 +20,12 @@ cell ``s - depth(s)`` is a quadratic in ``s``, split at its extremum into monoto
 and the first sign change is bisected to 1e-5 texel — an exact first hit, thin walls
 included. :func:`shadow_exact` checks a light ray for *any* point under the surface using
 the same per-cell quadratics (maximum of a quadratic on an interval is exact).
+
+References
+----------
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.4.6–2.4.7.
 """
 
 from __future__ import annotations

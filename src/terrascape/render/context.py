@@ -1,9 +1,15 @@
 """Headless OpenGL context creation (EGL standalone) and a description of its capabilities.
 
-The renderer needs OpenGL 3.3 core (seed 000 §2.6 builds on programmable vertex/fragment
+The renderer needs OpenGL 3.3 core (the thesis's program builds on programmable vertex/fragment
 shaders). On a machine without a GPU, Mesa's llvmpipe through EGL provides it; failures are
 turned into :class:`~terrascape.errors.GLUnavailableError` with an actionable message instead
 of the raw glcontext exception.
+
+References
+----------
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.6.
 """
 
 from __future__ import annotations

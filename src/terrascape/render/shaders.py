@@ -1,8 +1,9 @@
 """GLSL program loading: one ``.glsl`` file per program, ``#include`` resolution, ``#define``
 injection, per-context program cache, and validated uniform upload.
 
-Layout (seed 000 §2.6: the original program keeps each effect as one shader file and feeds its
-constants through a "shader constant callback" every frame). Here:
+Layout: as in the original program of the relief-texturing thesis, which keeps each effect
+as one shader file and feeds its constants through a "shader constant callback" every
+frame. Here:
 
 * every program is ``render/shaders/<name>.glsl`` with sections::
 
@@ -22,6 +23,12 @@ constants through a "shader constant callback" every frame). Here:
 * :func:`set_uniforms` is the constant callback: it validates each value (finite, right
   number of components) and silently skips uniforms the GLSL compiler optimised away, so one
   parameter dictionary can drive every technique.
+
+References
+----------
+- D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
+  in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
+  University of Zagreb, 2010, §2.6.
 """
 
 from __future__ import annotations
