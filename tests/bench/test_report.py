@@ -7,7 +7,7 @@ def test_report_writes_markdown_and_plots(tmp_path):
     path = write_report(tmp_path, quick=True, tiny=True, cases=())
     text = path.read_text()
     assert "## Machine" in text and "| cores |" in text
-    # the seed's depth analysis, measured by the library (seed 001 §5.3.1)
+    # the thesis's depth analysis, measured by the library (Filipović 2008 §5.3.1)
     assert "| LIN | linear | 7 |" in text
     assert "| DIV | halve | 8 |" in text
     assert "| SQRT | sqrt | 4 |" in text
@@ -22,7 +22,7 @@ def test_analyses_read_tables_and_write_plots(tmp_path):
     from terrascape.bench import BenchTable
     from terrascape.bench.report_analysis import ANALYSES
 
-    seed = BenchTable("Seed 000 §2.7 reproduction on the terrain mesh (x)",
+    seed = BenchTable("Janković 2010 §2.7 reproduction on the terrain mesh (x)",
                       ["texture", "technique", "ms/frame", "% drop vs texture",
                        "seed % drop (config 2)"],
                       [["a", "texture mapping", 10.0, 0.0, 0.0],

@@ -1,4 +1,4 @@
-"""Benchmark case terrain_vs_relief (seed 000 §2.7 Test 4): tiny sizes, results not speed."""
+"""Benchmark case terrain_vs_relief (Janković 2010 §2.7 Test 4): tiny sizes, results not speed."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""Diamond-square: decay laws (seed 001 §5.3.1), per-level statistics, integer mode, errors."""
+"""Diamond-square: decay laws (Filipović 2008 §5.3.1), per-level statistics, integer mode,
+errors."""
 
 from __future__ import annotations
 
@@ -42,7 +43,7 @@ def level_residuals(h: np.ndarray, *, integer: bool = False) -> list[np.ndarray]
 
 
 def test_seed_depth_analysis_8bit() -> None:
-    # Seed 001 §5.3.1: start 255; linear (-40) hits 0 at depth 7, halving (>>1) at depth 8,
+    # Filipović 2008 §5.3.1: start 255; linear (-40) hits 0 at depth 7, halving (>>1) at depth 8,
     # rounded sqrt falls to 1 at depth 4.
     assert detail_depth(255, "linear", step=40, integer=True) == 7
     assert detail_depth(255, "halve", integer=True) == 8

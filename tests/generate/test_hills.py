@@ -1,4 +1,4 @@
-"""Cosine hills (seed 001 §2.4): the profile formula, bounding-box locality, errors."""
+"""Cosine hills (Filipović 2008 §2.4): the profile formula, bounding-box locality, errors."""
 
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ from terrascape.generate.hills import default_radius_range, draw_hills
 
 
 def seed_formula(dist: np.ndarray, diameter: float, odmak: float) -> np.ndarray:
-    """The seed's pseudocode with π for 3.14: pd = dist*2/diameter; inside: d/2 + cos(pd·π)·d/2."""
+    """The thesis's pseudocode with π for 3.14:
+    pd = dist*2/diameter; inside: d/2 + cos(pd·π)·d/2."""
     pd = dist * 2 / diameter
     return np.where(np.abs(pd) <= 1.0, odmak / 2 + np.cos(pd * np.pi) * odmak / 2, 0.0)
 

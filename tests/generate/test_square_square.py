@@ -43,7 +43,7 @@ def test_no_centre_spike(seed: int, decay: str) -> None:
 
 
 def test_classic_diamond_square_has_the_spike_the_test_looks_for() -> None:
-    # The metric is not toothless: the seed's algorithm fails it for this seed.
+    # The metric is not toothless: the thesis's algorithm fails it for this seed.
     assert centre_spike(diamond_square(257, roughness=0.55, seed=2).heights) > 2.5
 
 

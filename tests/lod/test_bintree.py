@@ -1,4 +1,4 @@
-"""Bintree numbering, neighbours and Duchaineau's nested error bounds (seed 001 §4.1)."""
+"""Bintree numbering, neighbours and Duchaineau's nested error bounds (Filipović 2008 §4.1)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Geomipmapping (seed 001 §4.2): crack-free mixed levels, screen error ≤ τ, level rules."""
+"""Geomipmapping (Filipović 2008 §4.2): crack-free mixed levels, screen error ≤ τ, level rules."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""ROAM (Duchaineau et al. 1997; seed 001 §4.1): conformity, tiling, error guarantees, queues
+"""ROAM (Duchaineau et al. 1997; Filipović 2008 §4.1): conformity, tiling, error guarantees, queues
 with frame coherence, budgets, and random split/merge sequences."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Turner's ROAM (seed 001 §5.1–5.2): patches, variance trees, split-only rebuild every
+"""Turner's ROAM (Filipović 2008 §5.1–5.2): patches, variance trees, split-only rebuild every
 frame, crack-free forced splits across patches, triangle target by feedback, AABB culling."""
 
 from __future__ import annotations

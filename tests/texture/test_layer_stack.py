@@ -1,4 +1,4 @@
-"""3D-texture layer stack and the height → r coordinate (seed 001 §3.1.2)."""
+"""3D-texture layer stack and the height → r coordinate (Filipović 2008 §3.1.2)."""
 
 import numpy as np
 import pytest
@@ -22,7 +22,7 @@ def test_layer_coordinate_values():
 
 def test_layer_coordinate_blend_equals_region_weights(rng):
     # Sampling a 3D texture at r with linear filtering blends layers floor(rL-0.5) and the
-    # next; with the default (complementary hat) bands this equals the seed's weights.
+    # next; with the default (complementary hat) bands this equals the thesis's weights.
     h = rng.uniform(-5, 105, size=(16, 16)).astype(np.float32)
     h[0, 0], h[0, 1] = 0.0, 100.0
     hm = Heightmap(h)

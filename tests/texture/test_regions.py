@@ -1,4 +1,4 @@
-"""Region weights and region texture (seed 001 §3.1.1): values, jitter, slope rule, errors."""
+"""Region weights and region texture (Filipović 2008 §3.1.1): values, jitter, slope rule, errors."""
 
 import math
 

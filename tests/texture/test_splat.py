@@ -1,4 +1,4 @@
-"""Splat alpha maps (seed 001 §3.1.3): naive per-block reference, packing, rules, errors."""
+"""Splat alpha maps (Filipović 2008 §3.1.3): naive per-block reference, packing, rules, errors."""
 
 import math
 
@@ -18,7 +18,7 @@ from terrascape.texture.splat import (
 
 
 def naive_blockwise_splat(ids, n_layers, block):
-    """The seed's scheme written out literally: per 32×32-cell block (33×33 vertices), per
+    """The thesis's scheme written out literally: per 32×32-cell block (33×33 vertices), per
     vertex, average the alpha of the cells sharing it, each cell's alpha being its 3×3
     neighbourhood weighted ``1 - d²/1.75²`` and normalised. Returns the map and asserts that
     vertices shared by two blocks get the same value from both."""

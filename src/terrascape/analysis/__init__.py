@@ -1,4 +1,4 @@
-"""Measurements on heightmaps used by the report (seed 001 §5.3.1)."""
+"""Measurements on heightmaps used by the report (Filipović 2008 §5.3.1)."""
 
 from terrascape.analysis.spectrum import radial_power_spectrum, spectral_slope
 

@@ -1,6 +1,6 @@
 """Radially averaged power spectrum of a heightmap.
 
-Used to show *why* the square-root roughness decay of seed 001 §5.3.1 loses the high
+Used to show *why* the square-root roughness decay of Filipović 2008 §5.3.1 loses the high
 frequencies: its spectrum falls off a cliff after the first few octaves while the halving law
 keeps a power-law (fractal) slope, ``P(f) ∝ f^-(2H+2)`` for fractional Brownian surfaces
 (Saupe, "Algorithms for random fractals", in *The Science of Fractal Images*, 1988).

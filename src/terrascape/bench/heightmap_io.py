@@ -1,4 +1,4 @@
-"""Benchmark: read/write time and file size of every heightmap format (MISSION H2)."""
+"""Benchmark: read/write time and file size of every heightmap format."""
 
 from __future__ import annotations
 

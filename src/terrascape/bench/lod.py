@@ -1,6 +1,6 @@
 """Benchmark: geomipmapping, quadtree culling and static RTIN meshes (``terrascape bench lod``).
 
-* geomipmapping (seed 001 §4.2): setup, per-frame level selection + index ranges (median,
+* geomipmapping (Filipović 2008 §4.2): setup, per-frame level selection + index ranges (median,
   p95) and the full ``triangles()`` gather on a seeded camera flight, 257…4097 (quick:
   257, 513);
 * quadtree AABB culling per frame (2049², 17×17 patches; quick 513²) and its disagreement

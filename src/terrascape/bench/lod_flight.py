@@ -1,6 +1,6 @@
 """Benchmark: ROAM, Turner's ROAM and geomipmapping on ONE flight, drawn (``bench lod_flight``).
 
-Seed 001 §5.3 (figures 27–29) compares the LOD algorithms by frame rate and triangle count vs
+Filipović 2008 §5.3 (figures 27–29) compares the LOD algorithms by frame rate and triangle count vs
 heightmap size at an 80,000-triangle target, and by frame rate vs triangle count. The other
 LOD benches (``lod_roam``, ``lod``) time the LOD update alone; here every frame is the FULL
 frame a viewer pays for, drawn headless on the renderer used everywhere else:
@@ -50,7 +50,7 @@ QUICK_FRAMES = 10
 WARMUP = 3
 TARGET = 80_000
 TURNER_PATCH = SCHEMES["turner"].options["patch_size"]
-GM_PATCH = SCHEMES["geomipmap"].options["patch_size"]  # the seed's default (§4.2)
+GM_PATCH = SCHEMES["geomipmap"].options["patch_size"]  # the thesis's default (§4.2)
 TAU_MIN = 1e-3  # px: the bisection's lower end (full resolution in practice)
 TECHNIQUE = "regions"
 # Full-resolution reference rows above this side are skipped (parameter of the size table;
@@ -91,7 +91,7 @@ def bisect_tolerance(
 
     The triangle count of :meth:`~terrascape.lod.Geomipmap.update` (with frustum culling) is
     non-increasing in τ: the switching distances ``D_n = δ·C`` scale with ``C ∝ 1/τ``
-    (seed 001 Formula 3), so a larger τ only selects coarser levels. Bisection in log τ.
+    (Filipović 2008 Formula 3), so a larger τ only selects coarser levels. Bisection in log τ.
 
     Parameters
     ----------

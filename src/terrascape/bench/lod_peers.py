@@ -3,7 +3,7 @@
 Issue 6 asks for a head-to-head with a peer tool on view-dependent meshes for a FIXED camera:
 at the same worst screen-space error, how many triangles does each mesh need, and what do
 setup and the per-frame update cost? The peer is Panda3D's ``GeoMipTerrain`` (de Boer's
-geomipmapping, seed 001 §4.2, as shipped in Panda3D): square blocks whose level is chosen
+geomipmapping, Filipović 2008 §4.2, as shipped in Panda3D): square blocks whose level is chosen
 from the 2-D distance between the block centre and a "focal point" (``setNear``/``setFar``
 linear ramp or the older ``setFactor``), i.e. WITHOUT any error metric.
 

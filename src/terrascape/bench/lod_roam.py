@@ -1,6 +1,6 @@
 """Benchmark: ROAM (Duchaineau) and Turner's ROAM (``terrascape bench lod_roam``).
 
-Seed 001 §5.3 analyses ROAM by triangles and frame rate vs map size and vs triangle count.
+Filipović 2008 §5.3 analyses ROAM by triangles and frame rate vs map size and vs triangle count.
 Measured here on a seeded, smooth camera flight (a circle 150 m above the highest peak,
 5 m per frame, looking 15° down — the incremental case ROAM's frame coherence is built for):
 

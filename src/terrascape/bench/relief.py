@@ -1,4 +1,4 @@
-"""Relief texturing quality and speed (seed 000 §2.3–2.4, §2.7; MISSION R3–R11, P4).
+"""Relief texturing quality and speed (Janković 2010 §2.3–2.4, §2.7).
 
 Tables:
 
@@ -10,11 +10,11 @@ Tables:
    the shader), ms per frame and the time ratio to relief 16+8. Pre-warped relief texture
    mapping (R9, CPU) is in the same table, timed on the CPU.
 2. **Self-shadowing** vs the exact shadow, and its cost.
-3. **Seed 000 §2.7 reproduction**: texture vs parallax vs relief mapping on the terrain mesh
-   (TerrainRenderer, planar-mapped relief texture) for the seed's three textures.
+3. **Janković 2010 §2.7 reproduction**: texture vs parallax vs relief mapping on the terrain mesh
+   (TerrainRenderer, planar-mapped relief texture) for the thesis's three textures.
 
 Headless llvmpipe is a CPU rasteriser: absolute ms are not GPU figures; ratios are what
-compare with the seed's FPS tables.
+compare with the thesis's FPS tables.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from terrascape.bench import BenchTable, best_of
 from terrascape.camera import Camera, frame_terrain
 
 ANGLES = (30, 60, 70, 80)
-# The seed's relief mapping: 16 equal linear steps, 8 binary steps — the time baseline.
+# The thesis's relief mapping: 16 equal linear steps, 8 binary steps — the time baseline.
 RELIEF_16_8 = {"march": "fixed", "linear_steps": 16, "binary_steps": 8}
 TECHNIQUES: list[tuple[str, str, dict]] = [
     # (label, shader technique, settings)
@@ -283,7 +283,7 @@ def prewarp_table(*, tex=512, angles=ANGLES):
     return table
 
 
-# Seed 000 §2.7 (test configuration 2): FPS of texture mapping vs parallax / relief.
+# Janković 2010 §2.7 (test configuration 2): FPS of texture mapping vs parallax / relief.
 SEED_FPS = {
     "urban 512² tiled": {"texture": 176, "relief": 44, "parallax_tex": 894, "parallax": 867},
     "urban 1024² stretched": {"texture": 196, "relief": 56, "parallax_tex": 885,
@@ -301,8 +301,8 @@ def _terrain_pixels(img_a, img_b, mask):
 
 
 def seed_table(ctx, *, size=(1280, 720), terrain=257, quick=False):
-    """Seed 000 §2.7 on the terrain mesh: texture mapping vs parallax vs relief mapping for
-    the seed's three textures, whole terrain in view, with the image error of each row
+    """Janković 2010 §2.7 on the terrain mesh: texture mapping vs parallax vs relief mapping for
+    the thesis's three textures, whole terrain in view, with the image error of each row
     against relief 16+8 and the height fetches per pixel."""
     from terrascape.generate import diamond_square
     from terrascape.render.relief_techniques import RELIEF_DEFAULTS, relief_variant
@@ -340,7 +340,7 @@ def seed_table(ctx, *, size=(1280, 720), terrain=257, quick=False):
          {"relief_lod": True, **lod, "lod_nearest_from": -1.0}),
     ]
     table = BenchTable(
-        f"Seed 000 §2.7 reproduction on the terrain mesh ({terrain}² diamond-square, "
+        f"Janković 2010 §2.7 reproduction on the terrain mesh ({terrain}² diamond-square, "
         f"{size[0]}×{size[1]}, whole terrain in view)",
         ["texture", "technique", "ms/frame", "CPU ms/frame", "× texture frame rate",
          "% drop vs texture", "% drop vs region colour", "seed % drop (config 2)",
@@ -397,7 +397,7 @@ def seed_table(ctx, *, size=(1280, 720), terrain=257, quick=False):
         fbo.release()
         renderer.release()
     table.notes += [
-        "drop = 1 − FPS_technique / FPS_texture = 1 − t_texture / t_technique, as the seed's "
+        "drop = 1 − FPS_technique / FPS_texture = 1 − t_texture / t_technique, as the thesis's "
         "tables (its averages: parallax 14.06 %, relief 69.75 %), with t the process CPU "
         f"time of a frame (both llvmpipe threads); {rounds} interleaved rounds, each row's "
         "two timed frames after an untimed one of its own, order reversed every other round; "

@@ -1,7 +1,7 @@
 """``terrascape bench report``: run the benchmarks and write a Markdown report with plots.
 
-The report reproduces the measurements of both theses (seed 001 §5.3, seed 000 §2.7) on the
-machine it runs on. Every number in it comes from this run; the discussion paragraphs are
+The report reproduces the measurements of both theses (Filipović 2008 §5.3, Janković 2010 §2.7)
+on the machine it runs on. Every number in it comes from this run; the discussion paragraphs are
 composed from the measured values, never typed in.
 """
 
@@ -79,7 +79,7 @@ def _md_table(columns: list[str], rows: list[list]) -> str:
     return "\n".join(lines) + "\n"
 
 
-# --- section 1: fractal generator analysis (seed 001 §5.3.1, figures 25–26) ---------------
+# --- section 1: fractal generator analysis (Filipović 2008 §5.3.1, figures 25–26) ---------------
 def fractal_section(out: Path, *, quick: bool, tiny: bool = False) -> Section:
     import matplotlib
 
@@ -103,7 +103,7 @@ def fractal_section(out: Path, *, quick: bool, tiny: bool = False) -> Section:
         ax.imshow(hm.heights, cmap="terrain", vmin=-1.2, vmax=1.2)
         ax.set_title(f"r = {r} (std {stds[-1]:.3f})")
         ax.axis("off")
-    fig.suptitle(f"Diamond-square, halving decay, {size}² — seed 001 figure 25")
+    fig.suptitle(f"Diamond-square, halving decay, {size}² — Filipović 2008, figure 25")
     fig.tight_layout()
     images.append(save_figure(fig, out, "fractal_roughness.png"))
     md.append("![terrains for several roughness values](fractal_roughness.png)\n")
@@ -113,7 +113,7 @@ def fractal_section(out: Path, *, quick: bool, tiny: bool = False) -> Section:
         + ".\n"
     )
 
-    # Figure 26 and the depth analysis: the seed's 8-bit integer set-up.
+    # Figure 26 and the depth analysis: the thesis's 8-bit integer set-up.
     laws = (("linear", "LIN"), ("halve", "DIV"), ("sqrt", "SQRT"))
     depth_rows = []
     for law, label in laws:
@@ -121,7 +121,7 @@ def fractal_section(out: Path, *, quick: bool, tiny: bool = False) -> Section:
         depth = detail_depth(255, law, step=40, integer=True)
         depth_rows.append([label, law, depth, " → ".join(str(int(v)) for v in sched[:9])])
     md.append("Depth at which each decay law stops adding detail (start 255, linear step 40, "
-              "rounded square root — the seed's set-up; computed by "
+              "rounded square root — the thesis's set-up; computed by "
               "`terrascape.generate.detail_depth`):\n")
     md.append(_md_table(["seed name", "law", "depth", "roughness per depth"], depth_rows))
 
@@ -140,7 +140,7 @@ def fractal_section(out: Path, *, quick: bool, tiny: bool = False) -> Section:
     axes[3].set_ylabel("power")
     axes[3].set_title("radially averaged power spectrum")
     axes[3].legend()
-    fig.suptitle(f"Decay laws side by side, {size}², integer mode — seed 001 figure 26")
+    fig.suptitle(f"Decay laws side by side, {size}², integer mode — Filipović 2008, figure 26")
     fig.tight_layout()
     images.append(save_figure(fig, out, "fractal_decay_laws.png"))
     md.append("![decay laws and their spectra](fractal_decay_laws.png)\n")
@@ -150,10 +150,10 @@ def fractal_section(out: Path, *, quick: bool, tiny: bool = False) -> Section:
     ))
     sqrt_hi, div_hi = slopes["SQRT"][1], slopes["DIV"][1]
     verdict = (
-        "which confirms the seed's observation that square root \"quickly suppresses high "
+        "which confirms the thesis's observation that square root \"quickly suppresses high "
         "frequencies\" and leaves only the first few subdivision steps visible"
         if sqrt_hi < div_hi
-        else "which does NOT confirm the seed's observation on this run"
+        else "which does NOT confirm the thesis's observation on this run"
     )
     md.append(
         f"Discussion: the square-root law keeps {sqrt_hi:.1e} of its power in the finest four "
@@ -162,7 +162,7 @@ def fractal_section(out: Path, *, quick: bool, tiny: bool = False) -> Section:
         f"{verdict}. Linear decay stays rough longest in absolute terms until it reaches zero "
         f"at depth {depth_rows[0][2]}.\n"
     )
-    return Section("Fractal generator analysis (seed 001 §5.3.1)", "\n".join(md), images)
+    return Section("Fractal generator analysis (Filipović 2008 §5.3.1)", "\n".join(md), images)
 
 
 # --- sections from benchmark cases ---------------------------------------------------------
@@ -194,10 +194,10 @@ REPORT_SECTIONS: list[tuple[str, list[str]]] = [
     ("Generators (timings)", ["generate"]),
     ("Texturing and shadow maps", ["texture", "shade"]),
     ("Rendering: texturing modes", ["render"]),
-    ("Relief texturing: technique table and quality (seed 000 §2.7)", ["relief"]),
-    ("Relief-mapped texture terrain vs polygonal terrain with LOD (seed 000 §2.7, test 4)",
+    ("Relief texturing: technique table and quality (Janković 2010 §2.7)", ["relief"]),
+    ("Relief-mapped texture terrain vs polygonal terrain with LOD (Janković 2010 §2.7, test 4)",
      ["terrain_vs_relief"]),
-    ("ROAM analysis: ROAM, Turner's ROAM and geomipmapping on one flight (seed 001 §5.3)",
+    ("ROAM analysis: ROAM, Turner's ROAM and geomipmapping on one flight (Filipović 2008 §5.3)",
      ["lod_flight", "lod_roam"]),
     ("Level of detail: geomipmapping, culling, static meshes and peers", ["lod", "lod_peers"]),
 ]

@@ -3,7 +3,7 @@
 Each ``analyse_<case>`` function takes the :class:`~terrascape.bench.BenchTable` list that
 benchmark case produced in this run and the output folder, writes its PNG plots and returns
 ``(markdown, image names)``. Every number in the discussion is read from those tables; the
-theses' figures they are compared with are quoted as such (seed 000 §2.7, seed 001 §5.3).
+theses' figures they are compared with are quoted as such (Janković 2010 §2.7, Filipović 2008 §5.3).
 Tables are found by title prefix and columns by name, so a case that grew or lost a table
 still gets whatever analysis its tables support.
 """
@@ -18,10 +18,10 @@ from pathlib import Path
 
 from terrascape.bench import BenchTable
 
-# Seed 000 §2.7, test configuration 2: average FPS drop against texture mapping.
+# Janković 2010 §2.7, test configuration 2: average FPS drop against texture mapping.
 SEED_PARALLAX_DROP = 14.06
 SEED_RELIEF_DROP = 69.75
-# Seed 000 §2.7, test 4 (configuration 2), frames per second.
+# Janković 2010 §2.7, test 4 (configuration 2), frames per second.
 SEED_TEST4_FPS = {
     "texture": 824, "parallax": 716, "relief": 55, "lod1": 5, "lod3": 62, "lod5": 170,
 }  # fmt: skip
@@ -112,7 +112,7 @@ def plot_per_algorithm_vs_size(table: BenchTable, out: Path, name: str,
     return first
 
 
-# --- relief texturing (seed 000 §2.7, issue: relief quality table) ----------------------------
+# --- relief texturing (Janković 2010 §2.7) ---
 def analyse_relief(tables: Sequence[BenchTable], out: Path) -> Analysis:
     md: list[str] = []
     images: list[str] = []
@@ -180,13 +180,13 @@ def analyse_relief(tables: Sequence[BenchTable], out: Path) -> Analysis:
                           if r[quality.columns.index("technique")] == "parallax")
             text.append(
                 f"plain parallax, a single fetch, is off by up to {_fmt(worst_p)} texels at "
-                "the 95th percentile — the seed's remark that its texture \"deforms\" up close "
+                "the 95th percentile — the thesis's remark that its texture \"deforms\" up close "
                 "and at low angles, quantified"
             )
         if text:
             md.append("Discussion: " + "; ".join(text) + ".\n")
 
-    seed = find_table(tables, "Seed 000 §2.7 reproduction")
+    seed = find_table(tables, "Janković 2010 §2.7 reproduction")
     if seed is not None and seed.rows:
         tech_i = seed.columns.index("technique")
         drop_i = seed.columns.index("% drop vs texture")
@@ -212,23 +212,23 @@ def analyse_relief(tables: Sequence[BenchTable], out: Path) -> Analysis:
             avg_p, avg_r = sum(par) / len(par), sum(rel) / len(rel)
             md.append(
                 f"Average frame-rate drop against texture mapping over the three textures: "
-                f"parallax {avg_p:.2f} %, relief mapping {avg_r:.2f} % (seed 000: "
+                f"parallax {avg_p:.2f} %, relief mapping {avg_r:.2f} % (Janković 2010: "
                 f"{SEED_PARALLAX_DROP} % and {SEED_RELIEF_DROP} %). "
-                + ("Relief mapping costs about what it cost the seed; "
+                + ("Relief mapping costs about what it cost the thesis; "
                    if abs(avg_r - SEED_RELIEF_DROP) < 10 else
-                   "Relief mapping costs more than it cost the seed; "
+                   "Relief mapping costs more than it cost the thesis; "
                    if avg_r > SEED_RELIEF_DROP else
-                   "Relief mapping costs less than it cost the seed; ")
-                + ("parallax costs far more here than on the seed's GPU, because llvmpipe "
+                   "Relief mapping costs less than it cost the thesis; ")
+                + ("parallax costs far more here than on the thesis's GPU, because llvmpipe "
                    "shades fragments on the CPU, where one more dependent texture fetch per "
                    "pixel is a large share of a cheap frame.\n"
                    if avg_p > 2 * SEED_PARALLAX_DROP else
-                   "parallax stays cheap, as in the seed.\n")
+                   "parallax stays cheap, as in the thesis.\n")
             )
     return "\n".join(md), images
 
 
-# --- ROAM and Turner's ROAM, update only (seed 001 §5.3, figures 27–29) -----------------------
+# --- ROAM and Turner's ROAM, update only (Filipović 2008 §5.3, figures 27–29) ---
 def analyse_lod_roam(tables: Sequence[BenchTable], out: Path) -> Analysis:
     md: list[str] = []
     images: list[str] = []
@@ -251,9 +251,9 @@ def analyse_lod_roam(tables: Sequence[BenchTable], out: Path) -> Analysis:
         if ratios:
             md.append(
                 "Discussion: at a fixed 80,000-triangle target the update time changes "
-                "little with the map (" + "; ".join(ratios) + "), the seed's finding that map "
+                "little with the map (" + "; ".join(ratios) + "), the thesis's finding that map "
                 "size does not drive ROAM's cost; the small 257² map cannot supply 80,000 "
-                "visible triangles, the seed's own exception.\n"
+                "visible triangles, the thesis's own exception.\n"
             )
     if by_target is not None and by_target.rows:
         fig, ax = plt.subplots(figsize=(6, 4))
@@ -297,8 +297,8 @@ def analyse_lod_flight(tables: Sequence[BenchTable], out: Path) -> Analysis:
                              f"(513² → {int(big)}²)")
         if parts:
             md.append(
-                "Discussion (seed 001 figures 27–28): with the triangle count held near "
-                "80,000, the whole frame rate is " + "; ".join(parts) + ". The seed found "
+                "Discussion (Filipović 2008, figure 27–28): with the triangle count held near "
+                "80,000, the whole frame rate is " + "; ".join(parts) + ". The thesis found "
                 "frame rate independent of map size for ROAM; a full-resolution row, where "
                 "present, shows what the LOD saves.\n"
             )
@@ -321,16 +321,16 @@ def analyse_lod_flight(tables: Sequence[BenchTable], out: Path) -> Analysis:
             first, last = by_target.rows[0], by_target.rows[-1]
             i = by_target.columns.index(fps_cols[0])
             md.append(
-                f"Discussion (seed 001 figure 29): frame rate falls from "
+                f"Discussion (Filipović 2008, figure 29): frame rate falls from "
                 f"{_fmt(as_number(first[i]))} to {_fmt(as_number(last[i]))} frames/s "
                 f"({fps_cols[0].replace(' frames/s', '')}) as the target grows from "
                 f"{first[0]} to {last[0]} triangles — every extra triangle costs CPU work "
-                "(here the rasteriser is on the CPU too), as the seed observed.\n"
+                "(here the rasteriser is on the CPU too), as the thesis observed.\n"
             )
     return "\n".join(md), images
 
 
-# --- seed 000 test 4: relief-mapped texture terrain vs polygons (helper case) ---------------
+# --- Janković 2010 test 4: relief-mapped texture terrain vs polygons (helper case) ---------------
 def analyse_terrain_vs_relief(tables: Sequence[BenchTable], out: Path) -> Analysis:
     md: list[str] = []
     images: list[str] = []
@@ -366,7 +366,7 @@ def analyse_terrain_vs_relief(tables: Sequence[BenchTable], out: Path) -> Analys
                 f"Discussion ({short}): relief mapping on a flat quad runs at {_fmt(relief)} "
                 f"frames/s ({relief / texture:.2f}× texture mapping's {_fmt(texture)}; "
                 f"parallax {_fmt(parallax or math.nan)}), the full-resolution polygons at "
-                f"{_fmt(full)}. Seed 000, test 4: texture {SEED_TEST4_FPS['texture']}, "
+                f"{_fmt(full)}. Janković 2010, test 4: texture {SEED_TEST4_FPS['texture']}, "
                 f"parallax {SEED_TEST4_FPS['parallax']}, relief {SEED_TEST4_FPS['relief']}, "
                 f"polygons at 1 / 3 / 5 LOD levels {SEED_TEST4_FPS['lod1']} / "
                 f"{SEED_TEST4_FPS['lod3']} / {SEED_TEST4_FPS['lod5']} frames/s.\n"
@@ -377,7 +377,7 @@ def analyse_terrain_vs_relief(tables: Sequence[BenchTable], out: Path) -> Analys
     if slowest and all(slowest):
         md.append(
             "As in the seed, polygons at full resolution are the slowest option in every "
-            "case and level of detail recovers the frame rate; unlike the seed's GPU, "
+            "case and level of detail recovers the frame rate; unlike the thesis's GPU, "
             "llvmpipe shades fragments on the CPU, so relief mapping loses less against "
             "texture mapping here. The quality table says what each shortcut costs in the "
             "image.\n"

@@ -1,7 +1,7 @@
 """``terrascape bench shade``: shadow maps (fast sweep vs Marghidanu's ray walk), lightmaps,
-normals (MISSION T4, T6).
+normals.
 
-Terrain: diamond-square (seed 001 §2.2) normalised to a relief of 5 % of the map width,
+Terrain: diamond-square (Filipović 2008 §2.2) normalised to a relief of 5 % of the map width,
 spacing 1 — about a 60 km DEM at 30 m with 2 km of relief at 2049². Azimuths include
 axis-aligned, diagonal and general directions, since the sweep runs along rows or columns
 depending on the light.
@@ -41,7 +41,7 @@ def run(quick: bool = False) -> list[BenchTable]:
     sizes = (513, 1025) if quick else (513, 1025, 2049, 4097)
     repeat = 1 if quick else 3
     shadows = BenchTable(
-        "Shadow map: fast sweep vs reference ray walk (seed 001 §3.2.2)",
+        "Shadow map: fast sweep vs reference ray walk (Filipović 2008 §3.2.2)",
         ["size", "az °", "el °", "fast s", "ref s", "ref/fast", "differ %", "shadow %"],
     )
     other = BenchTable(

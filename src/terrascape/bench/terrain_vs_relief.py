@@ -1,6 +1,6 @@
-"""Relief-mapped flat quad vs polygonal terrain with LOD (seed 000 §2.7, Test 4).
+"""Relief-mapped flat quad vs polygonal terrain with LOD (Janković 2010 §2.7, Test 4).
 
-The seed renders a 1024² heightmap four ways in Irrlicht — (a) a flat quad with the terrain
+The thesis renders a 1024² heightmap four ways in Irrlicht — (a) a flat quad with the terrain
 as a texture (texture mapping), (b) the same quad with parallax mapping, (c) with relief
 mapping (the height texture *is* the terrain), (d) the terrain as polygons with Irrlicht's
 geomipmapped terrain node at 1, 3 and 5 levels of detail — and reports FPS (test
@@ -19,16 +19,16 @@ Here, on headless llvmpipe, with one camera seeing the whole terrain for every m
 * (d): :class:`~terrascape.render.offscreen.OffscreenRenderer`, technique ``plain`` (region
   colour texture, Phong with the vertex normal — ka, kd, ks and shininess set to the quad
   shader's constants, fog and sky off), full resolution and geomipmapping
-  (:class:`~terrascape.lod.Geomipmap`, 33² patches, seed 001 §4.2) at τ = 1, 4, 16 px. The
+  (:class:`~terrascape.lod.Geomipmap`, 33² patches, Filipović 2008 §4.2) at τ = 1, 4, 16 px. The
   camera is static, so the LOD selection is done once per τ and its cost reported apart.
 
-Two diamond-square terrains: ``seed`` (smooth, the seed's height scale — relief 0.11·255 over
+Two diamond-square terrains: ``seed`` (smooth, the thesis's height scale — relief 0.11·255 over
 1024) and ``mountains`` (Hurst 0.7, relief a quarter of the width), so LOD and relief depth
 are exercised at both ends.
 
 Tables (``run``): Table 1 per terrain — triangles, LOD levels used, ms/frame (median of N
 frames after a warm-up round, methods interleaved frame by frame, read-back of 8-bit RGBA
-included), frames/s, × texture mapping (FPS ratio), the LOD update cost, and the seed's FPS
+included), frames/s, × texture mapping (FPS ratio), the LOD update cost, and the thesis's FPS
 for the matching row; Table 2 — image difference of every method against the
 full-resolution polygons (luminance, the terrain sample each pixel shows, coverage): what
 the speed buys. Nothing is written to disk.
@@ -48,7 +48,7 @@ from terrascape.bench import BenchTable
 from terrascape.errors import InvalidParameterError
 
 EXTENT = 1024.0  # world units per side for every grid size (quick mode only samples coarser)
-# Seed 000 §2.7 Test 4: addTerrainSceneNode scale (1, 0.11, 1) on an 8-bit heightmap of 1024
+# Janković 2010 §2.7 Test 4: addTerrainSceneNode scale (1, 0.11, 1) on an 8-bit heightmap of 1024
 # texels, i.e. a relief of 0.11·255 ≈ 28 units over 1024.
 RELIEF_HEIGHT = 0.11 * 255.0
 # name -> diamond-square decay law and relief height (world units over EXTENT).
@@ -61,7 +61,7 @@ TERRAINS = {
 SUN = (135.0, 45.0)
 TOLERANCES = (1.0, 4.0, 16.0)
 PATCH_SIZE = 33
-# Seed 000 §2.7, Test 4, test configuration 2 (frames per second).
+# Janković 2010 §2.7, Test 4, test configuration 2 (frames per second).
 SEED_FPS = {"texture": 824, "parallax": 716, "relief": 55, 1: 5, 3: 62, 5: 170}
 # (label, ReliefQuadRenderer technique, SEED_FPS key)
 QUAD_METHODS = (("texture mapping", "plain", "texture"), ("parallax", "parallax", "parallax"),
@@ -94,7 +94,7 @@ class MethodResult:
 def terrain(size: int, kind: str = "seed", *, seed: int = 1):
     """A test terrain: diamond-square, ``EXTENT`` wide, heights in ``[0, relief]``.
 
-    ``kind`` is a key of :data:`TERRAINS`: ``"seed"`` (smooth, the seed's height scale) or
+    ``kind`` is a key of :data:`TERRAINS`: ``"seed"`` (smooth, the thesis's height scale) or
     ``"mountains"`` (rougher, a quarter of the width high).
     """
     from terrascape.generate import diamond_square
@@ -350,12 +350,12 @@ def _seed_rows(results: list[MethodResult]) -> dict[int, int]:
 
 def tables(measured: dict[str, list[MethodResult]], *, size: int, viewport, frames: int,
            spacing: float) -> list[BenchTable]:
-    """One speed table per terrain (Table 1: seed scale first — the seed's Test 4 — then
+    """One speed table per terrain (Table 1: seed scale first — the thesis's Test 4 — then
     mountains), then Table 2, the image difference of every terrain's methods."""
     seed_tex = SEED_FPS["texture"]
     speeds = {
         kind: BenchTable(
-            f"Seed 000 §2.7 Test 4, {TERRAINS[kind]['label']}: relief-mapped quad vs "
+            f"Janković 2010 §2.7 Test 4, {TERRAINS[kind]['label']}: relief-mapped quad vs "
             f"polygonal terrain ({size}² diamond-square, {viewport[0]}×{viewport[1]}, whole "
             "terrain in view)",
             ["method", "triangles", "LOD levels used", "ms/frame", "frames/s",
@@ -401,11 +401,11 @@ def tables(measured: dict[str, list[MethodResult]], *, size: int, viewport, fram
         f"ms/frame: median of {frames} frames after one warm-up round, methods interleaved "
         "frame by frame; draw + glReadPixels of 8-bit "
         "RGBA (llvmpipe: CPU rasteriser on 2 shared cores — ratios, not absolute FPS, "
-        "compare with the seed's GPU); × texture mapping = FPS / FPS of texture mapping",
+        "compare with the thesis's GPU); × texture mapping = FPS / FPS of texture mapping",
         "quad rows: ReliefQuadRenderer on one flat quad (2 triangles); relief = 16 linear + 8 "
         "binary steps; 'texture mapping' = colour texture + normal-map Phong, no parallax",
         "polygon rows: OffscreenRenderer 'plain' (region texture, vertex-normal Phong); "
-        f"geomipmapping (seed 001 §4.2) with {PATCH_SIZE}² patches at tolerance τ, levels "
+        f"geomipmapping (Filipović 2008 §4.2) with {PATCH_SIZE}² patches at tolerance τ, levels "
         "chosen once for the static camera (update + triangles() gather timed apart, median of "
         "3)",
         "seed LOD rows: Irrlicht terrain node limited to 1 / 3 / 5 levels of detail; 1 level "

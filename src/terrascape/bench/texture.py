@@ -1,7 +1,7 @@
 """Benchmark: texture synthesis by grid size (``terrascape bench texture``).
 
-Computation only (no file I/O): the region texture (seed 001 §3.1.1) at scale 1 with the
-built-in 256-px materials, and the splat-map pipeline (seed 001 §3.1.3): material ids from
+Computation only (no file I/O): the region texture (Filipović 2008 §3.1.1) at scale 1 with the
+built-in 256-px materials, and the splat-map pipeline (Filipović 2008 §3.1.3): material ids from
 height/slope rules, per-vertex alpha maps (32×32-cell blocks), RGBA packing. Sizes 513…4097;
 ``quick`` runs 513 and 1025. Built-in materials are cached after the warm-up call.
 """

@@ -1,8 +1,8 @@
-"""Viewer frame rates per technique (seed 000 §2.7 FPS table; seed 001 §5.3 with ROAM).
+"""Viewer frame rates per technique (Janković 2010 §2.7 FPS table; Filipović 2008 §5.3 with ROAM).
 
 Every frame is what ``terrascape view`` does per frame — LOD update, sky + terrain, HUD text,
 buffer swap — on a seeded camera flight at 1280×720: once with the full-resolution mesh
-(frustum-culled chunks) and once with ROAM holding 80,000 triangles (seed 001 §5.2's
+(frustum-culled chunks) and once with ROAM holding 80,000 triangles (Filipović 2008 §5.2's
 figure). With a display (``DISPLAY`` set, e.g. under Xvfb) the frames go to a real
 moderngl-window/pyglet window; without one, to an off-screen framebuffer of a headless EGL
 context (noted under the table).

@@ -1,4 +1,4 @@
-"""Relief *texture* mapping by pre-warping (Oliveira, Bishop & McAllister 2000; seed 000
+"""Relief *texture* mapping by pre-warping (Oliveira, Bishop & McAllister 2000; Janković 2010
 §2.4.1–2.4.5).
 
 A relief texture is a colour image plus a per-texel orthogonal displacement. For a given

@@ -1,6 +1,6 @@
 """Render one relief-textured quad with any relief technique — the measurement renderer.
 
-Every technique of seed 000 (§2.3–2.4: parallax, offset limiting, steep parallax, parallax
+Every technique of Janković 2010 (§2.3–2.4: parallax, offset limiting, steep parallax, parallax
 occlusion, relief, interval) and the two beyond it (cone step mapping, the exact min/max-mip
 tracer) is the same program ``relief/quad.glsl`` compiled with ``#define TECHNIQUE n``. The
 quad and the camera use the geometry of :mod:`terrascape.relief.reference`, so the hit
@@ -8,7 +8,7 @@ coordinates the shader writes (``output="hit"``: RGBA32F = hit u, hit v, hit dep
 texture fetches) compare pixel by pixel with the exact CPU reference.
 
 If a technique's program fails to compile (or the GL lacks what it needs), the renderer warns
-once (``warnings.warn``) and renders plain texturing instead (seed 000 §2.6.4.3, MISSION R11).
+once (``warnings.warn``) and renders plain texturing instead (Janković 2010 §2.6.4.3).
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ TECHNIQUES: dict[str, int] = {
 AUTO = "auto"
 OUTPUTS = {"colour": 0, "hit": 1, "shadow": 2}
 MARCHES = {"fixed": 0, "angle": 1, "clearance": 2}  # u_adaptive
-LINEAR_STEPS = 16  # ReliefSettings(linear_steps=None): the seed's count (§2.4.7)
+LINEAR_STEPS = 16  # ReliefSettings(linear_steps=None): the thesis's count (§2.4.7)
 WALL_LINEAR_STEPS = 32  # ... for the clearance march over a field with walls
 PROGRAM = "relief/quad"
 
@@ -56,9 +56,9 @@ class ReliefSettings:
     top of the relief, as for the ray-marched techniques (so all are comparable).
 
     Where relief mapping's linear search puts its samples (``march``; Policarpo et al. 2005
-    march equal steps, seed 000 §2.4.7):
+    march equal steps, Janković 2010 §2.4.7):
 
-    * ``"fixed"``: ``linear_steps`` equal steps from depth 0 to 1 (the seed's relief 16+8
+    * ``"fixed"``: ``linear_steps`` equal steps from depth 0 to 1 (the thesis's relief 16+8
       with ``binary_steps=8``);
     * ``"angle"``: equal steps of ``step_texels`` texels of the ray's
       length, ``linear_steps`` … ``max_steps`` of them;

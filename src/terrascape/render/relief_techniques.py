@@ -1,7 +1,7 @@
 """Relief techniques registered into the terrain renderer's technique registry.
 
 Each is the program ``relief/terrain.glsl`` compiled with its ``TECHNIQUE`` define, sampling
-a tiled RGBA normal+height texture (``u_relief``; seed 000 §2.3.1) planar-mapped over the
+a tiled RGBA normal+height texture (``u_relief``; Janković 2010 §2.3.1) planar-mapped over the
 terrain (``uv_scale`` repeats: tiled; ``uv_scale = 1``: stretched) and the terrain's colour
 texture. Parameters (uniforms ``u_<name>``) can change every frame: ``depth`` (UV units),
 ``linear_steps``, ``binary_steps``, ``adaptive``/``step_texels``/``max_steps``,
@@ -39,7 +39,7 @@ from terrascape.render.techniques import (
 
 FIELDS = ("city", "natural", "photo")
 #: The terrain's default relief texture: a natural field (smooth fBm hills and crevices)
-#: instead of the seed's city blocks, which tile the whole terrain with glossy slabs; the
+#: instead of the thesis's city blocks, which tile the whole terrain with glossy slabs; the
 #: urban fields stay selectable (``relief_field="city"``) for the measurements.
 TERRAIN_RELIEF_FIELD = "natural"
 
@@ -178,8 +178,8 @@ _CONE_SLOTS = (
 )
 
 _TERRAIN_NAMES = {
-    "parallax": ("parallax", "seed 000 R3: Tn = Tv + h'·V.xy/V.z"),
-    "parallax_limited": ("offset_limiting", "seed 000 R4: offset limiting Tn = Tv + h'·V.xy"),
+    "parallax": ("parallax", "Janković 2010 R3: Tn = Tv + h'·V.xy/V.z"),
+    "parallax_limited": ("offset_limiting", "Janković 2010 R4: offset limiting Tn = Tv + h'·V.xy"),
     "steep_parallax": ("steep", "R5: steep parallax (linear search)"),
     "pom": ("pom", "R5: parallax occlusion mapping"),
     "relief": ("relief", "R6/R7: relief mapping, linear + binary search, self-shadowing"),
@@ -233,7 +233,7 @@ def relief_variant(name: str, label: str | None = None, **defines: Any) -> Techn
     """An unregistered copy of the relief technique ``name`` with extra or replaced
     ``#define``s, for benchmarks and tests (pass it to ``TerrainRenderer.render``):
     ``TECHNIQUE=0`` maps the relief texture without displacement (the same textures,
-    normal mapping and lighting: the like-for-like "texture mapping" of seed 000 §2.7);
+    normal mapping and lighting: the like-for-like "texture mapping" of Janković 2010 §2.7);
     ``TERRAIN_OUTPUT_FETCHES=1`` draws each fragment's height fetches (R, count / 255) and
     mip level (G, level / 16, 0 where magnified) instead of its colour."""
     import dataclasses

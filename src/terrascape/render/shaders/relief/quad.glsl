@@ -1,7 +1,7 @@
-// One relief-textured quad (seed 000 §2.3–2.4; MISSION R3–R8, R10): the measurement program.
+// One relief-textured quad (Janković 2010 §2.3–2.4): the measurement program.
 // Compile with `#define TECHNIQUE n` (see relief/common/heightfield.glsl).
 //
-// u_output: 0 = shaded colour (Phong, seed 000 §2.2, with optional self-shadowing);
+// u_output: 0 = shaded colour (Phong, Janković 2010 §2.2, with optional self-shadowing);
 //           1 = (hit u, hit v, hit depth, texture fetches)  — written to an RGBA32F target;
 //           2 = (shadow 0/1, hit depth, texture fetches, 1).
 
@@ -62,7 +62,7 @@ void main() {
         frag = vec4(shadow, hit.z, float(g_fetches), 1.0);
         return;
     }
-    // Phong: I = ka ia + kd (L.N) id + ks (R.V)^alpha is  (seed 000 §2.2)
+    // Phong: I = ka ia + kd (L.N) id + ks (R.V)^alpha is  (Janković 2010 §2.2)
     vec4 t = textureGrad(u_relief, hit.xy, g_uv_dx, g_uv_dy);
     vec3 n = normalize(t.rgb * 2.0 - 1.0);
     vec3 L = normalize(u_world_to_ts * u_light_dir);

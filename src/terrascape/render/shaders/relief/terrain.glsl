@@ -1,5 +1,5 @@
-// Relief techniques on the terrain mesh (seed 000 §2.6.4: the terrain node gets the tangent
-// mesh and the relief material; MISSION R3–R8, R10). Compile with `#define TECHNIQUE n`.
+// Relief techniques on the terrain mesh (Janković 2010 §2.6.4: the terrain node gets the tangent
+// mesh and the relief material). Compile with `#define TECHNIQUE n`.
 //
 // The tiled RGBA normal+height texture is planar-mapped (v_uv = v_grid * u_uv_scale, tiled
 // when u_uv_scale > 1, stretched when 1). Per fragment the view ray is taken into uvd space
@@ -35,7 +35,7 @@ float terrain_depth(vec2 uv) {
     return 1.0 - textureLod(u_relief_height, uv, g_march_lod).r;
 }
 
-// Parallax mapping Tn = Tv + h'·V.xy/V.z (seed 000 §2.3), the formula of trace_parallax
+// Parallax mapping Tn = Tv + h'·V.xy/V.z (Janković 2010 §2.3), the formula of trace_parallax
 // with V.xy/V.z = -ds/u_depth written out: no normalisation, the ratio does not need it.
 vec3 terrain_parallax(vec2 uv0, vec2 ds) {
     float hs = (1.0 - terrain_depth(uv0)) * u_parallax_scale + u_parallax_bias;
@@ -78,7 +78,7 @@ int terrain_binary_count(float width, int k_max, float k_scale) {
 }
 
 // Relief mapping: a linear search from depth 0 to 1 in steps of at least 1/n, then binary
-// steps on the bracket (Policarpo et al. 2005, seed 000 §2.4.6–2.4.7). With first = 0,
+// steps on the bracket (Policarpo et al. 2005, Janković 2010 §2.4.6–2.4.7). With first = 0,
 // clearance = 0, k_scale = 0 and secant = false these are the samples and the result of
 // linear_bracket + trace_relief (relief/common/heightfield.glsl) with n linear and k binary
 // steps, read from u_relief_height.

@@ -1,4 +1,4 @@
-// Height-field tracing shared by every relief technique (seed 000 §2.3–2.4, MISSION R3–R8,
+// Height-field tracing shared by every relief technique (Janković 2010 §2.3–2.4,,
 // R10). Include from a fragment shader; select the tracer with `#define TECHNIQUE n`.
 //
 // Geometry (the same as terrascape.relief.reference, so GPU and CPU agree pixel by pixel):
@@ -82,7 +82,7 @@ float relief_depth(vec2 uv) {
 
 // --- parallax (R3, R4) -------------------------------------------------------------------
 
-// Tn = Tv + h' * V.xy / V.z  (seed 000 §2.3, Kaneko et al. 2001)
+// Tn = Tv + h' * V.xy / V.z  (Janković 2010 §2.3, Kaneko et al. 2001)
 vec3 trace_parallax(vec2 uv0, vec3 V) {
     float h = relief_texel(uv0).a;
     float hs = h * u_parallax_scale + u_parallax_bias;
@@ -90,7 +90,7 @@ vec3 trace_parallax(vec2 uv0, vec3 V) {
     return vec3(uv, -hs / max(u_depth, 1e-6));
 }
 
-// Tn = Tv + h' * V.xy  (offset limiting, Welsh 2004, seed 000 §2.3.2)
+// Tn = Tv + h' * V.xy  (offset limiting, Welsh 2004, Janković 2010 §2.3.2)
 vec3 trace_offset_limiting(vec2 uv0, vec3 V) {
     float h = relief_texel(uv0).a;
     float hs = h * u_parallax_scale + u_parallax_bias;
@@ -154,7 +154,7 @@ vec3 trace_pom(vec2 uv0, vec2 ds) {
 // The linear search walks the ray from depth 0 toward depth 1 and stops at the first sample
 // under the surface; the binary search then halves the bracket [last outside, first inside]
 // u_binary_steps times. Where the linear samples sit (u_adaptive):
-//   0: n = u_linear_steps equal steps (the seed's "δ times the length AB");
+//   0: n = u_linear_steps equal steps (the thesis's "δ times the length AB");
 //   1: equal steps, n from the ray's length in texels (u_step_texels per step);
 //   2: clearance-scaled steps. At a sample outside the surface the ray is g = depth − s above
 //      it; a surface of slope G (depth per texel) can rise to meet a ray that descends
@@ -481,7 +481,7 @@ vec3 relief_trace(vec2 uv0, vec2 ds) {
 #endif
 }
 
-// Technique by distance (R10, the seed's conclusion): relief near, parallax farther, plain
+// Technique by distance (R10, the thesis's conclusion): relief near, parallax farther, plain
 // far, each transition blended over u_dist_band world units.
 uniform float u_dist_relief;     // relief up to this distance
 uniform float u_dist_parallax;   // parallax up to this distance, plain beyond
@@ -506,6 +506,6 @@ vec3 relief_trace_by_distance(vec2 uv0, vec2 ds, float dist) {
 }
 
 #ifdef RELIEF_FORCE_COMPILE_ERROR
-// Lets tests exercise the fallback path (MISSION R11): this line is not GLSL.
+// Lets tests exercise the fallback path (): this line is not GLSL.
 this_is_a_forced_compile_error
 #endif
