@@ -5,6 +5,7 @@ own height files (their axes) and rotation conventions."""
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 import pygltflib
@@ -231,3 +232,37 @@ def test_cli_objects_scatter_writes_a_list(terrain, tmp_path):
                     str(rules)]) == 2
     doc = json.loads(first)
     assert doc["terrain"]["spacing"] == [4.0, 4.0]
+
+
+def test_web_page_draws_the_instanced_trees(terrain, tmp_path):
+    """three.js (headless Chromium) draws the EXT_mesh_gpu_instancing nodes: the top view
+    with objects has foliage-dark pixels the same page without them lacks."""
+    import shutil
+    import subprocess
+
+    from terrascape.io import write_heightmap
+
+    chromium = next((shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome")
+                     if shutil.which(n)), None)
+    if chromium is None:
+        if os.environ.get("CI", "").lower() in {"1", "true", "yes"}:
+            pytest.fail("CI must run the browser test: apt-get install -y chromium")
+        pytest.skip("chromium is not installed")
+    hm = Heightmap(terrain.heights[:65, :65] * 0.05, (3.0, 3.0))  # 192 m: trees show
+    src = tmp_path / "t.tif"
+    write_heightmap(hm, src)
+    shots = {}
+    for label, extra in (("bare", []), ("trees", ["--objects", "default", "--seed", "1"])):
+        assert run_app(["export", "web", str(src), "-o", str(tmp_path / label), "-q",
+                        *extra]) == 0
+        out = tmp_path / f"{label}.png"
+        subprocess.run([chromium, "--headless", "--no-sandbox", "--use-angle=swiftshader",
+                        "--enable-unsafe-swiftshader", "--disable-gpu-sandbox", "--no-first-run",
+                        f"--user-data-dir={tmp_path / ('p-' + label)}", "--window-size=480,400",
+                        "--virtual-time-budget=20000", f"--screenshot={out}",
+                        (tmp_path / label / "index.html").as_uri() + "#top"],
+                       capture_output=True, timeout=180)
+        img = np.asarray(Image.open(out).convert("RGB")).astype(np.float64)[:-30]
+        r, g, b = img[..., 0], img[..., 1], img[..., 2]
+        shots[label] = np.mean((g > r + 4) & (g > b) & (img.mean(axis=2) < 70))
+    assert shots["trees"] > shots["bare"] + 0.03, shots

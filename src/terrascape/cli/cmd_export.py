@@ -63,6 +63,9 @@ def export_command(
         "instance list in the engine's axes.", show_default="no objects"),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the objects' placement: the "
                              "same seed puts every object in the same place."),
+    sea_level: float = typer.Option(
+        None, "--sea-level", help="No objects on ground below this height (world units).",
+        show_default="glb and web: the shore of the baked texture's water; else none"),
     force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines."),
 ) -> None:
@@ -95,9 +98,16 @@ def export_command(
                 "carry the terrain only")
         from terrascape.objects.load import load_objects
 
+        textured = destination == "web" or (destination == "blender" and fmt == "glb")
+
         def placed(fitted):  # on the map as the destination fits it (pad, resample, crop)
+            from terrascape.export.instances import texture_shore
+
+            sea = sea_level
+            if sea is None and textured:  # no trees standing in the texture's lakes
+                sea = texture_shore(fitted)
             with timed("objects", quiet=quiet):
-                return load_objects(objects, fitted, seed=seed)
+                return load_objects(objects, fitted, seed=seed, sea_level=sea)
 
     options = ExportOptions(name=name or heightmap.stem, fit=fit, tiles=tiles, flip=flip,
                             format=fmt, plugin=plugin, layers=layers, force=force, lonlat=ll,

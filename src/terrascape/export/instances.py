@@ -67,6 +67,7 @@ __all__ = [
     "objects_glb",
     "read_engine_instances",
     "read_instances_json",
+    "texture_shore",
     "world_to_engine",
     "write_engine_instances",
 ]
@@ -78,6 +79,16 @@ OBJECT_DESTINATIONS = ("blender", "godot", "unity", "unreal", "web")
 ENGINES = {"unity": "json", "unreal": "csv", "godot": "json", "blender": "json"}
 _FLOAT, _UNSIGNED_INT = 5126, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
+
+
+def texture_shore(heightmap: Heightmap) -> float:
+    """The height where the baked glb texture's water turns to sand (half-way through the
+    blend of :func:`~terrascape.texture.default_regions`' water band): the sea level objects
+    in a textured glb keep above by default."""
+    from terrascape.texture import default_regions
+
+    water = default_regions(heightmap)[0]
+    return float(water.max + water.range / 2.0)
 
 
 def objects_for(options, heightmap: Heightmap) -> Instances | None:
