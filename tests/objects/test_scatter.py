@@ -229,3 +229,19 @@ def test_load_objects_resolves_every_spec(hilly, tmp_path):
         load_objects(str(tmp_path / "broken.toml"), hilly)
     with pytest.raises(InvalidParameterError, match="unknown --objects 'trees'"):
         load_objects("trees", hilly)
+
+
+def test_the_documented_rules_file_parses():
+    import re
+    import tomllib
+    from pathlib import Path
+
+    from terrascape.objects import builtin_mesh
+
+    doc = (Path(__file__).parents[2] / "docs" / "objects.md").read_text(encoding="utf-8")
+    block = re.search(r"```toml\n(.*?)```", doc, re.S).group(1)
+    data = tomllib.loads(block)
+    assert data.pop("meshes") == {"pine": "models/pine.glb"}
+    rs = ruleset_from_dict(data, meshes={"pine": builtin_mesh("conifer")})
+    assert [r.name for r in rs.rules] == ["pines", "scree"] and rs.sea_level == 12.0
+    assert rs.rules[1].masks["wear"] == Band(0.3, math.inf, 0.2)

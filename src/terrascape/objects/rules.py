@@ -100,12 +100,15 @@ class Band:
     def weight(self, values: np.ndarray) -> np.ndarray:
         """float64 suitability in [0, 1] of ``values``."""
         v = np.asarray(values, np.float64)
-        inside = (v >= self.lo) & (v <= self.hi)
         if self.ramp == 0:
-            return inside.astype(np.float64)
-        below = np.clip(1.0 - (self.lo - v) / self.ramp, 0.0, 1.0)
-        above = np.clip(1.0 - (v - self.hi) / self.ramp, 0.0, 1.0)
-        return np.where(inside, 1.0, np.where(v < self.lo, below, above))
+            return ((v >= self.lo) & (v <= self.hi)).astype(np.float64)
+        # 1 + distance inside the band in ramps, from either edge: ≥ 1 inside, ≤ 0 a ramp out
+        # (an infinite edge gives +inf, never the minimum)
+        with np.errstate(invalid="ignore"):
+            w = np.minimum(v - self.lo, self.hi - v)
+        w /= self.ramp
+        w += 1.0
+        return np.clip(w, 0.0, 1.0, out=w)
 
     @classmethod
     def parse(cls, value: Any, what: str) -> Band:
