@@ -104,3 +104,20 @@ def test_deterministic_and_unknown_name():
     assert a.colors.tobytes() == b.colors.tobytes()
     with pytest.raises(InvalidParameterError, match=r"unknown built-in mesh 'palm'.*conifer"):
         builtin_mesh("palm")
+
+
+def test_cli_writes_the_models_for_other_readers(tmp_path):
+    import trimesh
+
+    from terrascape.cli import run_app
+
+    out = tmp_path / "models.glb"
+    assert run_app(["objects", "meshes", str(out)]) == 0
+    scene = trimesh.load(out, force="scene")
+    ms = builtin_meshes()
+    assert set(scene.geometry) == set(ms)
+    for name, geom in scene.geometry.items():
+        np.testing.assert_allclose(np.sort(geom.vertices, axis=0),
+                                   np.sort(ms[name].positions, axis=0), atol=1e-6)
+    assert run_app(["objects", "meshes", str(out)]) == 2  # exists: needs --force
+    assert run_app(["objects", "meshes", str(tmp_path / "m.obj")]) == 2

@@ -184,7 +184,12 @@ class ScatterRule:
         if not isinstance(self.name, str) or not self.name.strip():
             raise InvalidParameterError("a scatter rule needs a name")
         what = f"rule {self.name!r}"
-        meshes = (self.meshes,) if isinstance(self.meshes, str) else tuple(self.meshes)
+        if isinstance(self.meshes, str):
+            meshes: tuple = (self.meshes,)
+        elif isinstance(self.meshes, Sequence):
+            meshes = tuple(self.meshes)
+        else:
+            meshes = ()
         if not meshes or not all(isinstance(m, str) and m for m in meshes):
             raise InvalidParameterError(f"{what}: meshes must be a non-empty list of mesh names")
         object.__setattr__(self, "meshes", meshes)
