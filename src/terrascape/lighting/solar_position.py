@@ -168,20 +168,27 @@ class SkyState:
         return (self.moon_azimuth, self.moon_elevation)
 
     def celestial_to_horizon(self) -> np.ndarray:
-        """3×3 rotation taking equatorial unit vectors (x → RA 0h, z → north pole) to the
-        world's horizontal frame (X east, Y up, Z south)."""
-        lst = math.radians(self.local_sidereal)
-        lat = math.radians(self.latitude)
-        # Equatorial → (hour-angle frame) → horizon (east, north, up) → world (E, up, S).
-        rot_lst = np.array([[math.cos(lst), math.sin(lst), 0.0],
-                            [math.sin(lst), -math.cos(lst), 0.0],
-                            [0.0, 0.0, 1.0]])  # (x, y, z)eq → (H-frame: meridian, west, pole)
-        # H-frame: a = toward hour angle 0 on the equator, b = toward H = 90° (west), c = pole
-        sl, cl = math.sin(lat), math.cos(lat)
-        # in (east, north, up): a = (0, -sl, cl), b = (-1, 0, 0), c = (0, cl, sl)
-        h_to_enu = np.array([[0.0, -1.0, 0.0], [-sl, 0.0, cl], [cl, 0.0, sl]])
-        enu_to_world = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
-        return enu_to_world @ h_to_enu @ rot_lst
+        """3×3 rotation taking equatorial unit vectors to the world's horizontal frame
+        (:func:`celestial_rotation` at this latitude and sidereal time)."""
+        return celestial_rotation(self.latitude, self.local_sidereal)
+
+
+def celestial_rotation(latitude: float, local_sidereal_deg: float) -> np.ndarray:
+    """3×3 rotation taking equatorial unit vectors (x → right ascension 0 h, z → the north
+    celestial pole) to the world's horizontal frame (X east, Y up, Z south) at ``latitude``
+    when the local sidereal time is ``local_sidereal_deg``."""
+    lst = math.radians(local_sidereal_deg)
+    lat = math.radians(latitude)
+    # equatorial → hour-angle frame (a: the equator on the meridian, b: hour angle 90°
+    # (west), c: the pole), since H = LST − RA
+    to_hour = np.array([[math.cos(lst), math.sin(lst), 0.0],
+                        [math.sin(lst), -math.cos(lst), 0.0],
+                        [0.0, 0.0, 1.0]])
+    sl, cl = math.sin(lat), math.cos(lat)
+    # columns a, b, c in (east, north, up)
+    hour_to_enu = np.array([[0.0, -1.0, 0.0], [-sl, 0.0, cl], [cl, 0.0, sl]])
+    enu_to_world = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+    return enu_to_world @ hour_to_enu @ to_hour
 
 
 def _moon_ecliptic(jd: float) -> tuple[float, float, float]:
@@ -310,6 +317,7 @@ def solar_position(time: str | _dt.datetime, latitude: float,
 
 __all__ = [
     "SkyState",
+    "celestial_rotation",
     "check_latitude",
     "greenwich_sidereal_deg",
     "julian_day",
