@@ -1,3 +1,5 @@
+import itertools
+
 import numpy as np
 import pytest
 
@@ -119,3 +121,65 @@ def test_default_cycle_uses_the_registry_names():
 
     assert set(TECHNIQUES) <= set(technique_names())
     assert ordered_techniques(technique_names())[:len(TECHNIQUES)] == TECHNIQUES
+
+
+# --- the sky clock -----------------------------------------------------------------------
+def test_time_keys_start_run_reverse_speed_and_step_the_clock():
+    import datetime as dt
+
+    from terrascape.viewer.controls import DEFAULT_TIME_RATE, TIME_RATES
+
+    s = ViewerState(sun_azimuth=135.0, sun_elevation=35.0, latitude=45.8)
+    assert s.clock is None and s.time_line() is None
+    s.handle_key("SPACE")  # starts a clock near the hand-placed sun, running
+    assert s.clock is not None and s.time_running
+    assert abs(s.sun_elevation - 35.0) < 4.0 and 90.0 < s.sun_azimuth < 180.0  # morning
+    t0 = s.clock
+    s.advance_time(0.1)
+    assert (s.clock - t0).total_seconds() == pytest.approx(0.1 * DEFAULT_TIME_RATE)
+    s.handle_key("R")  # backward
+    t1 = s.clock
+    s.advance_time(0.1)
+    assert (s.clock - t1).total_seconds() == pytest.approx(-0.1 * DEFAULT_TIME_RATE)
+    s.handle_key("V")
+    assert s.time_rate == TIME_RATES[TIME_RATES.index(DEFAULT_TIME_RATE) + 1]
+    for _ in range(20):
+        s.handle_key("C")
+    assert s.time_rate == TIME_RATES[0]
+    s.handle_key("SPACE")  # pause
+    t2 = s.clock
+    s.advance_time(1.0)
+    assert s.clock == t2 and "paused" in s.time_line()
+    s.handle_key("U")
+    assert s.clock - t2 == dt.timedelta(minutes=15)
+    el_before = s.sun_elevation
+    s.advance_time(0.0)
+    assert s.sun_elevation == el_before
+    # the HUD shows the date and the solar time
+    assert "2026-06-21" in s.time_line() and "solar" in s.time_line()
+    assert s.time_line() in s.status_lines()
+    # the sun keys take the sun back by hand
+    s.handle_key("P")
+    assert s.clock is None
+
+
+def test_the_clock_moves_the_sun_through_a_day():
+    import datetime as dt
+
+    s = ViewerState()
+    s.set_clock(dt.datetime(2026, 6, 21, 3, 0, tzinfo=dt.UTC), 45.8, 16.0, running=True)
+    els = []
+    for _ in range(40):
+        s.advance_time(0.25)  # 7.5 minutes a step at the default rate
+        els.append(s.sun_elevation)
+    assert els[0] < 5.0 < max(els)  # sunrise ~03:10 UTC there, then the sun climbs
+    assert all(b > a for a, b in itertools.pairwise(els))
+    assert s.sky_state().sun == (s.sun_azimuth, s.sun_elevation)
+
+
+def test_time_keys_are_in_the_help():
+    from terrascape.viewer.controls import HELP
+
+    text = " ".join(f"{k} {d}" for k, d in HELP)
+    for word in ("Space", "R", "C / V", "Y / U"):
+        assert word in text

@@ -297,3 +297,36 @@ def test_session_validates_inputs(gl_ctx):
         s.release()
     assert isinstance(start_camera(hm, (4, 3)), Camera)
     assert math.isfinite(start_camera(hm, (4, 3)).near)
+
+
+@pytest.mark.gl
+def test_sky_clock_runs_the_day_into_a_blue_night(gl_ctx):
+    import datetime as dt
+
+    from terrascape.viewer.session import ViewerSession
+
+    s = ViewerSession(gl_ctx, _terrain(), size=SIZE, hud=True, warn=lambda m: None,
+                      sky_clock=(dt.datetime(2026, 6, 21, 18, 0, tzinfo=dt.UTC), 45.8, 16.0))
+    fbo = gl_ctx.simple_framebuffer(SIZE)
+    try:
+        assert s.state.time_running
+        day_params = s.frame_params()
+        assert day_params["sky_state"].sun_elevation > 0
+        lines = s.status_lines()
+        assert any("2026-06-21" in line and "solar" in line for line in lines)
+        s.render(fbo, 0.02)
+        day = _frame(fbo)
+        s.state.time_rate = 14400.0
+        for _ in range(6):  # 6 × 0.25 s × 4 h/s = 6 h later: solar 01:00
+            s.state.advance_time(0.25)
+        night_params = s.frame_params()
+        assert night_params["sky_state"].sun_elevation < -15
+        assert night_params["lighting"] == "daylight"  # the night model, not the vertex look
+        s.render(fbo, 0.02)
+        night = _frame(fbo)
+        assert night.mean() < 0.5 * day.mean()
+        top = night[:6].reshape(-1, 3).mean(0)
+        assert top[2] > top[0] and top[2] > top[1] and top.sum() > 0
+    finally:
+        fbo.release()
+        s.release()

@@ -130,6 +130,31 @@ def _load_water_depth(path: Path, hm) -> np.ndarray:
     return depth.astype(np.float32)
 
 
+def _check_time_options(time, latitude, longitude, day_cycle, frames, turntable) -> float:
+    """Validate --time/--latitude/--longitude/--day-cycle/--frames before any work; returns
+    the day cycle's duration in seconds (0 without one)."""
+    from terrascape.lighting.sky_time import parse_duration
+    from terrascape.lighting.solar_position import check_latitude, check_longitude, parse_time
+
+    if time is None and day_cycle is None and (latitude is not None or longitude is not None):
+        raise InvalidParameterError("--latitude/--longitude place the sky of --time; give "
+                                    "--time (or --day-cycle)")
+    if latitude is not None:
+        check_latitude(latitude)
+    if longitude is not None:
+        check_longitude(longitude)
+    if time is not None:
+        parse_time(time)
+    if day_cycle is None:
+        return 0.0
+    if turntable:
+        raise InvalidParameterError("use either --turntable or --day-cycle, not both")
+    if not 1 <= frames <= MAX_TURNTABLE_FRAMES:
+        raise InvalidParameterError(
+            f"--frames must be in [1, {MAX_TURNTABLE_FRAMES}], got {frames}")
+    return parse_duration(day_cycle)
+
+
 @app.command("render")
 def render_command(
     heightmap: Path = typer.Argument(
@@ -179,7 +204,40 @@ def render_command(
         show_default=False,
     ),
     sun: str = typer.Option(
-        "135,45", "--sun", help="Sun azimuth,elevation in degrees (azimuth clockwise from north)."
+        None, "--sun",
+        help="Sun azimuth,elevation in degrees (azimuth clockwise from north). "
+        "[default: 135,45]",
+        show_default=False,
+    ),
+    time: str = typer.Option(
+        None, "--time",
+        help="Date and time, e.g. 2026-06-21T18:30: the sun, sky, moon and stars of that "
+        "moment (instead of --sun). Without a UTC offset it is local solar time (12:00 = the "
+        "sun due south); with one (2026-06-21T18:30+02:00) civil time, which needs "
+        "--longitude or a georeferenced map. With --day-cycle: the start "
+        "[default 2026-06-21T00:00].",
+        show_default=False,
+    ),
+    latitude: float = typer.Option(
+        None, "--latitude",
+        help="Latitude in degrees north (-90..90) for --time. [default: the map's "
+        "georeference, else 45]",
+        show_default=False,
+    ),
+    longitude: float = typer.Option(
+        None, "--longitude",
+        help="Longitude in degrees east for --time (needed for a time with a UTC offset). "
+        "[default: the map's georeference]",
+        show_default=False,
+    ),
+    day_cycle: str = typer.Option(
+        None, "--day-cycle",
+        help="Render an MP4 of this much time passing from --time (e.g. 24h, 90m, 2d), "
+        "the camera fixed.",
+        show_default=False,
+    ),
+    frames: int = typer.Option(
+        48, "--frames", help="Frames of the --day-cycle video."
     ),
     exaggeration: float = typer.Option(
         1.0, "--exaggeration", help="Vertical exaggeration factor (heights × F)."
@@ -267,7 +325,11 @@ def render_command(
     from terrascape.render.techniques import get_technique
 
     wh = parse_size(size, name="--size")
-    sun_az, sun_el = parse_floats(sun, 2, name="--sun AZ,EL")
+    if sun is not None and (time is not None or day_cycle is not None):
+        raise InvalidParameterError("give either --sun or --time/--day-cycle, not both")
+    sun_az, sun_el = parse_floats(sun or "135,45", 2, name="--sun AZ,EL")
+    cycle_seconds = _check_time_options(time, latitude, longitude, day_cycle, frames,
+                                        turntable)
     if not math.isfinite(exaggeration) or exaggeration <= 0:
         raise InvalidParameterError(f"--exaggeration must be > 0, got {exaggeration}")
     if not 0 <= turntable <= MAX_TURNTABLE_FRAMES:
@@ -291,8 +353,9 @@ def render_command(
     if sea_level is not None and not math.isfinite(sea_level):
         raise InvalidParameterError(f"--sea-level must be finite, got {sea_level}")
     if output is None:
-        output = Path("turntable.mp4" if turntable and fmt == "mp4" else "render.png")
-    want = ".mp4" if turntable and fmt == "mp4" else ".png"
+        output = Path("day.mp4" if day_cycle else
+                      "turntable.mp4" if turntable and fmt == "mp4" else "render.png")
+    want = ".mp4" if (turntable and fmt == "mp4") or day_cycle else ".png"
     if output.suffix.lower() != want:
         raise InvalidParameterError(f"output must end in {want} here, got {output.name!r}")
     if not turntable:
@@ -321,9 +384,43 @@ def render_command(
     note = sea_level_note(hm, sea_level)
     if note:
         err.print(f"[yellow]warning:[/yellow] {note}")
+    place = None
+    if time is not None or day_cycle is not None:
+        from terrascape.lighting.sky_time import resolve_place
+
+        place = resolve_place(hm, latitude, longitude)
+        if place.source == "default" and not quiet:
+            err.print(f"note: no --latitude and no georeference: the sky of {place.latitude:g}° "
+                      "north")
+    if time is not None and day_cycle is None:
+        from terrascape.lighting.sky_time import sky_for
+
+        state = sky_for(time, place)
+        sun_az, sun_el = state.sun
+        params["sky_state"] = state
+        if not quiet:
+            err.print(f"sun: azimuth {sun_az:.1f}°, elevation {sun_el:.1f}°; moon: azimuth "
+                      f"{state.moon_azimuth:.1f}°, elevation {state.moon_elevation:.1f}°, "
+                      f"{state.moon_illumination:.0%} lit")
     with contextlib.ExitStack() as stack:
         with timed("GL context", quiet=quiet):
             ctx = stack.enter_context(headless_context())
+        if day_cycle is not None:
+            from terrascape.lighting.sky_time import DEFAULT_CYCLE_START
+            from terrascape.lighting.sky_time import day_cycle as cycle
+            from terrascape.render.day_cycle import write_day_cycle
+
+            states = cycle(time or DEFAULT_CYCLE_START, cycle_seconds, frames, place)
+            cam = build_camera(hm, wh, exaggeration, camera, target, orbit, camera_height)
+            with progress(quiet=quiet) as bar, timed("day cycle", quiet=quiet):
+                task = bar.add_task("rendering", total=len(states))
+                path = write_day_cycle(
+                    hm, states, output, ctx=ctx, camera=cam, technique=technique, size=wh,
+                    exaggeration=exaggeration, fps=fps, params=params, force=force,
+                    quality=quality,
+                    progress=lambda done, total: bar.update(task, completed=done))
+            out.print(f"{path} ({len(states)} frames)")
+            return
         if turntable:
             if camera or target or orbit:
                 raise InvalidParameterError(

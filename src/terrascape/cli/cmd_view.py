@@ -74,6 +74,19 @@ def view_cmd(
     frames: int = typer.Option(
         0, "--frames", help="Quit after this many frames (0: run until Esc).", min=0),
     no_hud: bool = typer.Option(False, "--no-hud", help="Hide the on-screen text."),
+    time: str = typer.Option(
+        None, "--time",
+        help="Start the sky clock at this date and time (e.g. 2026-06-21T05:00), running: "
+        "sun, moon and stars move (Space pauses, R reverses, C/V speed). Without a UTC "
+        "offset local solar time; with one civil time (needs --longitude or a georeferenced "
+        "map).",
+        show_default=False),
+    latitude: float = typer.Option(
+        None, "--latitude", help="Latitude (degrees north) of the sky clock. [default: the "
+        "map's georeference, else 45]", show_default=False),
+    longitude: float = typer.Option(
+        None, "--longitude", help="Longitude (degrees east) of the sky clock. [default: the "
+        "map's georeference]", show_default=False),
 ) -> None:
     """Fly over a terrain in a window: mouse look (click; Esc releases, Esc again quits),
     W A S D / arrows, Q/E down/up, Shift faster, scroll for speed; F1 or H lists every key.
@@ -115,6 +128,15 @@ def view_cmd(
         raise InvalidParameterError(f"--screenshot-dir {screenshot_dir} is not a folder")
     if sea_level is not None and not math.isfinite(sea_level):
         raise InvalidParameterError(f"--sea-level must be finite, got {sea_level}")
+    if time is None and (latitude is not None or longitude is not None):
+        raise InvalidParameterError("--latitude/--longitude place the sky clock of --time; "
+                                    "give --time")
+    if time is not None:
+        from terrascape.lighting.solar_position import check_latitude, parse_time
+
+        parse_time(time)
+        if latitude is not None:
+            check_latitude(latitude)
     check_display()
 
     if generate is not None:
@@ -141,8 +163,16 @@ def view_cmd(
         from terrascape.texture.materials import read_image_rgb
 
         tex = read_image_rgb(texture)
+    sky_clock = None
+    if time is not None:
+        from terrascape.lighting.sky_time import resolve_place, start_instant
+
+        place = resolve_place(hm, latitude, longitude)
+        utc, lon = start_instant(time, place)
+        sky_clock = (utc, place.latitude, lon)
     frames_drawn = run_viewer(hm, size=(width, height), fullscreen=fullscreen,
                               technique=technique, lod=lod, texture=tex,
                               exaggeration=exaggeration, screenshot_dir=screenshot_dir,
-                              max_frames=frames, hud=not no_hud, sea_level=sea_level)
+                              max_frames=frames, hud=not no_hud, sea_level=sea_level,
+                              sky_clock=sky_clock)
     console.print(f"[dim]viewer closed after {frames_drawn} frames[/]")

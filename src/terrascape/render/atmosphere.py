@@ -17,13 +17,30 @@ import numpy as np
 from terrascape._validate import check_positive, check_range
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
-from terrascape.lighting.daylight import Daylight, daylight, srgb_to_linear
+from terrascape.lighting.daylight import Daylight, daylight, srgb_to_linear, sun_transmittance
+from terrascape.lighting.night_sky import (
+    NIGHT_TINT,
+    SUN_RADIUS,
+    SkyLight,
+    moon_phase_factor,
+    sky_light,
+    sun_disc_fraction,
+)
+from terrascape.lighting.solar_position import celestial_rotation
+from terrascape.lighting.sun import sun_direction
 
 SURROUNDS = {"fade": 0, "plane": 1, "sea": 2}
 # Haze ratios R:G:B of the extinction (small aerosols and air: blue scatters most).
 _HAZE_RGB = np.array([0.55, 0.75, 1.0])
 # Drawn radius of the sun's disc (degrees): the real 0.27°, a few pixels in a 1280×720 view.
 SUN_DISC_RADIUS = 0.3
+# The moon's disc, drawn a little larger than its real 0.26° so its phase reads.
+MOON_DISC_RADIUS = 0.6
+# Sky radiance table: azimuth × elevation texels (one texture fetch per sky pixel).
+SKY_LUT_WIDTH = 128
+SKY_LUT_HEIGHT = 48
+# The stars of a render without a date: sidereal time 0 h at 45° north.
+_DEFAULT_CELESTIAL = celestial_rotation(45.0, 0.0)
 
 
 class WaterLevelWarning(UserWarning):
@@ -59,25 +76,96 @@ def resolve_surround(params: Mapping[str, Any]) -> str:
     return surround
 
 
+def _sky_inputs(params: Mapping[str, Any]) -> tuple:
+    """(sun az, sun el, moon az, moon el, moon lit fraction, turbidity, EV) of a frame: from
+    ``params["sky_state"]`` (a :class:`~terrascape.lighting.solar_position.SkyState`) when
+    given, else the ``sun`` parameter and no moon."""
+    state = params.get("sky_state")
+    turbidity = check_range(params["turbidity"], "turbidity", 1.7, 10.0)
+    ev = check_range(params["exposure"], "exposure (EV)", -10.0, 10.0)
+    if state is not None:
+        return (round(float(state.sun_azimuth), 6), round(float(state.sun_elevation), 6),
+                round(float(state.moon_azimuth), 6), round(float(state.moon_elevation), 6),
+                round(float(state.moon_illumination), 6), float(turbidity), float(ev))
+    az, el = (float(v) for v in params["sun"])
+    return (az, el, None, None, 0.0, float(turbidity), float(ev))
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_sky_light(az, el, moon_az, moon_el, moon_k, turbidity, ev) -> SkyLight:
+    return sky_light(az, el, moon_azimuth=moon_az, moon_elevation=moon_el,
+                     moon_illumination=moon_k, turbidity=turbidity, exposure=ev)
+
+
+def frame_sky_light(params: Mapping[str, Any]) -> SkyLight:
+    """The :class:`~terrascape.lighting.night_sky.SkyLight` of a frame's parameters."""
+    return _cached_sky_light(*_sky_inputs(params))
+
+
+def key_light(params: Mapping[str, Any]) -> tuple[float, float]:
+    """(azimuth, elevation) of the light that casts the terrain's shadows in a daylight
+    frame: the sun while it is up, else the moon (negative elevation: no direct light)."""
+    light = frame_sky_light(params)
+    if light.key == "moon":
+        return float(light.moon_azimuth), float(light.moon_elevation)
+    if light.key == "none":
+        return light.sun_azimuth, min(light.sun_elevation, -1.0)
+    return light.sun_azimuth, light.sun_elevation
+
+
+def _lut_directions(width: int, height: int) -> np.ndarray:
+    """World directions of the sky LUT's texel centres: columns are azimuths j/W·360°
+    (clockwise from north), rows elevations 90°·(i/(H-1))² (dense near the horizon)."""
+    az = np.radians(np.arange(width) * (360.0 / width))
+    el = np.radians(90.0 * (np.arange(height) / (height - 1)) ** 2)
+    ee, aa = np.meshgrid(el, az, indexing="ij")
+    return np.stack([np.sin(aa) * np.cos(ee), np.sin(ee), -np.cos(aa) * np.cos(ee)], axis=-1)
+
+
+@functools.lru_cache(maxsize=8)
+def _sky_lut(inputs: tuple, width: int, height: int) -> np.ndarray:
+    light = _cached_sky_light(*inputs)
+    rad = light.sky_radiance(_lut_directions(width, height))
+    return np.ascontiguousarray(rad, dtype=np.float32)
+
+
+def sky_lut(params: Mapping[str, Any]) -> np.ndarray:
+    """The sky's radiance (linear RGB, kcd/m²) as a ``(SKY_LUT_HEIGHT, SKY_LUT_WIDTH, 3)``
+    float32 table over azimuth × elevation, which the shaders sample instead of evaluating
+    the sky model per pixel (``sky_radiance`` in ``common/atmosphere.glsl``)."""
+    return _sky_lut(_sky_inputs(params), SKY_LUT_WIDTH, SKY_LUT_HEIGHT)
+
+
+def sky_lut_key(params: Mapping[str, Any]) -> tuple:
+    """What the sky LUT depends on (rebuilt only when it changes)."""
+    return _sky_inputs(params)
+
+
 def daylight_uniforms(
     world: Heightmap, params: Mapping[str, Any], *, edge_albedo: np.ndarray,
     exaggeration: float,
 ) -> dict[str, Any]:
     """Uniforms of one daylight frame for the exaggerated terrain ``world``."""
-    az, el = (float(v) for v in params["sun"])
-    turbidity = check_range(params["turbidity"], "turbidity", 1.7, 10.0)
-    ev = check_range(params["exposure"], "exposure (EV)", -10.0, 10.0)
-    day = cached_daylight(az, el, turbidity, ev)
+    light = frame_sky_light(params)
+    day = light.day
+    az, el = light.sun_azimuth, light.sun_elevation
     u = day.uniforms()
     u["u_perez"] = np.concatenate([u.pop("u_perez_Y"), u.pop("u_perez_x"), u.pop("u_perez_y")])
-    u["u_sky_sun_dir"] = tuple(day.sun_dir if el >= 0.5 else _model_dir(az))
-    if el <= 0.0:
-        u["u_sun_irradiance"] = (0.0, 0.0, 0.0)  # below the horizon: sky light only
+    u["u_sky_sun_dir"] = tuple(day.sun_dir)
+    # Direct light: the sun, or the moon at night (the frame's u_sun_dir is the sun's).
+    u["u_sun_dir"] = tuple(light.key_direction)
+    u["u_sun_irradiance"] = tuple(light.key_irradiance)
+    u["u_sky_irradiance"] = tuple(light.sky_irradiance)
+    u["u_ground_irradiance"] = tuple(day.ground_albedo * light.ground_irradiance())
+    u["u_exposure"] = light.exposure
+    u["u_night_desaturation"] = light.desaturation
     sun = np.asarray(day.sun_irradiance)
     # The disc: the sun's colour at a brightness the tone curve keeps a little below white.
-    u["u_sun_radiance"] = tuple(sun / max(float(sun.max()), 1e-9) * 6.0 / day.exposure
-                                * (el > -0.5))
+    u["u_sun_radiance"] = tuple(sun / max(float(sun.max()), 1e-9) * 6.0 / light.exposure
+                                * sun_disc_fraction(el))
     u["u_sun_cos_radius"] = math.cos(math.radians(SUN_DISC_RADIUS))
+    u["u_true_sun_dir"] = tuple(sun_direction(az, el))
+    u.update(_night_uniforms(light, params))
     ex, ez = world.extent
     diag = math.sqrt(ex * ex + ez * ez + (world.max - world.min) ** 2)
     haze = params["haze"]
@@ -105,14 +193,40 @@ def daylight_uniforms(
     # Techniques whose own shadowed branch uses the Phong ambient term (relief family):
     # make it the sky light, in the same units as the daylight radiance.
     # (u_ka stays the technique's parameter, 0.35 by default.)
-    u["u_ambient_color"] = tuple(np.asarray(day.sky_irradiance) / math.pi * 0.7)
+    u["u_ambient_color"] = tuple(np.asarray(light.sky_irradiance) / math.pi * 0.7)
     return u
 
 
-def _model_dir(az: float) -> np.ndarray:
-    from terrascape.lighting.sun import sun_direction
-
-    return sun_direction(az, 0.5)
+def _night_uniforms(light: SkyLight, params: Mapping[str, Any]) -> dict[str, Any]:
+    """The moon's disc and the stars (``sky.glsl``)."""
+    state = params.get("sky_state")
+    if state is not None:
+        to_celestial = state.celestial_to_horizon().T
+    else:
+        # No date: the stars of a fixed sidereal time at 45° north.
+        to_celestial = _DEFAULT_CELESTIAL.T
+    u: dict[str, Any] = {"u_to_celestial": to_celestial}
+    moon_up = light.moon_elevation is not None and light.moon_elevation > -SUN_RADIUS
+    if moon_up:
+        m = sun_direction(float(light.moon_azimuth), float(light.moon_elevation))
+        trans = sun_transmittance(max(float(light.moon_elevation), 0.5), light.day.turbidity)
+        colour = trans / trans.max() * NIGHT_TINT / NIGHT_TINT.max()
+        # Like the sun's disc: bright, a little below white after the tone curve; dimmed by
+        # day (the daytime moon is pale against the blue sky).
+        u["u_moon_dir"] = tuple(m)
+        u["u_moon_radiance"] = tuple(colour * 2.5 / light.exposure)
+        u["u_moon_illumination"] = light.moon_illumination
+    else:
+        u["u_moon_dir"] = (0.0, -1.0, 0.0)
+        u["u_moon_radiance"] = (0.0, 0.0, 0.0)
+        u["u_moon_illumination"] = 0.0
+    u["u_moon_cos_radius"] = math.cos(math.radians(MOON_DISC_RADIUS))
+    # Stars: display-relative brightness (the brightest a little below white), faded in
+    # with the twilight and washed out by a bright moon.
+    moon_wash = moon_phase_factor(light.moon_illumination) if moon_up else 0.0
+    u["u_star_radiance"] = light.star_visibility * (1.0 - 0.7 * moon_wash) * 3.0 / light.exposure
+    u["u_star_seed"] = int(params.get("seed", 0)) & 0x7FFFFFFF
+    return u
 
 
 def edge_albedo(heightmap: Heightmap, seed: int = 0) -> np.ndarray:
@@ -141,6 +255,10 @@ __all__ = [
     "WaterLevelWarning",
     "daylight_uniforms",
     "edge_albedo",
+    "frame_sky_light",
+    "key_light",
     "resolve_surround",
     "sea_level_note",
+    "sky_lut",
+    "sky_lut_key",
 ]

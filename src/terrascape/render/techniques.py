@@ -299,6 +299,9 @@ COMMON_PARAMS: dict[str, Any] = {
     "water_depth": None,  # float32 (rows, cols) water depth on the terrain (lakes), or None
     "surround": None,  # beyond the terrain: sea | plane | fade; None = sea with a sea level
     "time": 0.0,  # seconds, animates the water ripples
+    # sun, moon and stars of a date and place (terrascape.lighting.solar_position.SkyState);
+    # None: the sun of "sun", no moon
+    "sky_state": None,
 }
 
 _REGISTRY: dict[str, Technique] = {}

@@ -55,6 +55,7 @@ _GBUFFER_UNIT = 12
 # Texture units of the daylight look's own textures (terrain shadows + sky view, heights).
 _SUN_SKY_UNIT = 10
 _HEIGHT_UNIT = 11
+_SKY_LUT_UNIT = 15  # after the G-buffer units 12-14
 _FALLBACK = "plain"
 # Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
 # (129 ≢ 0, ±1 mod 256, llvmpipe's vertex-cache hash) with few draw calls (64 at 1025²).
@@ -463,6 +464,7 @@ class TerrainRenderer:
             "slope_rule",
             "detail_size",
             "bump_height",
+            "sky_state",
         }
         for key, value in params.items():
             if key in skip or key == "textures" or value is None:
@@ -640,7 +642,7 @@ class TerrainRenderer:
         if p["sky"]:
             # Drawn last at depth 1.0 with LEQUAL: only pixels no terrain covered are shaded,
             # instead of a full-screen pass that the terrain then overdraws.
-            self._draw_sky(uniforms)
+            self._draw_sky(uniforms, p)
         ctx.disable(moderngl.DEPTH_TEST)
         self.last_stats = stats
         return stats
@@ -899,8 +901,10 @@ class TerrainRenderer:
         the sky-view factor, the per-vertex texture the daylight model samples per pixel."""
         from terrascape.lighting.daylight import local_sky_visibility
         from terrascape.lighting.shadows import soft_shadow
+        from terrascape.render.atmosphere import key_light
 
-        az, el = _vec(params["sun"], 2, "sun (azimuth, elevation)")
+        # the light that casts the shadows: the sun, or the moon at night
+        az, el = key_light(params)
         if self._sky_visibility is None:
             self._sky_visibility = local_sky_visibility(self.world).astype(np.float32)
         if not params["shadows"]:
@@ -913,7 +917,11 @@ class TerrainRenderer:
         return np.ascontiguousarray(np.stack([sun, self._sky_visibility], axis=-1))
 
     def _bind_environment(self, program, params: Mapping[str, Any]) -> None:
-        key = tuple(repr(params[k]) for k in ("sun", "shadows", "sun_radius", "shadow_samples"))
+        from terrascape.render.atmosphere import key_light
+
+        key = (tuple(round(v, 6) for v in key_light(params)),
+               *(repr(params[k]) for k in ("shadows", "sun_radius", "shadow_samples")))
+        self._use_sky_lut(program, params)
         if "u_sun_sky" in program:
             tex = self._env_texture(
                 "u_sun_sky", key,
@@ -924,6 +932,19 @@ class TerrainRenderer:
             "u_height", "heights",
             lambda: TextureData(np.ascontiguousarray(self.world.heights, np.float32),
                                 repeat=False, mipmaps=False))
+
+    def _use_sky_lut(self, program, params: Mapping[str, Any]) -> None:
+        """Bind the frame's sky radiance table (``render.atmosphere.sky_lut``), rebuilt
+        only when the sky changes."""
+        if "u_sky_lut" not in program:
+            return
+        from terrascape.render.atmosphere import sky_lut, sky_lut_key
+
+        tex = self._env_texture(
+            "u_sky_lut", sky_lut_key(params),
+            lambda: TextureData(sky_lut(params), repeat=True, mipmaps=False))
+        tex.use(location=_SKY_LUT_UNIT)
+        program["u_sky_lut"].value = _SKY_LUT_UNIT
 
     def _water_geometry(self, params: Mapping[str, Any]) -> list[tuple[Any, Any]]:
         """(vertex array, vertex count or None) of the sea quad and the lakes' surface."""
@@ -994,6 +1015,7 @@ class TerrainRenderer:
         set_uniforms(prog, **uniforms)
         self._env["u_height"][0].use(location=_HEIGHT_UNIT)
         prog["u_height"].value = _HEIGHT_UNIT
+        self._use_sky_lut(prog, params)
         ctx = self.ctx
         ctx.enable(moderngl.BLEND | moderngl.DEPTH_TEST)
         ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
@@ -1004,7 +1026,7 @@ class TerrainRenderer:
         finally:
             ctx.disable(moderngl.BLEND)
 
-    def _draw_sky(self, uniforms: Mapping[str, Any]) -> None:
+    def _draw_sky(self, uniforms: Mapping[str, Any], params: Mapping[str, Any]) -> None:
         import moderngl
 
         mode = 0
@@ -1017,6 +1039,8 @@ class TerrainRenderer:
         if "u_height" in prog and "u_height" in self._env:
             self._env["u_height"][0].use(location=_HEIGHT_UNIT)
             prog["u_height"].value = _HEIGHT_UNIT
+        if mode:
+            self._use_sky_lut(prog, params)
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.depth_func = "<="
         try:

@@ -206,7 +206,7 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
                fullscreen: bool = False, technique: str = "plain", lod: str = "none",
                texture: np.ndarray | None = None, exaggeration: float = 1.0,
                screenshot_dir: str | os.PathLike | None = None, max_frames: int = 0,
-               hud: bool = True, sea_level: float | None = None) -> int:
+               hud: bool = True, sea_level: float | None = None, sky_clock=None) -> int:
     """Open the viewer window and fly over ``heightmap`` until Esc / the window is closed.
 
     Parameters
@@ -251,7 +251,7 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
         moderngl_window.activate_context(window=wnd)
         session = ViewerSession(wnd.ctx, heightmap, size=wnd.buffer_size, technique=technique,
                                 lod=lod, texture=texture, exaggeration=exaggeration, hud=hud,
-                                sea_level=sea_level)
+                                sea_level=sea_level, sky_clock=sky_clock)
         cls = make_window_config()
         config = cls(session, screenshot_dir=Path(screenshot_dir), max_frames=max_frames,
                      ctx=wnd.ctx, wnd=wnd)

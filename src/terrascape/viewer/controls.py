@@ -9,6 +9,7 @@ translates its key codes to these names.
 
 from __future__ import annotations
 
+import datetime as _dt
 import math
 from dataclasses import dataclass, field, replace
 from enum import Enum
@@ -42,6 +43,10 @@ LOD_MODES: tuple[str, ...] = ("none", *SCHEMES)  # L cycles these (lod/schemes.p
 PARALLAX_SCALE_STEP = 0.001  # seed 000 §2.6.4.3: parametar ± 0.001
 SUN_AZIMUTH_STEP = 10.0
 SUN_ELEVATION_STEP = 5.0
+#: Speeds of the sky clock (simulated seconds per second), C / V step through them.
+TIME_RATES: tuple[float, ...] = (60.0, 300.0, 900.0, 1800.0, 3600.0, 7200.0, 14400.0)
+DEFAULT_TIME_RATE = 1800.0  # half an hour a second: a day in 48 s
+TIME_STEP_HOURS = 0.25  # Y / U: a quarter of an hour back / forward
 
 
 class Action(Enum):
@@ -68,8 +73,12 @@ HELP: tuple[tuple[str, str], ...] = (
     ("J", "which LOD setting PgUp / PgDn change (ROAM: triangle target, tolerance)"),
     ("PgUp / PgDn", "finer / coarser: triangle target or pixel tolerance"),
     ("K", "lightmap with shadows on/off"),
-    ("O / P", "sun azimuth ∓ 10°"),
-    ("N / M", "sun elevation ∓ 5° (below 0: night)"),
+    ("O / P", "sun azimuth ∓ 10° (stops the clock)"),
+    ("N / M", "sun elevation ∓ 5° (below 0: night; stops the clock)"),
+    ("Space", "run / pause the time of day (sun, moon, stars)"),
+    ("R", "run the time forward / backward"),
+    ("C / V", "time slower / faster"),
+    ("Y / U", "time ∓ 15 minutes"),
     ("F", "fog on/off"),
     ("T", "terrain following on/off"),
     ("F1 / H", "this help"),
@@ -101,6 +110,13 @@ class ViewerState:
     mouse_captured: bool = False
     speed: float = 1.0  # world units per second; set from the terrain size at start
     available: tuple[str, ...] = field(default=TECHNIQUES)
+    # The sky clock: an instant (UTC) at a place; None = the sun keys' fixed sun.
+    clock: _dt.datetime | None = None
+    latitude: float = 45.0
+    longitude: float = 0.0
+    time_running: bool = False
+    time_rate: float = DEFAULT_TIME_RATE  # simulated seconds per second
+    time_direction: int = 1  # +1 forward, -1 backward
 
     def __post_init__(self) -> None:
         if self.technique not in self.available:
@@ -150,15 +166,100 @@ class ViewerState:
             self.lightmap = not self.lightmap
         elif key in ("O", "P"):
             step = SUN_AZIMUTH_STEP if key == "P" else -SUN_AZIMUTH_STEP
+            self.clock = None  # the sun is placed by hand now
             self.sun_azimuth = (self.sun_azimuth + step) % 360.0
         elif key in ("N", "M"):
             step = SUN_ELEVATION_STEP if key == "M" else -SUN_ELEVATION_STEP
+            self.clock = None
             self.sun_elevation = max(-30.0, min(90.0, self.sun_elevation + step))
+        elif key == "SPACE":
+            self._start_clock()
+            self.time_running = not self.time_running
+        elif key == "R":
+            self._start_clock()
+            self.time_direction = -self.time_direction
+        elif key in ("C", "V"):
+            self._start_clock()
+            i = min(range(len(TIME_RATES)), key=lambda k: abs(TIME_RATES[k] - self.time_rate))
+            i = max(0, min(len(TIME_RATES) - 1, i + (1 if key == "V" else -1)))
+            self.time_rate = TIME_RATES[i]
+        elif key in ("Y", "U"):
+            self._start_clock()
+            sign = 1.0 if key == "U" else -1.0
+            self.clock += _dt.timedelta(hours=sign * TIME_STEP_HOURS)
+            self._sync_sun()
         elif key == "F":
             self.fog = not self.fog
         elif key == "T":
             self.terrain_following = not self.terrain_following
         return Action.NONE
+
+    # --- the sky clock --------------------------------------------------------------------
+    def _start_clock(self) -> None:
+        """Time keys without a clock: start one at the moment (June solstice, local solar
+        time) whose sun is nearest the hand-placed one's elevation, in the morning or
+        afternoon the azimuth says."""
+        if self.clock is not None:
+            return
+        from terrascape.lighting.solar_position import sky_state, solar_time_to_utc
+
+        date = _dt.date(2026, 6, 21)
+        afternoon = 0.0 < self.sun_azimuth % 360.0 < 180.0
+        best = None
+        for quarter in range(0, 96):
+            hours = quarter / 4.0
+            if (hours >= 12.0) == afternoon and hours != 12.0:
+                continue
+            when = solar_time_to_utc(date, hours, self.longitude)
+            el = sky_state(when, self.latitude, self.longitude).sun_elevation
+            if best is None or abs(el - self.sun_elevation) < best[0]:
+                best = (abs(el - self.sun_elevation), when)
+        self.clock = best[1]
+        self._sync_sun()
+
+    def set_clock(self, when: _dt.datetime, latitude: float, longitude: float, *,
+                  running: bool = False) -> None:
+        """Run the sky from ``when`` (aware or naive UTC) at a place."""
+        if when.tzinfo is None:
+            when = when.replace(tzinfo=_dt.UTC)
+        self.clock = when.astimezone(_dt.UTC)
+        self.latitude, self.longitude = float(latitude), float(longitude)
+        self.time_running = running
+        self._sync_sun()
+
+    def advance_time(self, dt: float) -> None:
+        """Move the clock by ``dt`` real seconds at the current rate (if it runs)."""
+        if self.clock is None or not self.time_running or not dt > 0:
+            return
+        dt = min(float(dt), 0.25)  # a stalled frame does not jump the day
+        self.clock += _dt.timedelta(seconds=self.time_direction * self.time_rate * dt)
+        self._sync_sun()
+
+    def sky_state(self):
+        """The clock's :class:`~terrascape.lighting.solar_position.SkyState`, or None."""
+        if self.clock is None:
+            return None
+        from terrascape.lighting.solar_position import sky_state
+
+        return sky_state(self.clock, self.latitude, self.longitude)
+
+    def _sync_sun(self) -> None:
+        state = self.sky_state()
+        if state is not None:
+            self.sun_azimuth, self.sun_elevation = state.sun
+
+    def time_line(self) -> str | None:
+        """The clock for the HUD: local solar time, date, rate and direction."""
+        if self.clock is None:
+            return None
+        state = self.sky_state()
+        hh, mm = divmod(round(state.solar_time * 60.0) % 1440, 60)
+        local = self.clock + _dt.timedelta(hours=self.longitude / 15.0)
+        rate = self.time_rate / 60.0
+        run = ("▶" if self.time_direction > 0 else "◀") + f" {rate:g} min/s" \
+            if self.time_running else "paused"
+        return (f"{local:%Y-%m-%d} {hh:02d}:{mm:02d} solar ({self.clock:%H:%M} UTC)  "
+                f"lat {self.latitude:.1f}°  {run}  moon {state.moon_illumination:.0%}")
 
     def cycle_technique(self, step: int) -> None:
         i = self.available.index(self.technique)
@@ -241,6 +342,9 @@ class ViewerState:
             f"sun az {self.sun_azimuth:.0f}° el {self.sun_elevation:.0f}°  "
             f"lightmap {'on' if self.lightmap else 'off'}  fog {'on' if self.fog else 'off'}"
         )
+        clock = self.time_line()
+        if clock is not None:
+            lines.append(clock)
         return lines
 
 

@@ -46,7 +46,7 @@ DUSK_TINT = (0.40, 0.12, -0.10)  # added to the horizon around sunset / sunrise
 # Keys whose effect repeats while held (the seed polls IsKeyDown every frame for them).
 REPEAT_KEYS = frozenset({
     "EQUAL", "MINUS", "RIGHT_BRACKET", "LEFT_BRACKET", "PERIOD", "COMMA",
-    "O", "P", "N", "M", "PAGE_UP", "PAGE_DOWN",
+    "O", "P", "N", "M", "PAGE_UP", "PAGE_DOWN", "Y", "U",
 })  # fmt: skip
 
 
@@ -111,8 +111,10 @@ def technique_params(state: ViewerState, accepted: Mapping[str, Any], *,
     the parallax ones (``h' = scale·h + bias``), so one key changes every technique alike.
     With the sun above the horizon the daylight model lights every technique (sky, haze,
     per-pixel soft shadows; the shadow key switches the shadows, the fog key the haze). A
-    sun at or below the horizon has no daylight (cast shadows would cover everything);
-    vertex lighting with the dimmed night colours is used instead. ``has_lightmap`` is kept
+    hand-placed sun (O/P/N/M) at or below the horizon has no daylight (cast shadows would
+    cover everything); vertex lighting with the dimmed night colours is used instead. With
+    the sky clock (``ViewerState.clock``) the daylight model lights the night as well:
+    twilight, the moon as the key light, a dark-blue sky with stars. ``has_lightmap`` is kept
     for callers; daylight does not need a lightmap slot.
     """
     u = state.uniforms()
@@ -130,7 +132,12 @@ def technique_params(state: ViewerState, accepted: Mapping[str, Any], *,
     p["fog_density"] = fog_density if state.fog else 0.0
     el = float(state.sun_elevation)
     p["sun"] = (float(state.sun_azimuth), el)
-    if el > 0.0:
+    sky = state.sky_state()
+    if sky is not None:
+        p["sky_state"] = sky
+    if el > 0.0 or sky is not None:
+        # With the sky clock the daylight model runs through the night too (twilight,
+        # moonlight, stars); a hand-placed sun below the horizon keeps the vertex look.
         p["lighting"] = "daylight"
         p["shadows"] = bool(state.lightmap)
         p["haze"] = None if state.fog else 0.0
@@ -315,6 +322,9 @@ class ViewerSession:
         Called once per warning (technique fallback, unavailable LOD); default: stderr.
     sea_level
         Water up to this height (heightmap units), rippling with the viewer's clock.
+    sky_clock
+        ``(UTC datetime, latitude, longitude or None)``: start the sky clock there, running
+        (Space pauses it); None: the sun keys' fixed sun until a time key starts a clock.
     """
 
     def __init__(self, ctx, heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
@@ -322,7 +332,7 @@ class ViewerSession:
                  exaggeration: float = 1.0, hud: bool = True, font_size: int | None = None,
                  lod_time_budget_ms: float | None = 12.0,
                  warn: Callable[[str], None] | None = None,
-                 sea_level: float | None = None) -> None:
+                 sea_level: float | None = None, sky_clock=None) -> None:
         from terrascape.render.techniques import TextureData, technique_names
         from terrascape.render.terrain import TerrainRenderer
 
@@ -370,6 +380,9 @@ class ViewerSession:
             if font_size is None:  # small windows get a smaller font
                 font_size = 14 if size[1] >= 600 else (12 if size[1] >= 400 else 10)
             self.hud = HudRenderer(ctx, font_size=font_size)
+        if sky_clock is not None:
+            when, lat, lon = sky_clock
+            self.state.set_clock(when, lat, 0.0 if lon is None else lon, running=True)
         if lod != "none" and not self.lod.available:
             self._note(self.lod.why_unavailable())
             self.state.lod = "none"
@@ -432,6 +445,8 @@ class ViewerSession:
 
         w, h = fbo.size
         camera = replace(self.camera, aspect=w / h)
+        if dt > 0:
+            self.state.advance_time(dt)
         self._update_lod(camera, (w, h))
         if self.state.lod != "none":
             self.lod_ms.add(self.lod.last_ms, dt)

@@ -1,5 +1,7 @@
 // Sky: a full-screen triangle behind the terrain (drawn where no terrain is).
-// Daylight lighting: the Preetham sky with the sun's disc, and below the horizon the world
+// Daylight lighting: the sky (a table of the Preetham day / twilight / moonlit / night sky,
+// common/atmosphere.glsl) with the sun's disc, the moon's disc in its phase and the stars
+// (terrascape.render.atmosphere), and below the horizon the world
 // beyond the terrain (`surround`): the sea, an infinite plane at the terrain's lowest height,
 // or haze — each hazed by aerial perspective, so it meets the sky without a band.
 // Other lighting modes: the view ray's elevation blends the horizon colour (also the fog
@@ -28,6 +30,13 @@ uniform vec3 u_camera_pos;
 uniform int u_lighting;
 uniform int u_surround;          // 0 fade (haze), 1 plane, 2 sea
 uniform float u_surround_height; // world height of the plane / sea
+uniform vec3 u_true_sun_dir;     // toward the sun (below the horizon at night)
+uniform mat3 u_to_celestial;     // world (horizontal) → equatorial directions
+uniform vec3 u_moon_dir;
+uniform vec3 u_moon_radiance;    // display-limited, 0 when the moon is down
+uniform float u_moon_cos_radius;
+uniform float u_star_radiance;   // brightest star (display-limited), 0 by day
+uniform int u_star_seed;
 in vec3 v_ray;
 out vec4 f_color;
 
@@ -50,6 +59,57 @@ vec3 surround_radiance(vec3 p) {
 #endif
 }
 
+#if SKY_MODE > 0
+// The moon's disc along d: a sphere lit from the sun's direction (its phase), with a faint
+// earthshine on the dark side.
+vec3 moon_disc(vec3 d) {
+    float c = dot(d, u_moon_dir);
+    if (c < u_moon_cos_radius - 1e-4) return vec3(0.0);
+    float sin_r = sqrt(max(1.0 - u_moon_cos_radius * u_moon_cos_radius, 1e-12));
+    vec3 o = (d - u_moon_dir * c) / sin_r;            // disc offset, |o| <= 1
+    float r2 = dot(o, o);
+    vec3 n = o - u_moon_dir * sqrt(max(1.0 - r2, 0.0)); // the moon's surface normal
+    float lit = smoothstep(-0.08, 0.08, dot(n, u_true_sun_dir));
+    float edge = 1.0 - smoothstep(0.85, 1.0, r2);
+    return u_moon_radiance * (lit + 0.015) * edge;
+}
+
+// Integer hash (Jarzynski & Olano 2020, pcg3d): the same stars on every GPU and run.
+uvec3 pcg3d(uvec3 v) {
+    v = v * 1664525u + 1013904223u;
+    v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
+    v ^= v >> 16u;
+    v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
+    return v;
+}
+
+// Stars fixed on the celestial sphere: one candidate per cell of a 3-D grid around the
+// unit sphere (in equatorial coordinates, so the sky turns with the sidereal time), a
+// star in about one cell in 60, its brightness from a power law (few bright, many faint),
+// drawn as a Gaussian one pixel wide. No time input: still renders do not twinkle.
+const float STAR_GRID = 160.0;
+vec3 stars(vec3 d) {
+    vec3 e = u_to_celestial * d;
+    vec3 p = e * STAR_GRID;
+    vec3 cell = floor(p);
+    uvec3 h = pcg3d(uvec3(ivec3(cell) + 4096) ^ uvec3(uint(u_star_seed) * 747796405u));
+    vec3 r = vec3(h) * (1.0 / 4294967296.0);
+    if (r.x > 1.0 / 60.0) return vec3(0.0);
+    vec3 star = cell + 0.3 + 0.4 * fract(r * 61.0 + r.yzx * 17.0);
+    // angular distance (in cell units at the sphere) from the view ray to the star
+    vec3 off = star - e * dot(star, e);
+    float pixel = max(length(fwidth(p)), 1e-4);
+    float sigma = 0.7 * pixel;
+    float g = exp(-0.5 * dot(off, off) / (sigma * sigma));
+    float mag = pow(r.y, 6.0);                          // brightness: many faint stars
+    float t = r.z;                                       // colour: blue-white … orange
+    vec3 tint = mix(vec3(0.75, 0.85, 1.0), vec3(1.0, 0.8, 0.6), t * t);
+    // extinction toward the horizon
+    float air = smoothstep(0.0, 0.12, d.y);
+    return tint * (u_star_radiance * (0.04 + mag) * g * air);
+}
+#endif
+
 void main() {
     vec3 d = normalize(v_ray);
 #if SKY_MODE > 0
@@ -60,10 +120,12 @@ void main() {
         vec3 p = u_camera_pos + t * d;
         color = aerial_perspective(surround_radiance(p), p, u_camera_pos);
     } else {
-        color = sky_radiance(d) + sun_disc(d, u_sun_dir);
+        color = sky_radiance(d) + sun_disc(d, u_true_sun_dir) + moon_disc(d);
+        if (u_star_radiance > 0.0) color += stars(d);
     }
 #else
-    color = sky_radiance(d) + sun_disc(d, u_sun_dir);
+    color = sky_radiance(d) + sun_disc(d, u_true_sun_dir) + moon_disc(d);
+    if (u_star_radiance > 0.0) color += stars(d);
 #endif
     f_color = vec4(display(color), 1.0);
 #else

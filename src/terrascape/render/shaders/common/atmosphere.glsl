@@ -1,45 +1,33 @@
-// Daylight sky, aerial perspective and display transform (terrascape.lighting.daylight: the
-// same formulas and constants, from Daylight.uniforms()).
-//  * Preetham, Shirley & Smits 1999 analytic sky: Perez F(θ, γ) = (1 + A e^(B/cos θ))
-//    (1 + C e^(Dγ) + E cos²γ) for Y, x, y, times zenith/F(0, θs); Yxy → XYZ → linear sRGB,
-//    white-balanced for the overhead sun. e^(B/cos θ) and its derivatives vanish at the
-//    horizon, so continuing the sky below it with cos θ clamped has no crease.
+// Sky, aerial perspective and display transform (terrascape.lighting.daylight and
+// terrascape.lighting.night_sky: the same formulas, evaluated on the CPU).
+//  * The sky: Preetham, Shirley & Smits 1999 (the day sky, and the moonlit sky of a "sun"
+//    where the moon is), dimmed and blued through twilight, plus the night's airglow —
+//    tabulated per frame into u_sky_lut (azimuth × elevation, float radiance), so a sky
+//    pixel costs one texture fetch instead of three Perez functions. The table's rows are
+//    elevations 90°·(i/(H-1))² (dense near the horizon, where the sky changes fastest);
+//    below the horizon the horizon row continues (the Perez model's own continuation).
 //  * Aerial perspective: extinction exp(-β·∫ρ) along the view ray through air whose density
 //    falls off as exp(-(y - base)/H), and in-scattered light toward the sky colour of the
 //    same view direction at the horizon (distant terrain melts into the sky behind it).
 //  * Display: exposure, Narkowicz 2015 ACES fit, sRGB encoding.
-uniform vec3 u_sky_sun_dir;      // sun direction of the sky model (>= 0.5° elevation)
-uniform float u_perez[15];       // A..E for Y, then x, then y
-uniform vec3 u_sky_zenith;       // (Y, x, y) zenith / F(0, θs)
-uniform vec3 u_white_balance;
+uniform sampler2D u_sky_lut;     // sky radiance (linear, kcd/m², white-balanced)
 uniform vec3 u_sun_radiance;     // sun disc radiance (display-limited, sun colour)
 uniform float u_sun_cos_radius;  // cos of the drawn disc radius
 uniform float u_exposure;
+uniform float u_night_desaturation; // 0 by day; at night colours fade toward blue-grey
 uniform vec3 u_haze_beta;        // extinction per world unit at the base height (RGB)
 uniform float u_haze_base;       // world height of the haze base (terrain minimum)
 uniform float u_haze_height;     // density scale height H (world units)
 
-float perez_term(int k, float cos_theta, float gamma) {
-    float A = u_perez[5 * k], B = u_perez[5 * k + 1], C = u_perez[5 * k + 2];
-    float D = u_perez[5 * k + 3], E = u_perez[5 * k + 4];
-    float cg = cos(gamma);
-    return (1.0 + A * exp(B / cos_theta)) * (1.0 + C * exp(D * gamma) + E * cg * cg);
-}
-
-// Sky radiance (linear, kcd/m², white-balanced) along unit direction d, without the sun disc.
+// Sky radiance (linear, kcd/m², white-balanced) along unit direction d, without the discs.
 vec3 sky_radiance(vec3 d) {
-    float ct = max(d.y, 1e-4);
-    float gamma = acos(clamp(dot(d, u_sky_sun_dir), -1.0, 1.0));
-    vec3 yxy = u_sky_zenith * vec3(perez_term(0, ct, gamma), perez_term(1, ct, gamma),
-                                   perez_term(2, ct, gamma));
-    float Y = yxy.x;
-    // y >= x + 0.01: Preetham's chromaticity drifts magenta toward the horizon (daylight.py)
-    float y = max(max(yxy.z, yxy.y + 0.01), 1e-4);
-    vec3 xyz = vec3(yxy.y * Y / y, Y, (1.0 - yxy.y - y) * Y / y);
-    mat3 to_rgb = mat3(3.2406, -0.9689, 0.0557,
-                       -1.5372, 1.8758, -0.2040,
-                       -0.4986, 0.0415, 1.0570);
-    return max(to_rgb * xyz, vec3(0.0)) * u_white_balance;
+    vec2 size = vec2(textureSize(u_sky_lut, 0));
+    // turns clockwise from north (straight up, any azimuth: atan(0, 0) is undefined)
+    float az = atan(d.x, abs(d.x) + abs(d.z) > 1e-7 ? -d.z : 1.0) * 0.15915494;
+    float el = asin(clamp(d.y, 0.0, 1.0)) * 0.63661977; // 0 horizon … 1 zenith
+    // texel centres: column j at j/W turns, row i at elevation ((i/(H-1))²
+    vec2 uv = vec2(az + 0.5 / size.x, (sqrt(el) * (size.y - 1.0) + 0.5) / size.y);
+    return texture(u_sky_lut, uv).rgb;
 }
 
 // The sun's disc seen along d (soft-edged), added to the sky where no terrain hides it.
@@ -82,5 +70,8 @@ vec3 srgb_to_linear(vec3 c) {
 
 // Linear radiance → display value (exposure, filmic tone map, sRGB).
 vec3 display(vec3 radiance) {
+    // scotopic vision: at night the colours fade to a blue-grey of the same luminance
+    float lum = dot(radiance, vec3(0.2126, 0.7152, 0.0722));
+    radiance = mix(radiance, lum * vec3(0.78, 0.95, 1.45), u_night_desaturation);
     return linear_to_srgb(aces_filmic(radiance * u_exposure));
 }
