@@ -18,7 +18,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import ndimage
 
 from terrascape._validate import (
     as_height_array,
@@ -154,6 +153,9 @@ class Heightmap:
             hi = (lo - 1) * 2 + 1
             side = lo if (n - lo) <= (hi - n) else hi
             zoom = ((side - 1) / (self.rows - 1), (side - 1) / (self.cols - 1))
+            # scipy.ndimage takes longer to import than numpy; only this resample needs it.
+            from scipy import ndimage
+
             out = ndimage.zoom(self.heights, zoom, order=3, mode="nearest", grid_mode=False)
             out = out[:side, :side]
             if out.shape != (side, side):  # zoom rounding guard
