@@ -28,6 +28,28 @@ from terrascape._validate import (
 from terrascape.errors import InvalidParameterError
 
 
+def normalise_into(heights: np.ndarray, out: np.ndarray, lo: float, hi: float) -> None:
+    """Write ``heights`` linearly mapped to ``[lo, hi]`` into the float32 ``out`` (which may
+    be ``heights`` itself); a flat map becomes all ``lo``.
+
+    The float64 arithmetic runs over blocks of rows, so the peak is ``out`` plus one small
+    block rather than float64 temporaries of the whole map.
+    """
+    low, high = float(heights.min()), float(heights.max())
+    span = high - low
+    step = max(1, (1 << 16) // max(1, heights.shape[1]))
+    for r0 in range(0, heights.shape[0], step):
+        unit = heights[r0:r0 + step].astype(np.float64)
+        if span > 0:
+            unit -= low
+            unit /= span
+        else:
+            unit[...] = 0.0
+        unit *= hi - lo
+        unit += lo
+        out[r0:r0 + step] = unit
+
+
 @dataclass(frozen=True, eq=False)
 class Heightmap:
     """Heights (float32, world units) plus sample spacing; immutable, operations return new maps.
@@ -167,10 +189,9 @@ class Heightmap:
 
     def normalised(self, lo: float = 0.0, hi: float = 1.0) -> Heightmap:
         """Heights linearly mapped to ``[lo, hi]`` (a flat map becomes all ``lo``)."""
-        h = self.heights.astype(np.float64)
-        span = h.max() - h.min()
-        unit = (h - h.min()) / span if span > 0 else np.zeros_like(h)
-        return self.with_heights((lo + unit * (hi - lo)).astype(np.float32))
+        out = np.empty(self.heights.shape, dtype=np.float32)
+        normalise_into(self.heights, out, lo, hi)
+        return self.with_heights(out)
 
     def scaled(self, factor: float) -> Heightmap:
         """Heights multiplied by ``factor`` (vertical exaggeration)."""
