@@ -9,11 +9,12 @@ with the handler that unwinds (and removes temporary files) once commands run.
 from __future__ import annotations
 
 import os
-import signal
 import sys
 
 
 def _exit_during_startup(signum: int, _frame: object) -> None:
+    import signal
+
     name = signal.Signals(signum).name
     os.write(2, f"interrupted ({name}) while starting; nothing was written\n".encode())
     os._exit(128 + signum)
@@ -26,6 +27,8 @@ def running_as_cli() -> bool:
 
 def install() -> None:
     """Install the startup handlers for SIGINT, SIGTERM and SIGHUP (main thread only)."""
+    import signal  # here, not at the top: a library user's import does not pay for it
+
     for name in ("SIGINT", "SIGTERM", "SIGHUP"):
         sig = getattr(signal, name, None)
         if sig is not None:

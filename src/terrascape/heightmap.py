@@ -18,7 +18,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import ndimage
 
 from terrascape._validate import (
     as_height_array,
@@ -27,6 +26,28 @@ from terrascape._validate import (
     is_pow2_plus1,
 )
 from terrascape.errors import InvalidParameterError
+
+
+def normalise_into(heights: np.ndarray, out: np.ndarray, lo: float, hi: float) -> None:
+    """Write ``heights`` linearly mapped to ``[lo, hi]`` into the float32 ``out`` (which may
+    be ``heights`` itself); a flat map becomes all ``lo``.
+
+    The float64 arithmetic runs over blocks of rows, so the peak is ``out`` plus one small
+    block rather than float64 temporaries of the whole map.
+    """
+    low, high = float(heights.min()), float(heights.max())
+    span = high - low
+    step = max(1, (1 << 16) // max(1, heights.shape[1]))
+    for r0 in range(0, heights.shape[0], step):
+        unit = heights[r0:r0 + step].astype(np.float64)
+        if span > 0:
+            unit -= low
+            unit /= span
+        else:
+            unit[...] = 0.0
+        unit *= hi - lo
+        unit += lo
+        out[r0:r0 + step] = unit
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,6 +175,9 @@ class Heightmap:
             hi = (lo - 1) * 2 + 1
             side = lo if (n - lo) <= (hi - n) else hi
             zoom = ((side - 1) / (self.rows - 1), (side - 1) / (self.cols - 1))
+            # scipy.ndimage takes longer to import than numpy; only this resample needs it.
+            from scipy import ndimage
+
             out = ndimage.zoom(self.heights, zoom, order=3, mode="nearest", grid_mode=False)
             out = out[:side, :side]
             if out.shape != (side, side):  # zoom rounding guard
@@ -165,10 +189,9 @@ class Heightmap:
 
     def normalised(self, lo: float = 0.0, hi: float = 1.0) -> Heightmap:
         """Heights linearly mapped to ``[lo, hi]`` (a flat map becomes all ``lo``)."""
-        h = self.heights.astype(np.float64)
-        span = h.max() - h.min()
-        unit = (h - h.min()) / span if span > 0 else np.zeros_like(h)
-        return self.with_heights((lo + unit * (hi - lo)).astype(np.float32))
+        out = np.empty(self.heights.shape, dtype=np.float32)
+        normalise_into(self.heights, out, lo, hi)
+        return self.with_heights(out)
 
     def scaled(self, factor: float) -> Heightmap:
         """Heights multiplied by ``factor`` (vertical exaggeration)."""

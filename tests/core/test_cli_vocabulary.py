@@ -12,7 +12,7 @@ import pytest
 import typer.main
 
 from terrascape import Heightmap, __version__
-from terrascape.cli import app, run_app
+from terrascape.cli import app, load_command_modules, run_app
 
 #: Words that belong to the project's notes, not to a user's screen.
 NOT_USERS_WORDS = re.compile(r"seed \d{3}|§|MISSION|\(R\d+\)|\b[HRTP]\d+\b|<bool>")
@@ -32,6 +32,7 @@ def _help(path: list[str], monkeypatch) -> str:
     return buf.getvalue()
 
 
+load_command_modules()  # commands are imported when run; the scan needs every one built
 ALL_COMMANDS = list(_command_paths(typer.main.get_command(app)))
 
 

@@ -124,7 +124,7 @@ def test_ctrl_c_stops_a_long_erosion_within_seconds(tmp_path):
 def test_signal_after_one_of_two_outputs_says_what_was_kept(tmp_path, capsys, monkeypatch):
     """generate -o X --preview P, the signal arrives while P is written: X is complete and
     named as kept, P's temporary file is gone, exit 143."""
-    import terrascape.io
+    import terrascape.cli.cmd_generate
     from terrascape.cli.app import run_app
     from terrascape.errors import Interrupted
     from terrascape.io.atomic import atomic_output
@@ -134,7 +134,7 @@ def test_signal_after_one_of_two_outputs_says_what_was_kept(tmp_path, capsys, mo
             tmp.write_bytes(b"half a preview")
             raise Interrupted(signal.SIGTERM)
 
-    monkeypatch.setattr(terrascape.io, "write_preview", interrupted_preview)
+    monkeypatch.setattr(terrascape.cli.cmd_generate, "write_preview", interrupted_preview)
     out, preview = tmp_path / "hm.npy", tmp_path / "p.png"
     code = run_app(["generate", "diamond-square", "--size", "33", "-o", str(out),
                     "--preview", str(preview), "-q"])

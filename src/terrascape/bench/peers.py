@@ -19,8 +19,20 @@ Rows:
   triangles and build time at 1, 2, 5 and 10 m on a synthetic map and the real DEM that
   matplotlib ships (Jacksboro fault, 344×403, about 90 m spacing). The error is measured on
   every sample.
-* ``import terrascape`` and ``terrascape --help`` in a fresh interpreter, against
-  ``import numpy``.
+* gradient-noise fBm (6 octaves, wavelength 128 samples) — :func:`terrascape.generate.fbm`
+  against pyfastnoisesimd's Perlin FBM (FastNoiseSIMD, thread for thread, 1 and 2 threads)
+  and, on a smaller grid and one thread, against ``opensimplex`` (its numpy
+  ``noise2array`` per octave) and ``noise`` (``pnoise2`` called per sample, as its users do);
+  compared per sample computed.
+* plain hillshade — :func:`terrascape.lighting.lambert` against ``xarray-spatial``'s
+  ``hillshade`` on the same map and sun (both the cosine of the sun's incidence; their
+  agreement is given as a correlation on the inner samples).
+* render mesh of the full grid — :func:`terrascape.mesh.terrain_mesh` with its triangle
+  indices against pyvista (VTK): a ``StructuredGrid`` surface, triangulated, with point
+  normals.
+* ``import terrascape`` and ``terrascape --help`` in a fresh interpreter, against ``import
+  numpy``, ``import rasterio``, ``gdalinfo --version`` and ``import pyvista``
+  (:mod:`terrascape.bench.startup`).
 
 References
 ----------
@@ -33,8 +45,6 @@ from __future__ import annotations
 
 import importlib.util
 import statistics
-import subprocess
-import sys
 import time
 from collections.abc import Callable
 
@@ -51,6 +61,7 @@ from terrascape.lighting.sun import sun_direction
 # Targets of the peers comparison (terrascape's time ÷ the peer's, two threads).
 SHADOW_TARGET = 0.6
 AGREEMENT_TARGET = 99.9  # % of samples equal to the exact ray walk
+NOISE_TARGET = 1.5  # terrascape's time per sample ÷ pyfastnoisesimd's, thread for thread
 SHADOW_CASES = ((5.0, 30.0), (20.0, 135.0), (45.0, 250.0), (20.0, 0.0), (10.0, 300.0))
 
 
@@ -213,13 +224,130 @@ def _tin_rows(quick: bool, rounds: int, table: BenchTable) -> None:
         table.notes.append("pydelatin is not installed: peer columns skipped")
 
 
-def _startup_seconds(code: list[str], rounds: int) -> float:
-    times = []
-    for _ in range(rounds):
-        t0 = time.perf_counter()
-        subprocess.run([sys.executable, *code], check=True, capture_output=True)
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+def _noise_rows(quick: bool, rounds: int, table: BenchTable) -> None:
+    """fBm against pyfastnoisesimd thread for thread, then against opensimplex and noise on
+    one thread; times are per sample computed (pyfastnoisesimd pads rows to 16 floats)."""
+    from terrascape.bench.generate import NOISE_OCTAVES, NOISE_SCALE, _fastnoise
+    from terrascape.generate.noise import fbm
+
+    def ours(n: int) -> Callable[[], object]:
+        return lambda: fbm(n, scale=NOISE_SCALE, octaves=NOISE_OCTAVES, seed=1)
+
+    about = ""
+    for n in (1025,) if quick else (2049, 4097):
+        for threads in (1, 2):
+            fill, about = _fastnoise(threads)
+            if fill is None:
+                table.rows.append([f"{n}²", threads, "pyfastnoisesimd", "-", "-", "-", "-"])
+                continue
+            peer_samples = fill(n, n)
+            ratio, lo, hi, t_ours, t_peer = paired_ratio(
+                _with_threads(threads, ours(n)), lambda n=n, fill=fill: fill(n, n), rounds)
+            per_sample = peer_samples / (n * n)  # ratio of the times per sample computed
+            table.rows.append([f"{n}²", threads, "pyfastnoisesimd", t_ours / (n * n) * 1e9,
+                               t_peer / peer_samples * 1e9, ratio * per_sample,
+                               f"{lo * per_sample:.2f}–{hi * per_sample:.2f}"])
+            table.check_target(f"fBm {n}² on {threads} thread(s) ÷ pyfastnoisesimd",
+                               ratio * per_sample, at_most=NOISE_TARGET, unit="×")
+    table.notes.append(about)
+    n = 129 if quick else 257
+    x = np.arange(n, dtype=np.float64) / NOISE_SCALE
+    peers: dict[str, Callable[[], object] | str] = {}
+    if importlib.util.find_spec("opensimplex") is not None:
+        import opensimplex
+
+        opensimplex.seed(1)
+
+        def simplex_fbm() -> np.ndarray:
+            total = np.zeros((n, n))
+            for octave in range(NOISE_OCTAVES):
+                f = 2.0 ** octave
+                total += 0.5 ** octave * opensimplex.noise2array(x * f, x * f)
+            return total
+
+        peers["opensimplex"] = simplex_fbm
+    else:
+        peers["opensimplex"] = "opensimplex is not installed (pip install opensimplex)"
+    if importlib.util.find_spec("noise") is not None:
+        from noise import pnoise2
+
+        def perlin_fbm() -> np.ndarray:
+            return np.array([[pnoise2(c, r, octaves=NOISE_OCTAVES, base=1) for c in x]
+                             for r in x])
+
+        peers["noise"] = perlin_fbm
+    else:
+        peers["noise"] = "noise is not installed (pip install noise)"
+    for name, peer in peers.items():
+        if isinstance(peer, str):
+            table.rows.append([f"{n}²", 1, name, "-", "-", "-", "-"])
+            table.notes.append(peer)
+            continue
+        ratio, lo, hi, t_ours, t_peer = paired_ratio(_with_threads(1, ours(n)), peer,
+                                                     max(3, rounds // 2))
+        table.rows.append([f"{n}²", 1, name, t_ours / (n * n) * 1e9, t_peer / (n * n) * 1e9,
+                           ratio, f"{lo:.3f}–{hi:.3f}"])
+
+
+def _hillshade_rows(size: int, rounds: int, table: BenchTable) -> None:
+    from terrascape.lighting import lambert
+
+    hm = terrain(size)
+    azimuth, elevation = 315.0, 45.0
+    ours = lambda: lambert(hm, azimuth, elevation)  # noqa: E731
+    if importlib.util.find_spec("xrspatial") is None:
+        table.rows.append([f"{size}²", "xarray-spatial hillshade", "-", "-", "-", "-", "-"])
+        table.notes.append("xarray-spatial is not installed (pip install xarray-spatial)")
+        return
+    import xarray as xr
+    from xrspatial import hillshade
+
+    dx, dz = hm.spacing
+    grid = xr.DataArray(hm.heights, dims=("y", "x"),
+                        coords={"y": np.arange(hm.rows) * dz, "x": np.arange(hm.cols) * dx})
+    # xarray-spatial measures azimuth clockwise from north and, for a DataArray whose y grows
+    # downwards as here, sees north at row 0 like terrascape; only the inner samples compare
+    # (it leaves the border NaN).
+    peer = lambda: hillshade(grid, azimuth=int(azimuth), angle_altitude=int(elevation))  # noqa: E731
+    theirs = np.asarray(peer())
+    inner = (slice(1, -1), slice(1, -1))
+    a, b = ours()[inner].ravel(), theirs[inner].ravel()
+    keep = np.isfinite(b)
+    correlation = float(np.corrcoef(a[keep], b[keep])[0, 1])
+    ratio, lo, hi, t_ours, t_peer = paired_ratio(ours, peer, rounds)
+    table.rows.append([f"{size}²", "xarray-spatial hillshade", t_ours, t_peer, ratio,
+                       f"{lo:.2f}–{hi:.2f}", correlation])
+
+
+def _mesh_rows(size: int, rounds: int, table: BenchTable) -> None:
+    from terrascape.mesh import terrain_mesh
+
+    hm = terrain(size)
+
+    def ours() -> tuple[object, np.ndarray]:
+        mesh = terrain_mesh(hm)
+        return mesh, mesh.triangles
+
+    if importlib.util.find_spec("pyvista") is None:
+        table.rows.append([f"{size}²", "pyvista", "-", "-", "-", "-", "-", "-"])
+        table.notes.append("pyvista is not installed (pip install pyvista)")
+        return
+    import pyvista as pv
+
+    dx, dz = hm.spacing
+    xs, zs = np.meshgrid(np.arange(hm.cols) * dx, np.arange(hm.rows) * dz)
+
+    def peer():
+        grid = pv.StructuredGrid(xs, hm.heights.astype(np.float64), zs)
+        return grid.extract_surface(algorithm=None).triangulate().compute_normals(
+            cell_normals=False, split_vertices=False, consistent_normals=False,
+            auto_orient_normals=False)
+
+    n_ours = len(ours()[1])
+    n_peer = peer().n_cells
+    ratio, lo, hi, t_ours, t_peer = paired_ratio(ours, peer, rounds)
+    table.rows.append([f"{size}²", "pyvista", t_ours, t_peer, ratio, f"{lo:.2f}–{hi:.2f}",
+                       n_ours, n_peer])
 
 
 def run(quick: bool = False) -> list[BenchTable]:
@@ -245,21 +373,36 @@ def run(quick: bool = False) -> list[BenchTable]:
     tin.notes += [
         "measured error: the largest |mesh − height| over every sample of the map",
     ]
-    startup = BenchTable(
-        "Start-up in a fresh interpreter (bytecode cached)",
-        ["what", "median s"],
+    noise = BenchTable(
+        "Gradient-noise fBm, 6 octaves: terrascape vs pyfastnoisesimd, opensimplex, noise",
+        ["grid", "threads", "peer", "ours ns/sample", "peer ns/sample", "ours/peer",
+         "spread"],
     )
-    r = 3 if quick else 7
-    startup.rows += [
-        ["import numpy", _startup_seconds(["-c", "import numpy"], r)],
-        ["import terrascape", _startup_seconds(["-c", "import terrascape"], r)],
-        ["terrascape --help", _startup_seconds(
-            ["-c", "from terrascape.cli import main; main(['--help'])"], r)],
+    _noise_rows(quick, rounds, noise)
+    noise.notes += [
+        f"medians of {rounds} interleaved rounds (opensimplex, noise: {max(3, rounds // 2)}); "
+        "pyfastnoisesimd on its own threads, as many as ours",
+        f"target: ≤ {NOISE_TARGET:g}× pyfastnoisesimd's time per sample, thread for thread",
     ]
-    startup.check_target("import terrascape", startup.rows[1][1], at_most=0.10, unit=" s")
-    startup.check_target("terrascape --help", startup.rows[2][1], at_most=0.25, unit=" s")
-    startup.notes.append("targets: import terrascape ≤ 0.10 s, terrascape --help ≤ 0.25 s")
-    return [shadows, tin, startup]
+    grid = 1025 if quick else 2049
+    hillshade = BenchTable(
+        "Plain hillshade (sun 315°, 45°): terrascape's Lambert term vs xarray-spatial",
+        ["size", "peer", "ours s", "peer s", "ours/peer", "spread", "correlation"],
+    )
+    _hillshade_rows(grid, rounds, hillshade)
+    hillshade.notes.append("correlation of the two shadings over the inner samples")
+    mesh = BenchTable(
+        "Full-grid render mesh (positions, normals, triangles): terrascape vs pyvista",
+        ["size", "peer", "ours s", "peer s", "ours/peer", "spread", "ours triangles",
+         "peer triangles"],
+    )
+    _mesh_rows(grid, rounds, mesh)
+    mesh.notes.append("ours: terrain_mesh (also tangents) and its triangle indices; pyvista: "
+                      "StructuredGrid → extract_surface → triangulate → compute_normals")
+    from terrascape.bench.startup import startup_table
+
+    startup = startup_table(5 if quick else 15)
+    return [shadows, tin, noise, hillshade, mesh, startup]
 
 
 __all__ = ["exact_shadow_at", "insolation_shadow", "paired_ratio", "real_dem", "run"]

@@ -1,25 +1,16 @@
 """The ``terrascape`` command line: a thin typer layer over the library.
 
-Commands live in ``cli/cmd_*.py`` modules, each registering on :data:`app`; they are
-discovered here so that adding a command never means editing a shared list.
+Commands live in ``cli/cmd_*.py`` modules, each registering on :data:`app`, and are listed
+in :data:`~terrascape.cli.commands.COMMANDS`. A command's module is imported when the command
+runs, so ``terrascape --help`` imports none of them (see :class:`~terrascape.cli.app.
+LazyCommandGroup`); :func:`load_command_modules` imports them all.
 """
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
 import sys
 
-from terrascape.cli.app import app, run_app
-
-
-def _load_commands() -> None:
-    for module in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
-        if module.name.startswith("cmd_"):
-            importlib.import_module(f"{__name__}.{module.name}")
-
-
-_load_commands()
+from terrascape.cli.app import app, load_command_modules, run_app
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -27,4 +18,4 @@ def main(argv: list[str] | None = None) -> None:
     sys.exit(run_app(argv))
 
 
-__all__ = ["app", "main"]
+__all__ = ["app", "load_command_modules", "main", "run_app"]

@@ -9,10 +9,13 @@ line "interrupted …; nothing was written".
 from __future__ import annotations
 
 import contextlib
+import difflib
+import importlib
 import signal
 import time
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from typing import TYPE_CHECKING
 
 import typer
 
@@ -21,14 +24,98 @@ try:  # typer >= 0.20 vendors click; its exceptions are the ones raised
 except ImportError:  # pragma: no cover - older typer on the real click
     from click import exceptions as click_errors
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-from typer.core import TyperOption
+from typer.core import TyperCommand, TyperGroup, TyperOption
 
 from terrascape import __version__
 from terrascape._output import LineProgress, make_console
+from terrascape.cli.commands import COMMANDS
 from terrascape.errors import Interrupted, TerrascapeError
 
+if TYPE_CHECKING:
+    from rich.progress import Progress
+
+
+def load_command_modules(names: Iterable[str] | None = None) -> None:
+    """Import the ``cli/cmd_*.py`` modules of the commands ``names`` (default: every
+    ``cmd_*`` module in ``cli/``, listed in the table or not), so they register their
+    commands on :data:`app`."""
+    if names is None:
+        import pkgutil
+
+        import terrascape.cli
+
+        modules = sorted(m.name for m in pkgutil.iter_modules(terrascape.cli.__path__)
+                         if m.name.startswith("cmd_"))
+    else:
+        modules = [m for name in names for m in COMMANDS[name].modules]
+    for module in modules:
+        importlib.import_module(f"terrascape.cli.{module}")
+
+
+class LazyCommandGroup(TyperGroup):
+    """The top-level group: its command list comes from :data:`~terrascape.cli.commands.
+    COMMANDS`, and a command's module is imported when the command is looked up to run (or
+    to show its own help), not when ``terrascape --help`` lists it."""
+
+    _listing = False
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._loaded: set[str] = set()
+        self.suggest_commands = False  # typer's suggestions see only the loaded commands
+
+    def resolve_command(self, ctx, args):
+        try:
+            return super().resolve_command(ctx, args)
+        except click_errors.UsageError as exc:
+            if args and exc.message.startswith("No such command"):
+                matches = difflib.get_close_matches(args[0], self.list_commands(ctx))
+                if matches:
+                    exc.message = (f"{exc.message.rstrip('.')}. Did you mean "
+                                   f"{', '.join(repr(m) for m in matches)}?")
+            raise
+
+    def list_commands(self, ctx) -> list[str]:
+        return list(dict.fromkeys([*COMMANDS, *self.commands]))
+
+    def get_command(self, ctx, cmd_name: str):
+        entry = COMMANDS.get(cmd_name)
+        if self._listing and entry is not None:
+            return TyperCommand(name=cmd_name, help=entry.summary)
+        if entry is not None and cmd_name not in self._loaded:
+            self._loaded.add(cmd_name)
+            load_command_modules([cmd_name])
+            self._rebuild(cmd_name)
+        return self.commands.get(cmd_name)
+
+    def _rebuild(self, cmd_name: str) -> None:
+        """Build the click command ``cmd_name`` from what its module registered on
+        :data:`app` (this group was built before the module was imported)."""
+        from typer.main import get_command_from_info, get_command_name, get_group_from_info
+
+        for info in app.registered_commands:
+            name = info.name or get_command_name(info.callback.__name__)
+            if name == cmd_name:
+                self.commands[name] = get_command_from_info(
+                    info, pretty_exceptions_short=app.pretty_exceptions_short,
+                    rich_markup_mode=app.rich_markup_mode)
+        for info in app.registered_groups:
+            if info.name == cmd_name:
+                self.commands[cmd_name] = get_group_from_info(
+                    info, pretty_exceptions_short=app.pretty_exceptions_short,
+                    rich_markup_mode=app.rich_markup_mode,
+                    suggest_commands=app.suggest_commands)
+
+    def format_help(self, ctx, formatter) -> None:
+        self._listing = True  # list the table's summaries: import no command module
+        try:
+            super().format_help(ctx, formatter)
+        finally:
+            self._listing = False
+
+
 app = typer.Typer(
+    cls=LazyCommandGroup,
     name="terrascape",
     help="Generate, texture, shade and render terrain — with or without a GPU.",
     no_args_is_help=True,
@@ -287,6 +374,8 @@ def progress(*, quiet: bool = False) -> Progress | LineProgress:
     terminal (a log, CI), a plain progress line every few seconds instead."""
     if not console.is_terminal:
         return LineProgress(console, disable=quiet)
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
     return Progress(
         TextColumn("[progress.description]{task.description}"),
         BarColumn(),

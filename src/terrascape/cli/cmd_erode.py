@@ -5,19 +5,20 @@ from __future__ import annotations
 import contextlib
 from pathlib import Path
 
+import numpy as np
 import typer
 
+from terrascape._validate import check_int
 from terrascape.cli.app import MAX_MEMORY, app, out, timed, use_max_memory
 from terrascape.cli.cmd_generate import _FORCE, _QUIET, _SEED, _check_outputs, _finish
 from terrascape.errors import InvalidParameterError
+from terrascape.filters import MASK_NAMES, MODELS, erode, hydraulic_erosion, thermal_erosion
+from terrascape.io import atomic_output, check_output_path, read_heightmap
+from terrascape.memory import check_grid
 
 
 def _read_map(path: Path, name: str, shape: tuple[int, int]):
     """A per-sample parameter map from any heightmap file, checked against the input."""
-    import numpy as np
-
-    from terrascape.io import read_heightmap
-
     parameter_map = read_heightmap(path)
     if parameter_map.metadata.get("filled"):
         # Heights may have holes filled; a rain or talus map with holes is a mistake.
@@ -79,10 +80,6 @@ def erode_cmd(
     max_memory: str = MAX_MEMORY,
 ) -> None:
     """Erode a heightmap. With no options: stream-power river erosion (drained valleys)."""
-    from terrascape._validate import check_int
-    from terrascape.filters import MASK_NAMES, MODELS, erode, hydraulic_erosion, thermal_erosion
-    from terrascape.io import atomic_output, check_output_path, read_heightmap
-
     thermal = check_int(thermal, "--thermal", minimum=0)
     hydraulic = check_int(hydraulic, "--hydraulic", minimum=0)
     if iterations is not None:
@@ -102,8 +99,6 @@ def erode_cmd(
             check_output_path(path, force=force)
     with timed("read", quiet=quiet):
         hm = read_heightmap(input_path)
-    from terrascape.memory import check_grid
-
     use_max_memory(max_memory)
     check_grid("erode", hm.rows, hm.cols, hint="erode a smaller map (or raise --max-memory)")
     original = hm.heights
@@ -124,8 +119,6 @@ def erode_cmd(
             result = erode(hm, model=name, iterations=iterations, strength=strength, seed=seed,
                            talus_angle=talus_angle, rain=rain, dt=dt, evaporation=evaporation)
         hm, result_masks = result.heightmap, result.masks
-    import numpy as np
-
     if thermal:
         with timed("thermal erosion", quiet=quiet):
             hm = thermal_erosion(hm, iterations=thermal, talus_angle=talus_angle)

@@ -9,7 +9,9 @@ from pathlib import Path
 
 import typer
 
+from terrascape._validate import check_positive
 from terrascape.cli.app import MAX_MEMORY, app, console, out, progress, timed, use_max_memory
+from terrascape.cli.parsing import parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError
 from terrascape.generate.registry import (
     GENERATORS,
@@ -20,6 +22,15 @@ from terrascape.generate.registry import (
     progress_total,
 )
 from terrascape.heightmap import Heightmap
+from terrascape.io import (
+    WRITE_EXTENSIONS,
+    check_output_path,
+    formats_help,
+    read_heightmap,
+    write_heightmap,
+    write_preview,
+)
+from terrascape.memory import PEAK_BYTES_PER_SAMPLE, check_grid, gaussian_kernel_bytes
 
 generate_app = typer.Typer(
     help=f"Generate a heightmap ({names_help()}) and write it. Heights span 0 … 20 % of the "
@@ -53,8 +64,6 @@ _QUIET = typer.Option(False, "--quiet", "-q", help="No progress bar or timing li
 
 def parse_grid_size(text: str) -> tuple[int, int]:
     """``"513"`` → ``(513, 513)``; ``"640x480"`` (cols×rows) → ``(480, 640)`` as (rows, cols)."""
-    from terrascape.cli.parsing import parse_size
-
     t = text.strip()
     if t.isdigit():
         n = int(t)
@@ -65,8 +74,6 @@ def parse_grid_size(text: str) -> tuple[int, int]:
 
 def _check_outputs(output: Path, preview: Path | None, force: bool) -> None:
     """Fail before the (possibly long) generation if the outputs cannot be written."""
-    from terrascape.io import WRITE_EXTENSIONS, check_output_path, formats_help
-
     if output.suffix.lower() not in WRITE_EXTENSIONS:
         raise FileFormatError(
             f"cannot write heightmaps as {output.suffix or '(no extension)'!r} "
@@ -83,8 +90,6 @@ def _check_outputs(output: Path, preview: Path | None, force: bool) -> None:
 
 def _check_memory(command: str, shape: tuple[int, int], max_memory: str | None) -> None:
     """Refuse a grid whose estimated peak memory exceeds --max-memory, before allocating."""
-    from terrascape.memory import PEAK_BYTES_PER_SAMPLE, check_grid
-
     use_max_memory(max_memory)
     name = command if command in PEAK_BYTES_PER_SAMPLE else "fbm"
     check_grid(name, shape[0], shape[1], hint="use a smaller --size (or raise --max-memory)")
@@ -92,9 +97,6 @@ def _check_memory(command: str, shape: tuple[int, int], max_memory: str | None) 
 
 def _finish(hm: Heightmap, output: Path, preview: Path | None, height_scale: float | None,
             force: bool, quiet: bool) -> None:
-    from terrascape._validate import check_positive
-    from terrascape.io import write_heightmap, write_preview
-
     if height_scale is not None:
         hm = hm.normalised(0.0, check_positive(height_scale, "--height-scale"))
     with timed("write", quiet=quiet):
@@ -162,8 +164,6 @@ def _generator_command(gen: Generator, alias: str | None = None) -> Callable[...
         if height_scale is not None and raw:
             raise InvalidParameterError("give either --height-scale or --raw, not both")
         if height_scale is not None:
-            from terrascape._validate import check_positive
-
             check_positive(height_scale, "--height-scale")
         total = progress_total(gen.name, shape, **params)
         _check_outputs(output, preview, force)
@@ -225,9 +225,7 @@ def blur_cmd(
     max_memory: str = MAX_MEMORY,
 ) -> None:
     """Smooth a heightmap on float heights (no 8-bit quantisation): --sigma S or --box N."""
-    from terrascape.filters import box_blur, gaussian_blur
-    from terrascape.io import read_heightmap
-    from terrascape.memory import check_grid
+    from terrascape.filters import box_blur, gaussian_blur  # numba kernels: blur only
 
     if (sigma is None) == (box is None):
         raise InvalidParameterError("give exactly one of --sigma S (Gaussian) or --box N (box)")
@@ -235,8 +233,6 @@ def blur_cmd(
     with timed("read", quiet=quiet):
         hm = read_heightmap(input_path)
     if sigma is not None:
-        from terrascape.memory import gaussian_kernel_bytes
-
         use_max_memory(max_memory)
         check_grid("blur", hm.rows, hm.cols, extra=gaussian_kernel_bytes(sigma),
                    hint="a Gaussian much wider than the map only averages it: use a smaller "

@@ -35,7 +35,12 @@ import numpy as np
 from terrascape._numba import CACHE, FASTMATH, njit, prange
 from terrascape._validate import check_int, check_positive, make_rng
 from terrascape.errors import InvalidParameterError
-from terrascape.generate._common import grid_shape, seed_meta, spacing_pair
+from terrascape.generate._common import (
+    accumulate_in_row_blocks,
+    grid_shape,
+    seed_meta,
+    spacing_pair,
+)
 from terrascape.heightmap import Heightmap
 
 FALLOFFS = ("step", "sine", "cosine")
@@ -117,11 +122,12 @@ def _band_value(d, hw, kind, sgn):  # pragma: no cover - compiled
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _fault_kernel(acc, px, pz, ca, sa, sign, disp, kind, hw):  # pragma: no cover - compiled
-    """Add the faults to the float64 accumulator ``acc`` row by row."""
+def _fault_kernel(acc, z0, px, pz, ca, sa, sign, disp, kind, hw):  # pragma: no cover - compiled
+    """Add the faults to the float64 accumulator ``acc`` (map rows ``z0 …``) row by row."""
     rows, cols = acc.shape
     nf = px.shape[0]
-    for z in prange(rows):
+    for zl in prange(rows):
+        z = z0 + zl
         diff = np.zeros(cols + 1)
         band = np.zeros(cols)
         for k in range(nf):
@@ -169,7 +175,7 @@ def _fault_kernel(acc, px, pz, ca, sa, sign, disp, kind, hw):  # pragma: no cove
         run = 0.0
         for x in range(cols):
             run += diff[x]
-            acc[z, x] += run + band[x]
+            acc[zl, x] += run + band[x]
 
 
 def fault_formation(
@@ -224,14 +230,13 @@ def fault_formation(
     rng = make_rng(seed)
     px, pz, ca, sa, sign = draw_faults(rng, iterations, rows, cols)
     disp = displacement_schedule(d0, d1, iterations)
-    acc = np.zeros((rows, cols), dtype=np.float64)
     kind = _FALLOFF_CODE[falloff]
-    for lo in range(0, iterations, CHUNK):
-        hi = min(lo + CHUNK, iterations)
-        _fault_kernel(acc, px[lo:hi], pz[lo:hi], ca[lo:hi], sa[lo:hi], sign[lo:hi],
+
+    def add(block: np.ndarray, z0: int, lo: int, hi: int) -> None:
+        _fault_kernel(block, z0, px[lo:hi], pz[lo:hi], ca[lo:hi], sa[lo:hi], sign[lo:hi],
                       disp[lo:hi], kind, hw)
-        if progress is not None:
-            progress(hi, iterations)
+
+    heights = accumulate_in_row_blocks((rows, cols), iterations, CHUNK, add, progress)
     meta = {
         "generator": "fault_formation",
         "iterations": iterations,
@@ -241,7 +246,7 @@ def fault_formation(
         "width": w,
         "seed": seed_meta(seed),
     }
-    return Heightmap(acc.astype(np.float32), spacing_pair(spacing), meta)
+    return Heightmap(heights, spacing_pair(spacing), meta)
 
 
 __all__ = ["FALLOFFS", "displacement_schedule", "draw_faults", "fault_formation"]

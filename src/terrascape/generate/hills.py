@@ -28,7 +28,12 @@ import numpy as np
 from terrascape._numba import CACHE, FASTMATH, njit, prange
 from terrascape._validate import check_int, check_positive, make_rng
 from terrascape.errors import InvalidParameterError
-from terrascape.generate._common import grid_shape, seed_meta, spacing_pair
+from terrascape.generate._common import (
+    accumulate_in_row_blocks,
+    grid_shape,
+    seed_meta,
+    spacing_pair,
+)
 from terrascape.heightmap import Heightmap
 
 CHUNK = 100
@@ -61,11 +66,13 @@ def draw_hills(
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _hills_kernel(acc, cx, cz, radius, height):  # pragma: no cover - compiled
-    """Add the hills to the float64 accumulator ``acc``; per row only the in-circle chord."""
+def _hills_kernel(acc, z0, cx, cz, radius, height):  # pragma: no cover - compiled
+    """Add the hills to the float64 accumulator ``acc`` (map rows ``z0 …``); per row only
+    the in-circle chord."""
     rows, cols = acc.shape
     n = cx.shape[0]
-    for z in prange(rows):
+    for zl in prange(rows):
+        z = z0 + zl
         for k in range(n):
             r = radius[k]
             dz = z - cz[k]
@@ -80,7 +87,7 @@ def _hills_kernel(acc, cx, cz, radius, height):  # pragma: no cover - compiled
                 dx = x - cx[k]
                 pd = math.sqrt(dx * dx + dz * dz) / r
                 if pd <= 1.0:
-                    acc[z, x] += half_d + math.cos(pd * math.pi) * half_d
+                    acc[zl, x] += half_d + math.cos(pd * math.pi) * half_d
 
 
 def _pair(value: float | Sequence[float], name: str, *, allow_zero: bool) -> tuple[float, float]:
@@ -146,12 +153,11 @@ def hills(
     margin = check_positive(margin, "margin", allow_zero=True)
     rng = make_rng(seed)
     cx, cz, radius, hgt = draw_hills(rng, count, rows, cols, rr, hr, margin)
-    acc = np.zeros((rows, cols), dtype=np.float64)
-    for lo in range(0, count, CHUNK):
-        hi = min(lo + CHUNK, count)
-        _hills_kernel(acc, cx[lo:hi], cz[lo:hi], radius[lo:hi], hgt[lo:hi])
-        if progress is not None:
-            progress(hi, count)
+
+    def add(block: np.ndarray, z0: int, lo: int, hi: int) -> None:
+        _hills_kernel(block, z0, cx[lo:hi], cz[lo:hi], radius[lo:hi], hgt[lo:hi])
+
+    heights = accumulate_in_row_blocks((rows, cols), count, CHUNK, add, progress)
     meta = {
         "generator": "hills",
         "count": count,
@@ -160,7 +166,7 @@ def hills(
         "margin": margin,
         "seed": seed_meta(seed),
     }
-    return Heightmap(acc.astype(np.float32), spacing_pair(spacing), meta)
+    return Heightmap(heights, spacing_pair(spacing), meta)
 
 
 __all__ = ["default_radius_range", "draw_hills", "hills"]

@@ -38,7 +38,7 @@ import numpy as np
 from terrascape._validate import check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.generate._common import grid_shape, spacing_pair
-from terrascape.heightmap import Heightmap
+from terrascape.heightmap import Heightmap, normalise_into
 
 DEFAULT_RELIEF_FRACTION = 0.2
 #: Mean number of hills over each sample for the default hills (no flat floor): the share
@@ -427,15 +427,19 @@ def generate(
         raise InvalidParameterError("give either a relief (height scale) or raw heights, "
                                     "not both")
     hm = gen.build(shape, seed=seed, spacing=spacing, progress=progress, **values)
+    top = None if raw else (default_relief(shape, hm.spacing) if relief is None
+                            else check_positive(relief, "relief (height scale)"))
     meta = dict(hm.metadata)
     meta["generator_params"] = {k: (list(v) if isinstance(v, tuple) else v)
                                 for k, v in values.items()}
-    hm = Heightmap(hm.heights, hm.spacing, meta)
-    if raw:
-        return hm
-    top = default_relief(shape, hm.spacing) if relief is None else check_positive(
-        relief, "relief (height scale)")
-    return hm.normalised(0.0, top)
+    heights = hm.heights
+    if top is not None:
+        if heights.flags.owndata:  # the generator's new array: map it in place
+            heights.flags.writeable = True
+            normalise_into(heights, heights, 0.0, top)
+        else:
+            heights = hm.normalised(0.0, top).heights
+    return Heightmap(heights, hm.spacing, meta)
 
 
 def parse_params(name: str, texts: Sequence[str] | None) -> dict[str, object]:

@@ -39,32 +39,38 @@ from terrascape.generate._common import seed_meta, spacing_pair
 from terrascape.generate.diamond_square import roughness_schedule
 from terrascape.heightmap import Heightmap
 
+#: Child samples refined per call: the uniform draws of one level are made block by block
+#: (the same stream as one draw of the whole level), so they never take a map's worth.
+_BLOCK_SAMPLES = 1 << 17
+
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _refine(parent, u, r):  # pragma: no cover - compiled
-    """One square-square level: ``(m, m)`` → ``(2(m-1), 2(m-1))`` plus ``r · (2u - 1)``.
+def _refine_rows(parent, u, r, ci0, child):  # pragma: no cover - compiled
+    """Rows ``ci0 …`` of one square-square level, ``(m, m)`` → ``(2(m-1), 2(m-1))`` plus
+    ``r · (2u - 1)``, written into ``child`` (which may be cropped: rows and columns past
+    its shape are skipped).
 
     Separable: rows are blended 3/4 · near + 1/4 · far, then columns the same way, which is
     the 9/16, 3/16, 3/16, 1/16 stencil. Each child row is written by one thread."""
     m = parent.shape[0]
-    size = 2 * (m - 1)
-    child = np.empty((size, size), dtype=np.float32)
+    cols = child.shape[1]
+    n = min(u.shape[0], child.shape[0] - ci0)
     near_w = np.float32(0.75)
     far_w = np.float32(0.25)
     two_r = np.float32(2.0) * r
-    for ci in prange(size):
+    for i in prange(n):
+        ci = ci0 + i
         pi = ci // 2
         near = pi + ci % 2
         far = pi + 1 - ci % 2
         row = np.empty(m, dtype=np.float32)
         for j in range(m):
             row[j] = near_w * parent[near, j] + far_w * parent[far, j]
-        for cj in range(size):
+        for cj in range(cols):
             pj = cj // 2
             nc = pj + cj % 2
             fc = pj + 1 - cj % 2
-            child[ci, cj] = near_w * row[nc] + far_w * row[fc] + (two_r * u[ci, cj] - r)
-    return child
+            child[ci, cj] = near_w * row[nc] + far_w * row[fc] + (two_r * u[i, cj] - r)
 
 
 def square_square(
@@ -103,9 +109,14 @@ def square_square(
     r0 = np.float32(rough[0])
     grid = (np.float32(2.0) * r0 * rng.random((3, 3), dtype=np.float32) - r0)
     for k in range(levels):
-        m = grid.shape[0]
-        u = rng.random((2 * (m - 1), 2 * (m - 1)), dtype=np.float32)
-        grid = _refine(grid, u, np.float32(rough[k]))
+        full = 2 * (grid.shape[0] - 1)
+        side = size if k == levels - 1 else full  # the last level is cropped to the map
+        child = np.empty((side, side), dtype=np.float32)
+        step = max(1, min(full // 8, _BLOCK_SAMPLES // full))  # ≤ an eighth of the level
+        for ci0 in range(0, full, step):
+            u = rng.random((min(step, full - ci0), full), dtype=np.float32)
+            _refine_rows(grid, u, np.float32(rough[k]), ci0, child)
+        grid = child
     meta = {
         "generator": "square_square",
         "roughness": float(roughness),
@@ -113,7 +124,7 @@ def square_square(
         "seed": seed_meta(seed),
         "roughness_schedule": [float(x) for x in rough],
     }
-    return Heightmap(np.ascontiguousarray(grid[:size, :size]), spacing_pair(spacing), meta)
+    return Heightmap(grid, spacing_pair(spacing), meta)
 
 
 __all__ = ["square_square"]

@@ -13,6 +13,10 @@ Guarantees (tested in ``tests/faults`` and ``tests/core/test_atomic.py``):
   exclusive :func:`fcntl.flock` on each output folder, so two terrascape writers never
   interleave their renames, and a failure half-way rolls the already renamed files back
   (with ``force`` the previous files are restored from hard-link backups).
+* **Durable once committed.** Each temporary file is flushed to the disk (:func:`os.fsync`)
+  before it gets its final name, and each output folder after the renames, so after a power
+  loss a committed name holds the new bytes (or, before the folder's sync, the old state),
+  never an empty or half-written file.
 * **Cleanup.** Temporary files are removed on any exception, including
   :class:`~terrascape.errors.Interrupted` (the CLI turns SIGINT, SIGTERM and SIGHUP into it).
   A temporary file left by a killed process (SIGKILL, power loss) carries its process id and
@@ -275,6 +279,36 @@ _DEFERRED_SIGNALS = {getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP")
                      if hasattr(signal, n)}
 
 
+def _fsync_path(path: Path, *, folder: bool = False) -> None:
+    """Flush ``path``'s data (a folder: its entries) to the disk.
+
+    Without it a crash shortly after the rename can leave the new name pointing at a file
+    whose blocks were never written (ext4's delayed allocation, XFS): a zero-length or
+    garbage output although the command reported success.
+
+    References
+    ----------
+    .. [1] T. Pillai et al., "All File Systems Are Not Created Equal: On the Complexity of
+       Crafting Crash-Consistent Applications", OSDI 2014.
+    """
+    if folder:
+        # After the renames the outputs are there and their bytes are synced: a folder that
+        # cannot be opened or synced (EINVAL on some file systems) must not turn a finished
+        # command into an error that reads "nothing was written".
+        with contextlib.suppress(OSError):
+            fd = os.open(path, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        return
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
 @contextlib.contextmanager
 def _signals_deferred() -> Iterator[None]:
     """Block SIGINT/SIGTERM/SIGHUP during a commit (a few renames): a signal then arrives
@@ -373,8 +407,11 @@ def atomic_outputs(
             for tmp in tmps:
                 # mkstemp creates 0600 files; give the result the permissions open() would.
                 os.chmod(tmp, mode)
+                _fsync_path(tmp)  # the bytes are on the disk before the name points at them
             _commit(list(zip(tmps, finals, strict=True)), force)
             _COMMITTED.extend(finals)
+            for folder in dict.fromkeys(final.parent for final in finals):
+                _fsync_path(folder, folder=True)  # the new names survive a power loss
         except TerrascapeError:
             raise
         except OSError as exc:

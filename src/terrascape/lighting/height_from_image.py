@@ -29,10 +29,17 @@ from terrascape._validate import check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.io.image import luminance
 
+#: Pixels converted at a time: the float64 copies of an RGB block (24 bytes per pixel,
+#: twice) stay a few MB instead of 48 bytes per pixel of the whole photo.
+_BLOCK_PIXELS = 1 << 16
 
-def _to_unit_float(rgb: Any) -> np.ndarray:
-    """Image array -> float64 ``(H, W)`` or ``(H, W, C)`` in [0, 1], validated."""
-    img = np.asarray(rgb)
+
+def _block_rows(cols: int) -> int:
+    return max(1, _BLOCK_PIXELS // max(1, cols))
+
+
+def _check_image(img: np.ndarray) -> None:
+    """Shape and pixel type of an image array, checked without converting it."""
     if img.ndim not in (2, 3):
         raise InvalidParameterError(
             f"expected an image of shape (H, W), (H, W, 3) or (H, W, 4), got {img.shape}"
@@ -44,33 +51,46 @@ def _to_unit_float(rgb: Any) -> np.ndarray:
     if img.shape[0] < 2 or img.shape[1] < 2:
         raise InvalidParameterError(f"expected an image of at least 2×2 pixels, got {img.shape}")
     if img.dtype == np.bool_:
-        return img.astype(np.float64)
+        return
     if np.issubdtype(img.dtype, np.integer):
         if img.dtype not in (np.uint8, np.uint16):
             raise InvalidParameterError(
                 f"expected uint8, uint16 or float pixels, got dtype {img.dtype}"
             )
-        return img.astype(np.float64) / float(np.iinfo(img.dtype).max)
+        return
     if not np.issubdtype(img.dtype, np.floating):
         raise InvalidParameterError(f"expected numeric pixels, got dtype {img.dtype}")
-    out = img.astype(np.float64)
-    if not np.isfinite(out).all():
+    step = _block_rows(img.shape[1])
+    if not all(np.isfinite(img[r:r + step]).all() for r in range(0, img.shape[0], step)):
         raise InvalidParameterError("image contains NaN/infinite pixel values")
-    if out.min() < 0.0 or out.max() > 1.0:
-        raise InvalidParameterError(
-            f"float pixels must be in [0, 1], got [{out.min():.4g}, {out.max():.4g}]"
-        )
-    return out
+    lo, hi = float(img.min()), float(img.max())
+    if lo < 0.0 or hi > 1.0:
+        raise InvalidParameterError(f"float pixels must be in [0, 1], got [{lo:.4g}, {hi:.4g}]")
+
+
+def _to_unit_float(img: np.ndarray) -> np.ndarray:
+    """A checked image block -> float64 in [0, 1] (a new array)."""
+    if np.issubdtype(img.dtype, np.integer):
+        return img.astype(np.float64) / float(np.iinfo(img.dtype).max)
+    return img.astype(np.float64)
 
 
 def _brightness(rgb: Any) -> np.ndarray:
-    """Luma of an RGB(A) image, or a grey image as is: float64 ``(H, W)`` in [0, 1]."""
-    img = _to_unit_float(rgb)
-    if img.ndim == 2:
-        return img
-    if img.shape[2] == 1:
-        return img[..., 0]
-    return luminance(img)  # alpha ignored
+    """Luma of an RGB(A) image, or a grey image as is: a new float64 ``(H, W)`` in [0, 1],
+    computed over blocks of rows."""
+    img = np.asarray(rgb)
+    _check_image(img)
+    y = np.empty(img.shape[:2], dtype=np.float64)
+    step = _block_rows(img.shape[1])
+    for r0 in range(0, img.shape[0], step):
+        block = _to_unit_float(img[r0:r0 + step])
+        if block.ndim == 2:
+            y[r0:r0 + step] = block
+        elif block.shape[2] == 1:
+            y[r0:r0 + step] = block[..., 0]
+        else:
+            y[r0:r0 + step] = luminance(block)  # alpha ignored
+    return y
 
 
 def height_from_image(
@@ -105,10 +125,9 @@ def height_from_image(
     blur = check_positive(blur_sigma, "blur_sigma", allow_zero=True)
     gamma = check_positive(contrast, "contrast")
     hp = None if highpass_sigma is None else check_positive(highpass_sigma, "highpass_sigma")
-    y = _brightness(rgb)
-    if isinstance(rgb, np.ndarray) and np.shares_memory(y, rgb):
-        y = y.copy()  # the steps below work in place; never on the caller's array
-    # In place from here on (same arithmetic): one float64 image plus the filter's output.
+    y = _brightness(rgb)  # a new array: the steps below work in place
+    # Peak: this float64 image and one filter output (4× the float32 result); the
+    # normalisation runs over row blocks straight into the result.
     if invert:
         np.subtract(1.0, y, out=y)
     if blur > 0.0:
@@ -119,12 +138,17 @@ def height_from_image(
     # Relative threshold: a constant image blurred in float64 is not exactly constant.
     if hi - lo <= 1e-9 * max(1.0, abs(hi)):
         return np.zeros(y.shape, dtype=np.float32)
-    y -= lo
-    y /= hi - lo
-    if gamma != 1.0:
-        y **= gamma
-    np.clip(y, 0.0, 1.0, out=y)
-    return y.astype(np.float32)
+    out = np.empty(y.shape, dtype=np.float32)
+    step = _block_rows(y.shape[1])
+    for r0 in range(0, y.shape[0], step):
+        block = y[r0:r0 + step]
+        block -= lo
+        block /= hi - lo
+        if gamma != 1.0:
+            block **= gamma
+        np.clip(block, 0.0, 1.0, out=block)
+        out[r0:r0 + step] = block
+    return out
 
 
 __all__ = ["height_from_image"]

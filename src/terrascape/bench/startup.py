@@ -1,0 +1,108 @@
+"""``terrascape bench startup``: how long a fresh interpreter takes to import terrascape and to
+print ``terrascape --help``, next to the libraries and tools a user starts instead.
+
+Every round starts each command once in a fresh process (bytecode cached), in an order
+rotated from round to round, so all of them see the same machine load; the table gives each
+command's median time and the median of its within-round ratio to ``import numpy`` (the one
+import every terrascape user pays anyway) with the spread of that ratio. Peers that are not
+installed (rasterio, pyvista) or not on ``PATH`` (``gdalinfo``) are skipped rows with the
+reason. The same table is part of ``terrascape bench peers``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+
+from terrascape.bench import BenchTable
+
+#: Targets on this machine kind (two cores), bytecode cached.
+IMPORT_TARGET_S = 0.10
+HELP_TARGET_S = 0.25
+
+
+def _python(code: str) -> list[str]:
+    return [sys.executable, "-c", code]
+
+
+def startup_commands() -> tuple[dict[str, list[str]], list[str]]:
+    """The commands timed (label → argv) and the reasons for those skipped."""
+    commands = {
+        "python -c pass": _python("pass"),
+        "import numpy": _python("import numpy"),
+        "import terrascape": _python("import terrascape"),
+        "terrascape --help": _python("from terrascape.cli import main; main(['--help'])"),
+    }
+    skipped = []
+    if importlib.util.find_spec("rasterio") is not None:
+        commands["import rasterio (peer)"] = _python("import rasterio")
+    else:
+        skipped.append("rasterio is not installed: its row is skipped")
+    gdalinfo = shutil.which("gdalinfo")
+    if gdalinfo is not None:
+        commands["gdalinfo --version (peer)"] = [gdalinfo, "--version"]
+    else:
+        skipped.append("gdalinfo is not on PATH: its row is skipped")
+    if importlib.util.find_spec("pyvista") is not None:
+        commands["import pyvista (peer)"] = _python("import pyvista")
+    else:
+        skipped.append("pyvista is not installed: its row is skipped")
+    return commands, skipped
+
+
+def time_interleaved(commands: dict[str, list[str]], rounds: int
+                     ) -> dict[str, tuple[list[float], list[float]]]:
+    """Per command: its wall times and its within-round ratios to ``import numpy``."""
+    env = {**os.environ, "COLUMNS": "100"}
+    names = list(commands)
+    for name in names:  # warm-up: bytecode written, files in the page cache
+        subprocess.run(commands[name], check=True, capture_output=True, env=env)
+    times: dict[str, list[float]] = {name: [] for name in names}
+    for r in range(rounds):
+        order = names[r % len(names):] + names[:r % len(names)]
+        for name in order:
+            t0 = time.perf_counter()
+            subprocess.run(commands[name], check=True, capture_output=True, env=env)
+            times[name].append(time.perf_counter() - t0)
+    numpy_times = times["import numpy"]
+    return {name: (t, [a / b for a, b in zip(t, numpy_times, strict=True)])
+            for name, t in times.items()}
+
+
+def startup_table(rounds: int) -> BenchTable:
+    """The start-up table, with the two targets checked on the median times."""
+    commands, skipped = startup_commands()
+    table = BenchTable(
+        "Start-up in a fresh interpreter (bytecode cached), interleaved rounds",
+        ["command", "median s", "÷ import numpy", "spread"],
+    )
+    measured = time_interleaved(commands, rounds)
+    for name, (times, ratios) in measured.items():
+        table.rows.append([name, statistics.median(times), statistics.median(ratios),
+                           f"{min(ratios):.2f}–{max(ratios):.2f}"])
+    table.check_target("import terrascape", statistics.median(measured["import terrascape"][0]),
+                       at_most=IMPORT_TARGET_S, unit=" s")
+    table.check_target("terrascape --help",
+                       statistics.median(measured["terrascape --help"][0]),
+                       at_most=HELP_TARGET_S, unit=" s")
+    table.notes += [
+        f"medians of {rounds} rounds, each command once per round in a rotated order; "
+        "÷ import numpy: median of the within-round ratios (min–max)",
+        f"targets: import terrascape ≤ {IMPORT_TARGET_S:g} s, terrascape --help ≤ "
+        f"{HELP_TARGET_S:g} s; on a loaded machine the ratios are the figures to compare",
+        f"CPUs: {os.cpu_count()}, load average at the end: {os.getloadavg()[0]:.2f}",
+        *skipped,
+    ]
+    return table
+
+
+def run(quick: bool = False) -> list[BenchTable]:
+    return [startup_table(5 if quick else 15)]
+
+
+__all__ = ["run", "startup_commands", "startup_table", "time_interleaved"]

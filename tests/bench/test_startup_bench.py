@@ -1,0 +1,39 @@
+"""``bench startup`` (also the last table of ``bench peers``): every command is run once per
+round in a rotated order, and each ratio is taken within its round."""
+
+from __future__ import annotations
+
+import sys
+
+import pytest
+
+from terrascape.bench import available_cases
+from terrascape.bench.startup import startup_commands, time_interleaved
+
+
+def test_startup_is_a_bench_case() -> None:
+    assert "startup" in available_cases()
+
+
+def test_commands_have_the_terrascape_rows_and_say_why_a_peer_is_missing(monkeypatch) -> None:
+    import terrascape.bench.startup as startup
+
+    monkeypatch.setattr(startup.shutil, "which", lambda name: None)
+    commands, skipped = startup_commands()
+    assert list(commands)[:4] == ["python -c pass", "import numpy", "import terrascape",
+                                  "terrascape --help"]
+    assert commands["import terrascape"] == [sys.executable, "-c", "import terrascape"]
+    assert "gdalinfo is not on PATH: its row is skipped" in skipped
+    assert not any("gdalinfo" in name for name in commands)
+
+
+def test_ratios_are_within_each_round() -> None:
+    slow = [sys.executable, "-c", "import time; time.sleep(0.3)"]
+    fast = [sys.executable, "-c", "pass"]
+    measured = time_interleaved({"import numpy": fast, "slow": slow}, rounds=2)
+    times, ratios = measured["slow"]
+    assert len(times) == len(ratios) == 2
+    assert all(t >= 0.3 for t in times)
+    base = measured["import numpy"][0]
+    assert ratios == pytest.approx([a / b for a, b in zip(times, base, strict=True)])
+    assert measured["import numpy"][1] == [1.0, 1.0]

@@ -1,0 +1,112 @@
+"""A fast start: ``import terrascape`` and ``terrascape --help`` load none of the heavy
+libraries (numpy, scipy, numba, OpenGL), and the lazy package faces still offer every name.
+
+These are result tests (which modules a fresh interpreter holds afterwards), not timings:
+the times are measured by ``terrascape bench peers`` (its start-up table).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import terrascape
+
+SRC = str(Path(terrascape.__file__).resolve().parents[1])
+HEAVY = ("numpy", "scipy", "numba", "moderngl", "rasterio", "matplotlib", "PIL")
+
+
+def _modules_after(code: str, *argv: str) -> tuple[set[str], str]:
+    """The modules a fresh interpreter has loaded after running ``code`` (its stdout too)."""
+    probe = (f"import sys\nsys.argv = {['terrascape', *argv]!r}\n{code}\n"
+             "import json; sys.__stderr__.write('\\nMODULES ' + json.dumps(sorted(sys.modules)))")
+    env = {**os.environ, "PYTHONPATH": SRC, "COLUMNS": "200"}
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                            env=env, timeout=120, check=False)
+    marker = result.stderr.rfind("MODULES ")
+    assert marker >= 0, result.stderr
+    return set(json.loads(result.stderr[marker + 8:])), result.stdout
+
+
+def _heavy(modules: set[str]) -> list[str]:
+    return sorted(m for m in modules if m.split(".")[0] in HEAVY)
+
+
+def test_import_terrascape_loads_no_heavy_library() -> None:
+    modules, _ = _modules_after("import terrascape\nassert terrascape.TerrascapeError")
+    assert "terrascape" in modules
+    assert _heavy(modules) == []
+    assert "terrascape.heightmap" not in modules
+
+
+def test_help_loads_no_heavy_library_and_no_command_module() -> None:
+    modules, out = _modules_after(
+        "from terrascape.cli import run_app\nrc = run_app(['--help'])\nassert rc == 0, rc",
+        "--help")
+    assert _heavy(modules) == []
+    assert not [m for m in modules if m.startswith("terrascape.cli.cmd_")]
+    from terrascape.cli.commands import COMMANDS
+
+    listed = [line.split()[1] for line in out.splitlines()
+              if line.startswith("│ ") and len(line.split()) > 2]
+    assert [name for name in listed if name in COMMANDS] == list(COMMANDS)
+
+
+def test_a_command_loads_only_its_own_module() -> None:
+    modules, out = _modules_after(
+        "from terrascape.cli import run_app\nrc = run_app(['info', '--help'])\nassert rc == 0",
+        "info", "--help")
+    assert "Describe a heightmap file" in out and "Reads: .png" in out
+    assert sorted(m for m in modules if m.startswith("terrascape.cli.cmd_")) == [
+        "terrascape.cli.cmd_files"]
+
+
+def test_heightmap_is_still_offered_by_the_package() -> None:
+    from terrascape import Heightmap
+    from terrascape.heightmap import Heightmap as Direct
+
+    assert Heightmap is Direct is terrascape.Heightmap
+    assert "Heightmap" in dir(terrascape)
+    with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
+        terrascape.nonexistent  # noqa: B018
+
+
+@pytest.mark.parametrize("package", ["terrascape", "terrascape.io", "terrascape.generate"])
+def test_every_exported_name_resolves(package: str) -> None:
+    module = importlib.import_module(package)
+    for name in module.__all__:
+        value = getattr(module, name)
+        assert value is not None, name
+        assert name in dir(module)
+    probe = f"from {package} import *\nimport sys\nprint(len(dir()))"
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                            env={**os.environ, "PYTHONPATH": SRC}, timeout=120, check=True)
+    assert int(result.stdout) >= len(module.__all__)
+
+
+def test_lazy_generators_give_the_same_terrain() -> None:
+    import numpy as np
+
+    from terrascape.generate import fbm, generate
+
+    assert np.array_equal(fbm(33, seed=3).heights, fbm(33, seed=3).heights)
+    assert generate("fbm", 33, seed=3).shape == (33, 33)
+
+
+def test_typo_suggests_a_command_from_the_table(capsys) -> None:
+    from terrascape.cli import run_app
+
+    assert run_app(["rendr"]) == 2
+    assert "Did you mean 'render'" in capsys.readouterr().err
+
+
+def test_the_probe_sees_heavy_modules_once_loaded() -> None:  # it cannot pass vacuously
+    modules, _ = _modules_after("import numpy")
+    assert "numpy" in modules and _heavy(modules)
+    assert json.dumps(sorted(modules))
