@@ -14,7 +14,31 @@ References
 from __future__ import annotations
 
 import importlib
+import types
 from collections.abc import Callable
+
+
+class _LazyPackage(types.ModuleType):
+    """A package whose exported names win over its submodules of the same name.
+
+    Importing ``pkg.name`` makes the import system set the attribute ``pkg.name`` to the
+    submodule; when the package exports a function called ``name`` (``generate.fbm`` from
+    ``generate/noise.py``, ``generate.diamond_square`` from ``generate/diamond_square.py``),
+    ``from pkg import name`` would then return the module instead of the function, depending on
+    what happened to be imported first. The eager package this replaces bound the function
+    after its submodule, so that is what the attribute keeps here.
+    """
+
+    def __setattr__(self, name: str, value: object) -> None:
+        exported = self.__dict__.get("_lazy_where", {})
+        if (name in exported and isinstance(value, types.ModuleType)
+                and value.__name__ == f"{self.__name__}.{name}"):
+            if exported[name] == value.__name__:
+                value = getattr(value, name)
+            else:  # the name comes from another module: resolve it on first use
+                self.__dict__.pop(name, None)
+                return
+        super().__setattr__(name, value)
 
 
 def lazy_exports(package: str, exports: dict[str, tuple[str, ...]]
@@ -22,7 +46,10 @@ def lazy_exports(package: str, exports: dict[str, tuple[str, ...]]
     """``__getattr__`` and ``__dir__`` for ``package`` offering ``exports``: module name
     (relative to the package) → the names it provides."""
     where = {name: f"{package}.{module}" for module, names in exports.items() for name in names}
-    namespace = importlib.import_module(package).__dict__
+    module_object = importlib.import_module(package)
+    namespace = module_object.__dict__
+    namespace["_lazy_where"] = where
+    module_object.__class__ = _LazyPackage
 
     def __getattr__(name: str) -> object:
         module = where.get(name)

@@ -110,3 +110,18 @@ def test_the_probe_sees_heavy_modules_once_loaded() -> None:  # it cannot pass v
     modules, _ = _modules_after("import numpy")
     assert "numpy" in modules and _heavy(modules)
     assert json.dumps(sorted(modules))
+
+
+def test_lazy_package_keeps_functions_over_same_named_submodules():
+    """``from terrascape.generate import diamond_square`` is the function, whatever was
+    imported before (the submodule of the same name sets the package attribute)."""
+    code = (
+        "import importlib, types\n"
+        "importlib.import_module('terrascape.generate.diamond_square')\n"
+        "importlib.import_module('terrascape.io.image')\n"
+        "from terrascape.generate import diamond_square\n"
+        "from terrascape.io import luminance\n"
+        "assert not isinstance(diamond_square, types.ModuleType), diamond_square\n"
+        "assert callable(diamond_square) and callable(luminance)\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, env={**os.environ, "PYTHONPATH": SRC}, timeout=120)

@@ -10,8 +10,8 @@ from terrascape.cli.app import app, out, timed
 from terrascape.cli.cmd_generate import _FORCE, _QUIET
 
 objects_app = typer.Typer(
-    help="Trees, rocks and buildings on the terrain: place them by rules and list where they "
-    "stand, or write the built-in models.",
+    help="Trees, rocks and buildings: place them on a terrain by rules, or write the built-in "
+    "models.",
     no_args_is_help=True,
 )
 app.add_typer(objects_app, name="objects")

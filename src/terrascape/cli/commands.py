@@ -60,6 +60,9 @@ COMMANDS: dict[str, Command] = {
     "texture": Command(("cmd_texture",),
                        "Texture synthesis: height-region textures, splat maps, built-in "
                        "materials."),
+    "objects": Command(("cmd_objects",),
+                       "Trees, rocks and buildings: place them on a terrain by rules, or "
+                       "write the built-in models."),
     "world": Command(("cmd_world",),
                      "Worlds bigger than memory: build a recipe chunk by chunk into a zarr "
                      "store, and describe a store."),
