@@ -41,6 +41,7 @@ from terrascape.render.shaders import load_program, set_uniforms
 OBJECT_SHADOW_MODES = ("cascades", "volumes", "none")
 IMPOSTOR_VIEWS = 8
 IMPOSTOR_CELL = 128
+IMPOSTOR_MAX_ELEVATION = 40.0  # degrees: seen from higher up, objects stay meshes
 CASCADE_COUNT = 3
 # Texture units of the objects' own textures (below the terrain's daylight units 10-14 and
 # the spare units from 16; technique samplers count up from 0).
@@ -76,12 +77,17 @@ def sphere_in_frustum(planes: np.ndarray, centres: np.ndarray, radii: np.ndarray
 
 def impostor_mask(camera: Camera, centres: np.ndarray, heights: np.ndarray,
                   viewport_height: int, impostor_pixels: float) -> np.ndarray:
-    """bool ``(N,)``: objects whose height projects to fewer than ``impostor_pixels``
-    pixels (drawn as impostors); none when ``impostor_pixels`` is 0."""
+    """bool ``(N,)``: objects drawn as impostors — their height projects to fewer than
+    ``impostor_pixels`` pixels and they are seen from less than
+    :data:`IMPOSTOR_MAX_ELEVATION` degrees above (the atlas holds side views only: from
+    above, a quad turned toward the viewer would show its edge). None when
+    ``impostor_pixels`` is 0."""
     if impostor_pixels <= 0:
         return np.zeros(len(centres), bool)
-    dist = np.linalg.norm(centres - camera.eye, axis=1)
-    return heights * camera.pixels_per_radian(viewport_height) < impostor_pixels * dist
+    rel = camera.eye - centres
+    dist = np.linalg.norm(rel, axis=1)
+    small = heights * camera.pixels_per_radian(viewport_height) < impostor_pixels * dist
+    return small & (rel[:, 1] < math.sin(math.radians(IMPOSTOR_MAX_ELEVATION)) * dist)
 
 
 def _bake_matrix(view: int, views: int, radius: float, y0: float, y1: float) -> np.ndarray:
@@ -170,8 +176,7 @@ class ObjectRenderer:
     # --- impostor atlas ---------------------------------------------------------------
     def _bake_atlas(self):
         """Render every mesh from IMPOSTOR_VIEWS directions into a colour and a normal atlas
-        (one row of cells per mesh); the background takes the mesh's mean colour, so mip
-        levels blend the coverage edge with it instead of black."""
+        (one row of cells per mesh), premultiplied by coverage (the background is 0)."""
         import moderngl
 
         ctx = self.ctx
@@ -187,25 +192,14 @@ class ObjectRenderer:
         ctx.disable(moderngl.CULL_FACE)
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         for m in self.meshes:
-            mean = m.mesh.colors.mean(axis=0)
             vao = ctx.vertex_array(prog, [(m.vbos[0], "3f", "in_position"),
                                           (m.vbos[1], "3f", "in_normal"),
                                           (m.vbos[2], "3f", "in_color")], m.ibo, 4)
             for k in range(views):
-                vp = (k * cell, m.index * cell, cell, cell)
-                ctx.viewport = vp
-                ctx.scissor = vp
-                # background of the cell: mean colour and an upward normal, coverage 0
-                fbo.clear(float(mean[0]), float(mean[1]), float(mean[2]), 0.0, depth=1.0,
-                          viewport=vp)
+                ctx.viewport = (k * cell, m.index * cell, cell, cell)
                 set_uniforms(prog, u_bake=_bake_matrix(k, views, m.radius_xz, *m.y_range))
                 vao.render(moderngl.TRIANGLES)
             vao.release()
-        ctx.scissor = None
-        normal_data = np.frombuffer(normal.read(), np.float32).reshape(size[1], size[0], 4).copy()
-        empty = normal_data[..., 3] == 0
-        normal_data[empty] = (0.5, 1.0, 0.5, 0.0)
-        normal.write(normal_data.tobytes())
         fbo.release()
         depth.release()
         for tex in (colour, normal):

@@ -1,5 +1,6 @@
 // The impostor atlas (terrascape.render.objects): one mesh seen from one direction around
-// it, orthographic; albedo with coverage and its normal in the mesh's frame.
+// it, orthographic; albedo and normal (in the mesh's frame) premultiplied by coverage, so
+// mip levels and the cross-fade of two views average them over the covered texels only.
 #if defined VERTEX_SHADER
 in vec3 in_position;
 in vec3 in_normal;
@@ -21,6 +22,6 @@ layout(location = 1) out vec4 f_normal;
 
 void main() {
     f_albedo = vec4(v_color, 1.0);
-    f_normal = vec4(normalize(v_normal) * 0.5 + 0.5, 1.0);
+    f_normal = vec4(normalize(v_normal), 1.0);
 }
 #endif

@@ -1,7 +1,7 @@
 // Far objects as impostors (terrascape.render.objects): a quad standing on the object's foot
 // and turned about +Y toward the viewer, textured from an atlas of the mesh rendered from
 // several directions around it once at start (albedo + coverage, and normals in the mesh's
-// frame). The two atlas views nearest to the viewer's direction are cross-faded, and the
+// frame), premultiplied by coverage. The two atlas views nearest to the viewer's direction are cross-faded, and the
 // normals lit like the mesh, so the switch from mesh to impostor keeps its colour.
 // DEPTH_ONLY: the shadow-map pass, the quad turned toward the sun (u_facing.w = 0).
 #if defined VERTEX_SHADER
@@ -45,8 +45,8 @@ void main() {
     gl_Position = u_view_proj * vec4(world, 1.0);
 }
 #elif defined FRAGMENT_SHADER
-uniform sampler2D u_atlas_color;   // linear albedo, alpha = coverage
-uniform sampler2D u_atlas_normal;  // normal in the mesh's frame × 0.5 + 0.5
+uniform sampler2D u_atlas_color;   // linear albedo × coverage, alpha = coverage
+uniform sampler2D u_atlas_normal;  // normal in the mesh's frame × coverage, w = coverage
 uniform float u_atlas_row;         // this mesh's row of cells
 uniform vec2 u_atlas_cells;        // (views, meshes)
 in vec2 v_cell;
@@ -78,11 +78,15 @@ void main() {
     if (albedo.a < 0.5) {
         discard;
     }
-    vec3 n = mix(texture(u_atlas_normal, atlas_uv(v_views.x)).xyz,
-                 texture(u_atlas_normal, atlas_uv(v_views.y)).xyz, v_views.z) * 2.0 - 1.0;
+    // premultiplied: dividing by the coverage gives the mean over the covered texels; the
+    // mean normal is left unnormalised — the diffuse and sky terms are linear in N, so a
+    // texel covering two faces is lit as their mean, not brighter
+    vec4 nb = mix(texture(u_atlas_normal, atlas_uv(v_views.x)),
+                  texture(u_atlas_normal, atlas_uv(v_views.y)), v_views.z);
+    vec3 n = nb.xyz / nb.w;
     float c = v_yaw.x;
     float s = v_yaw.y;
-    vec3 N = normalize(vec3(c * n.x + s * n.z, n.y, -s * n.x + c * n.z));
+    vec3 N = vec3(c * n.x + s * n.z, n.y, -s * n.x + c * n.z);
     // The quad is flat but the object is not: its shadow is looked up outside the object,
     // a radius toward the sun, so it is shadowed by other casters only (its own shading
     // comes from the baked normals).
