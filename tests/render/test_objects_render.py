@@ -335,3 +335,32 @@ def test_volumes_fall_back_to_cascades_with_a_warning(gl_ctx, boxes):
             r.render(None, "plain", {"object_shadows": "stencil"})
     finally:
         r.release()
+
+
+# --- CLI and API ------------------------------------------------------------------------
+@pytest.mark.gl
+def test_render_cli_objects_equal_the_api(gl_ctx, tmp_path):
+    from PIL import Image
+
+    from terrascape.cli.app import run_app
+    from terrascape.generate.registry import VIEW_SPACING, generate
+    from terrascape.objects import scatter
+    from terrascape.render.offscreen import render_to_array
+
+    out = tmp_path / "objects.png"
+    plain = tmp_path / "plain.png"
+    args = ["render", "--generate", "fbm", "--gen-size", "65", "--seed", "4", "--size",
+            "96x64", "-q"]
+    assert run_app([*args, "-o", str(out), "--objects", "default"]) == 0
+    assert run_app([*args, "-o", str(plain)]) == 0
+    img = np.asarray(Image.open(out))
+    hm = generate("fbm", 65, seed=4, spacing=VIEW_SPACING)
+    inst = scatter(hm, seed=4)
+    assert len(inst) > 0
+    ref = render_to_array(hm, size=(96, 64), ctx=gl_ctx, objects=inst, params={"seed": 4})
+    np.testing.assert_array_equal(img, ref[..., :3])
+    assert (img != np.asarray(Image.open(plain))).any(axis=-1).mean() > 0.005
+    # bad input: one clear line, exit 2
+    assert run_app([*args, "-o", str(tmp_path / "x.png"), "--objects", "default",
+                    "--object-shadows", "stencil"]) == 2
+    assert run_app([*args, "-o", str(tmp_path / "y.png"), "--object-shadows", "none"]) == 2

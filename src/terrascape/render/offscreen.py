@@ -219,6 +219,7 @@ def render_to_array(
     ctx=None,
     params: Mapping[str, Any] | None = None,
     quality: str = "default",
+    objects=None,
 ) -> np.ndarray:
     """Render one image of the terrain.
 
@@ -244,6 +245,10 @@ def render_to_array(
         Technique parameters.
     quality
         ``"default"`` or ``"high"`` (2×2 supersampling, 16 shadow sweeps; seconds a frame).
+    objects
+        :class:`~terrascape.objects.model.Instances` to draw on the terrain (trees, rocks,
+        buildings; :func:`terrascape.objects.scatter`), shadowed per
+        ``params["object_shadows"]``.
 
     Returns
     -------
@@ -255,6 +260,7 @@ def render_to_array(
         r = OffscreenRenderer(c, heightmap, size=size, exaggeration=exaggeration,
                               quality=quality)
         try:
+            r.terrain.set_objects(objects)
             return r.render(camera, technique, p)
         finally:
             r.release()
@@ -271,14 +277,17 @@ def render_frames(
     ctx=None,
     params: Mapping[str, Any] | None = None,
     quality: str = "default",
+    objects=None,
 ) -> Iterator[np.ndarray]:
-    """Yield one ``uint8 (h, w, 4)`` frame per camera of a path (one renderer for all)."""
+    """Yield one ``uint8 (h, w, 4)`` frame per camera of a path (one renderer for all);
+    ``objects`` as in :func:`render_to_array`."""
     p = _sun_params(params, sun)
     cams = [_check_camera(c) for c in cameras]
     with _context(ctx) as c:
         r = OffscreenRenderer(c, heightmap, size=size, exaggeration=exaggeration,
                               quality=quality)
         try:
+            r.terrain.set_objects(objects)
             for cam in cams:
                 yield r.render(cam, technique, p)
         finally:
@@ -332,6 +341,7 @@ def turntable(
     force: bool = False,
     progress=None,
     quality: str = "default",
+    objects=None,
 ) -> list[Path]:
     """Render an orbit around the terrain to a PNG sequence or an MP4.
 
@@ -345,6 +355,8 @@ def turntable(
         Overwrite existing files; otherwise any existing target aborts before rendering.
     progress
         Optional callable ``progress(done, total)``.
+    objects
+        Objects on the terrain, as in :func:`render_to_array`.
 
     Returns
     -------
@@ -377,6 +389,7 @@ def turntable(
             ctx=ctx,
             params=params,
             quality=quality,
+            objects=objects,
         )
         for k, (t, img) in enumerate(zip(targets, frames, strict=True)):
             with atomic_output(t, force=force) as tmp:
@@ -402,6 +415,7 @@ def turntable(
             ctx=ctx,
             params=params,
             quality=quality,
+            objects=objects,
         )
         writer = imageio.get_writer(
             tmp,
