@@ -195,7 +195,7 @@ def test_objects_appear_where_they_were_placed(gl_ctx, boxes):
     assert not changed[:10].any()
 
 
-def _shadow_scene(gl_ctx, boxes, size, resolution=2048):
+def _shadow_scene(gl_ctx, boxes, size, resolution=None):
     hm = flat()
     cam = overhead(hm, 90.0, size)
     params = {"sun": SUN, "haze": 0.0, "cascade_resolution": resolution}
@@ -364,3 +364,42 @@ def test_render_cli_objects_equal_the_api(gl_ctx, tmp_path):
     assert run_app([*args, "-o", str(tmp_path / "x.png"), "--objects", "default",
                     "--object-shadows", "stencil"]) == 2
     assert run_app([*args, "-o", str(tmp_path / "y.png"), "--object-shadows", "none"]) == 2
+
+
+@pytest.mark.gl
+def test_viewer_keys_toggle_objects_and_cycle_their_shadows(gl_ctx, boxes):
+    from terrascape.viewer.controls import HELP
+    from terrascape.viewer.session import ViewerSession
+
+    size = (96, 64)
+    s = ViewerSession(gl_ctx, flat(), size=size, hud=False, warn=lambda m: None,
+                      objects=boxes)
+    s.camera = Camera.look_at((32.0, 40.0, 85.0), (32.0, 0.0, 30.0), fov_y=45.0, near=1.0,
+                              far=300.0)
+    fbo = gl_ctx.simple_framebuffer(size)
+
+    def frame():
+        s.render(fbo, 0.02)
+        return np.frombuffer(fbo.read(components=3), np.uint8).reshape(size[1], size[0], 3)
+
+    try:
+        shown = frame()
+        assert s.stats["objects_meshes"] + s.stats["objects_impostors"] == 3
+        assert s.renderer.objects.mode == "cascades"
+        s.state.handle_key("B")
+        hidden = frame()
+        assert "objects_meshes" not in s.stats
+        assert (shown != hidden).any(axis=-1).mean() > 0.01
+        s.state.handle_key("B")
+        s.state.handle_key("G")  # → volumes (cascades in this build, with a warning)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ObjectShadowFallbackWarning)
+            frame()
+        s.state.handle_key("G")  # → none
+        frame()
+        assert s.state.object_shadows == "none" and s.renderer.objects.mode == "none"
+        assert any("object shadows" in d for _, d in HELP)
+        assert any("shadows none" in line for line in s.status_lines())
+    finally:
+        fbo.release()
+        s.release()
