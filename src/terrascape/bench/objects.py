@@ -68,6 +68,69 @@ def frame_times(renderer, cams, params, technique: str = "material") -> list[flo
     return out
 
 
+def terrain_shadow_agreement(quick: bool = False) -> BenchTable:
+    """The terrain's shadow on itself, per visible grid sample, against the CPU ray cast
+    (:func:`~terrascape.lighting.shadows.shadow_mask_reference`): its own shadow sweep (the
+    default) and the sun's cascades with the terrain drawn into them (``cascade_terrain``,
+    the sweep off). Samples next to a shadow edge of the reference are left out."""
+    from scipy.ndimage import binary_dilation, binary_erosion
+
+    from terrascape.camera import frame_terrain
+    from terrascape.lighting.shadows import shadow_mask_reference
+    from terrascape.objects import Instances, builtin_meshes
+    from terrascape.render.context import headless_context
+    from terrascape.render.offscreen import OffscreenRenderer
+
+    hm, _, size = bench_scene(quick)
+    sun = (135.0, 25.0)
+    ref = shadow_mask_reference(hm, *sun)  # True = in shadow
+    edge = binary_dilation(ref, iterations=1) & ~binary_erosion(ref, iterations=1)
+    cam = frame_terrain(hm.extent, (hm.min, hm.max), azimuth=200.0, elevation=70.0,
+                        aspect=size[0] / size[1])
+    zz, xx = np.meshgrid(np.arange(hm.rows) * hm.spacing[1],
+                         np.arange(hm.cols) * hm.spacing[0], indexing="ij")
+    px = cam.project(np.stack([xx, hm.heights, zz], -1).reshape(-1, 3), size)
+    col = np.floor(px[:, 0]).astype(int).reshape(hm.shape)
+    row = np.floor(px[:, 1]).astype(int).reshape(hm.shape)
+    inside = (row >= 0) & (row < size[1]) & (col >= 0) & (col < size[0])
+    # a cast shadow shows only where the sun would light the surface well: leave out
+    # slopes turned from the sun (N·L < 0.3), dark with or without any shadow
+    from terrascape.lighting.sun import sun_direction
+
+    gz, gx = np.gradient(hm.heights.astype(np.float64), hm.spacing[1], hm.spacing[0])
+    normal = np.stack([-gx, np.ones_like(gx), -gz], -1)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    keep = inside & ~edge & (normal @ sun_direction(*sun) > 0.3)
+    empty = Instances((builtin_meshes()["rock"],), np.zeros(0, int), np.zeros((0, 3)),
+                      np.zeros(0), np.zeros(0))
+    variants = (
+        ("terrain sweep (default)", {"shadows": True}),
+        ("cascades with the terrain in them", {"shadows": False, "cascade_terrain": True,
+                                               "object_shadows": "cascades"}),
+    )
+    table = BenchTable("the terrain's shadow on itself vs a CPU ray cast",
+                       ["method", "agreement %", "samples", "shadowed %"])
+    with headless_context() as ctx:
+        r = OffscreenRenderer(ctx, hm, size=size)
+        try:
+            lit = r.render(cam, "plain", {"sun": sun, "shadows": False, "haze": 0.0})
+            r.terrain.set_objects(empty)
+            for label, params in variants:
+                img = r.render(cam, "plain", {"sun": sun, "haze": 0.0, **params})
+                ratio = (img[..., :3].astype(float).sum(-1)
+                         / np.maximum(lit[..., :3].astype(float).sum(-1), 1.0))
+                measured = ratio[np.clip(row, 0, size[1] - 1), np.clip(col, 0, size[0] - 1)]
+                shadowed = measured < 0.8
+                agree = float((shadowed[keep] == ref[keep]).mean()) * 100.0
+                table.rows.append([label, round(agree, 2), int(keep.sum()),
+                                   round(float(ref[keep].mean()) * 100.0, 1)])
+        finally:
+            r.release()
+    table.notes.append(f"sun azimuth {sun[0]}°, elevation {sun[1]}°; overhead view at 70°; "
+                       "a sample counts as shadowed below 80 % of its fully lit brightness")
+    return table
+
+
 def run(quick: bool = False) -> list[BenchTable]:
     from terrascape.render.context import describe_context, headless_context
     from terrascape.render.offscreen import OffscreenRenderer
@@ -116,4 +179,4 @@ def run(quick: bool = False) -> list[BenchTable]:
         "trees: conifer and broadleaf, buildings: house and hall (built-in meshes), "
         "uniformly placed, seed 1",
     ]
-    return [table]
+    return [table, terrain_shadow_agreement(quick)]

@@ -445,7 +445,8 @@ class ObjectRenderer:
         """Before the terrain is drawn: pick the shadow mode, render the cascades (they
         bind their own framebuffer and viewport) and return the uniforms the terrain's and
         the objects' shading read."""
-        mode = resolve_object_shadows(params.get("object_shadows"), len(self.instances) > 0)
+        # an empty set still shadows with cascades (with cascade_terrain: the terrain alone)
+        mode = resolve_object_shadows(params.get("object_shadows"), True)
         if mode == "volumes":
             if "volumes" not in self._warned:
                 self._warned.add("volumes")
