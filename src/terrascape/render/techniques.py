@@ -299,6 +299,8 @@ COMMON_PARAMS: dict[str, Any] = {
     "water_depth": None,  # float32 (rows, cols) water depth on the terrain (lakes), or None
     "surround": None,  # beyond the terrain: sea | plane | fade; None = sea with a sea level
     "time": 0.0,  # seconds, animates the water ripples
+    # sun shadows of the objects (TerrainRenderer.set_objects): cascades | volumes | none
+    "object_shadows": "none",
 }
 
 _REGISTRY: dict[str, Technique] = {}

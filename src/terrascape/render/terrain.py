@@ -286,6 +286,7 @@ class TerrainRenderer:
         self._fallen_back: set[str] = set()
         self._mip_levels: dict[str, int] = {}  # sampler -> levels, for "<sampler>_levels"
         self.last_technique: str | None = None  # what the last frame really drew (R11)
+        self.objects = None  # Instances standing on the terrain (set_objects)
 
     # --- geometry ------------------------------------------------------------------------
     def _upload_chunks(self):
@@ -370,6 +371,16 @@ class TerrainRenderer:
             vao = self.ctx.vertex_array(program, content, ibo, index_size, skip_errors=True)
             self._vaos[key] = vao
         return vao
+
+    def set_objects(self, instances) -> None:
+        """Objects standing on the terrain (:class:`~terrascape.objects.Instances`), or
+        ``None``; they cast the sun shadows of the ``object_shadows`` parameter."""
+        from terrascape.objects.model import Instances
+
+        if instances is not None and not isinstance(instances, Instances):
+            raise InvalidParameterError(
+                f"set_objects expects Instances or None, got {type(instances).__name__}")
+        self.objects = instances
 
     # --- textures ------------------------------------------------------------------------
     @_current
@@ -592,6 +603,10 @@ class TerrainRenderer:
             p = tech.resolve(common)
             samplers, program = self._prepare(tech, p)
         self.last_technique = tech.name
+        if p["object_shadows"] == "volumes":
+            from terrascape.render.shadow_volumes import object_shadow_mode
+
+            p = object_shadow_mode(self, fbo, p)  # no stencil: shadow maps, warned once
         uniforms = self.frame_uniforms(camera, p)
         ctx = self.ctx
         fbo.use()
@@ -620,6 +635,12 @@ class TerrainRenderer:
         else:
             stats = self._draw_deferred(fbo, deferred, camera, uniforms, plan)
         ctx.polygon_offset = (0.0, 0.0)
+        if p["object_shadows"] == "volumes":
+            from terrascape.render.shadow_volumes import shade_shadow_volumes
+
+            stats.update(shade_shadow_volumes(self, fbo, camera, p, uniforms, plan=plan,
+                                              program=deferred or program,
+                                              deferred=deferred is not None))
         if wire:
             wp = self._wire_prog or load_program(ctx, "debug/solid")
             self._wire_prog = wp
