@@ -16,7 +16,7 @@ from terrascape.objects.shadow_reference import agreement, boundary_band, shadow
 pytestmark = pytest.mark.gl
 
 SIZE = (200, 150)
-SUN = (135.0, 40.0)
+SUN = (45.0, 35.0)  # the shadows fall toward the camera
 
 
 def box(size):
@@ -61,7 +61,7 @@ def test_volumes_match_the_ray_cast(scene, technique):
     count = r.last_shadow_count()
     ref = shadow_reference(cam, r.last_depth(), SUN, instances=boxes)
     surface = ref.surface
-    assert surface.mean() > 0.5 and ref.object_shadow.sum() > 800  # a real shadow
+    assert surface.mean() > 0.5 and ref.object_shadow.sum() > 300  # a real shadow
     assert agreement(count > 0, ref.object_shadow, surface) >= 0.995
     # away from the shadow's edge they agree on every pixel
     inner = surface & ~boundary_band(ref.object_shadow, 1)
@@ -89,7 +89,8 @@ def test_shadow_lies_where_the_box_projects_it(scene, technique):
     from terrascape.objects.shadow_reference import surface_points
 
     pts = surface_points(cam, r.last_depth())
-    on_ground = np.isfinite(pts).all(axis=-1)
+    # ground pixels (not the boxes' own faces): surface points at height 0
+    on_ground = np.isfinite(pts).all(axis=-1) & (np.abs(np.nan_to_num(pts[..., 1])) < 0.05)
     xz = np.where(on_ground[..., None], pts[..., [0, 2]], -1e9)
     inside = np.zeros(on_ground.shape, bool)
     for hull in _analytic_shadow(boxes, SUN):

@@ -1,5 +1,31 @@
 """Objects on the terrain: meshes, their instances, scattering by rules."""
 
+from terrascape.objects.meshes import BUILTIN_NAMES, builtin_mesh, builtin_meshes
 from terrascape.objects.model import Instances, ObjectMesh
+from terrascape.objects.rules import (
+    DEFAULT_MAX_OBJECTS,
+    Band,
+    RuleSet,
+    ScatterRule,
+    default_rules,
+    default_tree_rule,
+)
+from terrascape.objects.scatter import scatter
+from terrascape.objects.surface import surface_height, surface_normal
 
-__all__ = ["Instances", "ObjectMesh"]
+__all__ = [
+    "BUILTIN_NAMES",
+    "DEFAULT_MAX_OBJECTS",
+    "Band",
+    "Instances",
+    "ObjectMesh",
+    "RuleSet",
+    "ScatterRule",
+    "builtin_mesh",
+    "builtin_meshes",
+    "default_rules",
+    "default_tree_rule",
+    "scatter",
+    "surface_height",
+    "surface_normal",
+]

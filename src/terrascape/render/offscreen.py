@@ -184,7 +184,12 @@ class OffscreenRenderer:
         p = dict(params or {})
         if self.samples > 1 and "shadow_samples" not in p:
             p["shadow_samples"] = HIGH_SHADOW_SAMPLES
-        fbo = self._stencil_fbo() if p.get("object_shadows") == "volumes" else self.fbo
+        fbo = self.fbo
+        if p.get("object_shadows") == "volumes":
+            from terrascape.render.shadow_volumes import ShadowVolumes
+
+            fbo = self._stencil_fbo()
+            ShadowVolumes.of(self.terrain).keep_count = True  # for last_shadow_count()
         self.terrain.render(fbo, camera, technique, p)
         self._last_fbo = fbo
         raw = fbo.read(components=4, alignment=1)
@@ -198,7 +203,9 @@ class OffscreenRenderer:
         """uint8 ``(h, w)`` (draw size, row 0 at the top): the shadow volume count of the
         last ``object_shadows="volumes"`` frame, non-zero where objects shade the sun;
         ``None`` before one."""
-        return self._stencil.read_stencil() if self._stencil else None
+        from terrascape.render.shadow_volumes import ShadowVolumes
+
+        return ShadowVolumes.of(self.terrain).last_count if self._stencil else None
 
     @_current
     def last_depth(self) -> np.ndarray:

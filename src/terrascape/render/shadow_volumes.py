@@ -35,10 +35,17 @@ import numpy as np
 from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.objects.model import Instances
 from terrascape.objects.silhouette import shadow_volume
+from terrascape.render.objects import OBJECT_SHADOW_MODES, ObjectShadowFallbackWarning
 from terrascape.render.shaders import load_program, set_uniforms
-from terrascape.render.stencil import clear_stencil, stencil_bits, stencil_test, zfail_counting
+from terrascape.render.stencil import (
+    clear_stencil,
+    read_stencil,
+    stencil_bits,
+    stencil_replace,
+    stencil_test,
+    zfail_counting,
+)
 
-OBJECT_SHADOW_MODES = ("cascades", "volumes", "none")
 # The mode "volumes" falls back to when the target has no stencil buffer (or no PyOpenGL).
 FALLBACK_MODE = "cascades"
 # Uniform values that switch the sun's light off in every lighting model of the shaders
@@ -46,7 +53,7 @@ FALLBACK_MODE = "cascades"
 SUN_OFF = {"u_sun_irradiance": (0.0, 0.0, 0.0), "u_kd": 0.0, "u_ks": 0.0}
 
 
-class ShadowVolumeFallbackWarning(UserWarning):
+class ShadowVolumeFallbackWarning(ObjectShadowFallbackWarning):
     """Stencil shadow volumes cannot run on this target; shadow maps are used instead."""
 
 
@@ -55,8 +62,8 @@ def object_shadow_mode(renderer, fbo, params: Mapping[str, Any]) -> dict[str, An
     stencil buffer (or without PyOpenGL) becomes the shadow-map mode, with one warning per
     renderer."""
     p = dict(params)
-    mode = p.get("object_shadows", "none")
-    if mode not in OBJECT_SHADOW_MODES:
+    mode = p.get("object_shadows")
+    if mode is not None and mode not in OBJECT_SHADOW_MODES:
         raise InvalidParameterError(
             f"object_shadows must be one of {', '.join(OBJECT_SHADOW_MODES)}, got {mode!r}")
     if mode != "volumes" or stencil_bits(fbo) > 0:
@@ -85,6 +92,9 @@ class ShadowVolumes:
         self._count = 0
         self._key: Any = None
         self.build_seconds = 0.0  # CPU time of the last rebuild (silhouettes + upload)
+        # keep_count: read the stencil count back after counting (tests, benchmarks)
+        self.keep_count = False
+        self.last_count: np.ndarray | None = None
 
     @classmethod
     def of(cls, renderer) -> ShadowVolumes:
@@ -152,13 +162,17 @@ class ShadowVolumes:
             self._capacity = self._count = 0
 
 
-def shade_shadow_volumes(renderer, fbo, camera, params: Mapping[str, Any],
-                         uniforms: Mapping[str, Any], *, program, deferred: bool,
-                         plan) -> dict[str, int]:
-    """The volumes mode of one frame, after its surfaces were drawn into ``fbo``: count the
-    casters' volumes into the stencil, then redraw the surfaces without the sun where the
-    count is not zero. ``program`` drew them (forward: the technique's program, drawn again
-    with ``plan``; ``deferred``: its full-screen shading pass over the geometry buffer)."""
+def shade_shadow_volumes(renderer, fbo, camera, uniforms: Mapping[str, Any], *, program,
+                         deferred: bool, plan) -> dict[str, int]:
+    """The volumes mode of one frame, after its terrain and objects were drawn into
+    ``fbo``: count the objects' volumes into the stencil, then draw the surfaces again
+    without the sun where the count is not zero.
+
+    ``program`` drew the terrain: forward, the technique's program (drawn again with
+    ``plan``); ``deferred``, its full-screen shading pass over the geometry buffer. That pass
+    cannot tell terrain from the objects in front of it, so the objects' pixels are taken
+    out of the stencil (set to 0 under their own depth) before it runs.
+    """
     import moderngl
 
     if stencil_bits(fbo) == 0:
@@ -166,16 +180,32 @@ def shade_shadow_volumes(renderer, fbo, camera, params: Mapping[str, Any],
     ctx = renderer.ctx
     volumes = ShadowVolumes.of(renderer)
     sun = np.asarray(uniforms["u_sun_dir"], np.float64)
-    casters = getattr(renderer, "objects", None)
+    objects = renderer.objects
+    casters = objects.instances if objects is not None else None
     n = volumes.set_casters(casters if sun[1] > 0.0 else None, sun)
     volumes.count(fbo, uniforms["u_view_proj"])
+    volumes.last_count = read_stencil(fbo) if volumes.keep_count else None
     if n == 0:
         return {"shadow_volume_triangles": 0}
+    dark = {**uniforms, **SUN_OFF}
     saved = {k: uniforms[k] for k in SUN_OFF if k in uniforms}
-    set_uniforms(program, **SUN_OFF)
     fbo.depth_mask = False
     fbo.use()
     try:
+        ctx.depth_func = "<="
+        if objects is not None:
+            with stencil_test(nonzero=True):
+                objects.draw(dark)
+            if deferred:
+                with stencil_replace(0):
+                    fbo.color_mask = (False, False, False, False)
+                    fbo.use()
+                    try:
+                        objects.draw(uniforms)
+                    finally:
+                        fbo.color_mask = (True, True, True, True)
+                        fbo.use()
+        set_uniforms(program, **SUN_OFF)
         with stencil_test(nonzero=True):
             if deferred:
                 # the shading pass as drawn: at depth 1 where the terrain's depth is nearer
@@ -184,12 +214,12 @@ def shade_shadow_volumes(renderer, fbo, camera, params: Mapping[str, Any],
                 renderer._fullscreen(program)
             else:
                 ctx.enable(moderngl.CULL_FACE)
-                ctx.depth_func = "<="
                 renderer._draw_geometry(program, camera, fbo.size, plan)
     finally:
         set_uniforms(program, **saved)
         ctx.depth_func = "<"
-        ctx.enable(moderngl.CULL_FACE | moderngl.DEPTH_TEST)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE)
         fbo.depth_mask = True
         fbo.use()
     return {"shadow_volume_triangles": n}
@@ -197,7 +227,6 @@ def shade_shadow_volumes(renderer, fbo, camera, params: Mapping[str, Any],
 
 __all__ = [
     "FALLBACK_MODE",
-    "OBJECT_SHADOW_MODES",
     "SUN_OFF",
     "ShadowVolumeFallbackWarning",
     "ShadowVolumes",

@@ -31,6 +31,10 @@ def _gl():
     except ImportError as exc:  # the "render" extra installs it
         raise GLUnavailableError(
             "stencil shadow volumes need PyOpenGL (pip install 'terrascape[render]')") from exc
+    # PyOpenGL checks glGetError after each call: an error an earlier (moderngl) call left
+    # behind would be blamed on ours, so the queue is emptied first.
+    while GL.glGetError() != GL.GL_NO_ERROR:
+        pass
     return GL
 
 
@@ -40,16 +44,23 @@ def stencil_bits(fbo) -> int:
         GL = _gl()
     except GLUnavailableError:
         return 0
+    from OpenGL.error import GLError
+
     fbo.use()
-    if fbo.glo == 0:  # the default framebuffer of a window
+    try:
+        if fbo.glo == 0:  # the default framebuffer of a window
+            return int(GL.glGetFramebufferAttachmentParameteriv(
+                GL.GL_FRAMEBUFFER, GL.GL_STENCIL, GL.GL_FRAMEBUFFER_ATTACHMENT_STENCIL_SIZE))
+        kind = GL.glGetFramebufferAttachmentParameteriv(
+            GL.GL_FRAMEBUFFER, GL.GL_STENCIL_ATTACHMENT,
+            GL.GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE)
+        if int(kind) == GL.GL_NONE:
+            return 0
         return int(GL.glGetFramebufferAttachmentParameteriv(
-            GL.GL_FRAMEBUFFER, GL.GL_STENCIL, GL.GL_FRAMEBUFFER_ATTACHMENT_STENCIL_SIZE))
-    kind = GL.glGetFramebufferAttachmentParameteriv(
-        GL.GL_FRAMEBUFFER, GL.GL_STENCIL_ATTACHMENT, GL.GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE)
-    if int(kind) == GL.GL_NONE:
+            GL.GL_FRAMEBUFFER, GL.GL_STENCIL_ATTACHMENT,
+            GL.GL_FRAMEBUFFER_ATTACHMENT_STENCIL_SIZE))
+    except GLError:  # no stencil attachment to ask about
         return 0
-    return int(GL.glGetFramebufferAttachmentParameteriv(
-        GL.GL_FRAMEBUFFER, GL.GL_STENCIL_ATTACHMENT, GL.GL_FRAMEBUFFER_ATTACHMENT_STENCIL_SIZE))
 
 
 class StencilFramebuffer:
@@ -192,11 +203,27 @@ def stencil_test(nonzero: bool = True) -> Iterator[None]:
         GL.glStencilMask(0xFF)
 
 
+@contextlib.contextmanager
+def stencil_replace(value: int) -> Iterator[None]:
+    """Write ``value`` into the stencil wherever a fragment passes the depth test."""
+    GL = _gl()
+    GL.glEnable(GL.GL_STENCIL_TEST)
+    GL.glStencilMask(0xFF)
+    GL.glStencilFunc(GL.GL_ALWAYS, int(value), 0xFF)
+    GL.glStencilOp(GL.GL_KEEP, GL.GL_KEEP, GL.GL_REPLACE)
+    try:
+        yield
+    finally:
+        GL.glStencilOp(GL.GL_KEEP, GL.GL_KEEP, GL.GL_KEEP)
+        GL.glDisable(GL.GL_STENCIL_TEST)
+
+
 __all__ = [
     "StencilFramebuffer",
     "clear_stencil",
     "read_stencil",
     "stencil_bits",
+    "stencil_replace",
     "stencil_test",
     "zfail_counting",
 ]

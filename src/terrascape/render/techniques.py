@@ -299,8 +299,10 @@ COMMON_PARAMS: dict[str, Any] = {
     "water_depth": None,  # float32 (rows, cols) water depth on the terrain (lakes), or None
     "surround": None,  # beyond the terrain: sea | plane | fade; None = sea with a sea level
     "time": 0.0,  # seconds, animates the water ripples
-    # sun shadows of the objects (TerrainRenderer.set_objects): cascades | volumes | none
-    "object_shadows": "none",
+    # objects on the terrain (TerrainRenderer.set_objects; terrascape.render.objects)
+    "object_shadows": None,  # cascades | volumes | none; None = cascades with objects
+    "impostor_pixels": 48.0,  # objects shorter than this on screen are drawn as impostors
+    "cascade_resolution": 2048,  # texels per side of each of the sun's shadow cascades
 }
 
 _REGISTRY: dict[str, Technique] = {}

@@ -286,7 +286,7 @@ class TerrainRenderer:
         self._fallen_back: set[str] = set()
         self._mip_levels: dict[str, int] = {}  # sampler -> levels, for "<sampler>_levels"
         self.last_technique: str | None = None  # what the last frame really drew (R11)
-        self.objects = None  # Instances standing on the terrain (set_objects)
+        self._objects = None  # terrascape.render.objects.ObjectRenderer, set_objects()
 
     # --- geometry ------------------------------------------------------------------------
     def _upload_chunks(self):
@@ -372,15 +372,24 @@ class TerrainRenderer:
             self._vaos[key] = vao
         return vao
 
+    # --- objects on the terrain --------------------------------------------------------
+    @_current
     def set_objects(self, instances) -> None:
-        """Objects standing on the terrain (:class:`~terrascape.objects.Instances`), or
-        ``None``; they cast the sun shadows of the ``object_shadows`` parameter."""
-        from terrascape.objects.model import Instances
+        """Draw these :class:`~terrascape.objects.model.Instances` on the terrain in every
+        frame (instanced, impostors far away, the sun's shadows per ``object_shadows``;
+        :mod:`terrascape.render.objects`); ``None`` removes them."""
+        from terrascape.render.objects import ObjectRenderer
 
-        if instances is not None and not isinstance(instances, Instances):
-            raise InvalidParameterError(
-                f"set_objects expects Instances or None, got {type(instances).__name__}")
-        self.objects = instances
+        if self._objects is not None:
+            self._objects.release()
+            self._objects = None
+        if instances is not None:
+            self._objects = ObjectRenderer(self, instances)
+
+    @property
+    def objects(self):
+        """The :class:`~terrascape.render.objects.ObjectRenderer` of :meth:`set_objects`."""
+        return self._objects
 
     # --- textures ------------------------------------------------------------------------
     @_current
@@ -609,6 +618,10 @@ class TerrainRenderer:
             p = object_shadow_mode(self, fbo, p)  # no stencil: shadow maps, warned once
         uniforms = self.frame_uniforms(camera, p)
         ctx = self.ctx
+        objects = self._objects
+        # Objects: the sun's shadow maps first (their own framebuffer), read by the terrain.
+        uniforms.update(objects.begin_frame(camera, fbo.size, p, uniforms["u_sun_dir"])
+                        if objects is not None else {"u_cascade_count": 0})
         fbo.use()
         ctx.viewport = (0, 0, *fbo.size)
         horizon = uniforms["u_fog_color"]
@@ -624,6 +637,8 @@ class TerrainRenderer:
         self.draw_skirts = daylight
         if daylight:
             self._bind_environment(deferred or program, p)
+        if objects is not None:
+            objects.bind_receiver(deferred or program)
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.front_face = "ccw"
         wire = bool(p["wireframe"])
@@ -635,12 +650,6 @@ class TerrainRenderer:
         else:
             stats = self._draw_deferred(fbo, deferred, camera, uniforms, plan)
         ctx.polygon_offset = (0.0, 0.0)
-        if p["object_shadows"] == "volumes":
-            from terrascape.render.shadow_volumes import shade_shadow_volumes
-
-            stats.update(shade_shadow_volumes(self, fbo, camera, p, uniforms, plan=plan,
-                                              program=deferred or program,
-                                              deferred=deferred is not None))
         if wire:
             wp = self._wire_prog or load_program(ctx, "debug/solid")
             self._wire_prog = wp
@@ -656,6 +665,14 @@ class TerrainRenderer:
             finally:
                 ctx.wireframe = False
         ctx.disable(moderngl.CULL_FACE)
+        if objects is not None:
+            stats = {**stats, **objects.draw(uniforms)}
+        if objects is not None and objects.mode == "volumes":
+            from terrascape.render.shadow_volumes import shade_shadow_volumes
+
+            stats.update(shade_shadow_volumes(self, fbo, camera, uniforms, plan=plan,
+                                              program=deferred or program,
+                                              deferred=deferred is not None))
         if daylight and (p["sea_level"] is not None or p["water_depth"] is not None):
             self._draw_water(fbo, uniforms, p)
         if p["sky"]:
@@ -1080,6 +1097,7 @@ class TerrainRenderer:
             vao.release()
         self._fullscreen_vaos.clear()
         self._release_gbuffer()
+        self.set_objects(None)
 
 
 def check_output_size(ctx, size: Any) -> tuple[int, int]:

@@ -1,0 +1,337 @@
+"""Objects on the terrain, checked on pixels: instanced draws equal a pre-transformed draw,
+objects appear where they were placed, the sun's cascaded shadows fall where a CPU ray cast
+puts a box's shadow on flat ground (and keep the sky's light), impostors switch in without
+a jump in colour; and the cascades' geometry (splits, texel snapping)."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from terrascape.camera import Camera
+from terrascape.errors import InvalidParameterError
+from terrascape.heightmap import Heightmap
+from terrascape.lighting.sun import sun_direction
+from terrascape.objects.model import Instances, ObjectMesh
+from terrascape.render.cascades import fit_cascades, practical_splits
+from terrascape.render.objects import resolve_object_shadows
+from terrascape.render.offscreen import OffscreenRenderer
+
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+SUN = (135.0, 40.0)
+
+
+def box_mesh(name="box", size=(2.0, 6.0, 2.0), color=(0.45, 0.3, 0.2)) -> ObjectMesh:
+    """An axis-aligned box standing on the origin (flat-shaded, 24 vertices)."""
+    pos, nrm, tri = [], [], []
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            n = np.zeros(3)
+            n[axis] = sign
+            u = np.zeros(3)
+            u[(axis + 1) % 3] = 1.0
+            v = np.cross(n, u)
+            base = len(pos)
+            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+                pos.append(0.5 * (n + a * u + b * v))
+                nrm.append(n)
+            tri += [[base, base + 1, base + 2], [base, base + 2, base + 3]]
+    p = np.array(pos) * size + [0.0, size[1] / 2, 0.0]
+    return ObjectMesh(name, p, np.array(nrm), np.tile(color, (len(p), 1)), np.array(tri))
+
+
+def flat(n=65, spacing=1.0) -> Heightmap:
+    return Heightmap(np.zeros((n, n), np.float32), spacing=(spacing, spacing))
+
+
+def overhead(hm: Heightmap, height: float, size) -> Camera:
+    ex, ez = hm.extent
+    return Camera.look_at((ex / 2, height, ez / 2 + 1e-3), (ex / 2, 0.0, ez / 2), fov_y=40.0,
+                          near=1.0, far=height * 3, aspect=size[0] / size[1])
+
+
+def pixel_rays(cam: Camera, size):
+    """World origin and unit direction of the ray through every pixel centre (h, w, 3)."""
+    w, h = size
+    px, py = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    ndc = np.stack([px / w * 2 - 1, 1 - py / h * 2, np.ones_like(px), np.ones_like(px)], -1)
+    far = ndc @ np.linalg.inv(cam.view_projection()).T
+    far = far[..., :3] / far[..., 3:]
+    d = far - cam.eye
+    return cam.eye, d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def ray_box(origin, d, lo, hi):
+    """Slab test: bool hit and entry distance of rays against one axis-aligned box."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / np.where(np.abs(d) < 1e-12, 1e-12, d)
+        t0 = (lo - origin) * inv
+        t1 = (hi - origin) * inv
+    tmin = np.minimum(t0, t1).max(axis=-1)
+    tmax = np.maximum(t0, t1).min(axis=-1)
+    return (tmax >= np.maximum(tmin, 0.0)), tmin
+
+
+def luma(img):
+    return img[..., :3].astype(np.float64) @ LUMA
+
+
+@pytest.fixture(scope="module")
+def boxes():
+    mesh = box_mesh()
+    pos = np.array([[20.0, 0.0, 24.0], [40.0, 0.0, 30.0], [30.0, 0.0, 44.0]])
+    return Instances((mesh,), np.zeros(3, int), pos, np.array([1.0, 1.5, 0.8]),
+                     np.array([0.0, 0.7, 2.1]))
+
+
+# --- cascades geometry (no GL) ----------------------------------------------------------
+def test_practical_splits_blend_log_and_uniform():
+    z = practical_splits(1.0, 1000.0, 3, blend=1.0)
+    np.testing.assert_allclose(z, [1.0, 10.0, 100.0, 1000.0])
+    np.testing.assert_allclose(practical_splits(1.0, 10.0, 3, blend=0.0), [1, 4, 7, 10])
+    with pytest.raises(InvalidParameterError):
+        practical_splits(5.0, 1.0, 3)
+
+
+def test_cascades_snap_to_texels_and_keep_their_size_as_the_camera_moves():
+    # a scene larger than the camera's range: the splits run from its near to its far plane
+    lo, hi = np.array([-1e5, 0.0, -1e5]), np.array([1e5, 80.0, 1e5])
+    sun = sun_direction(*SUN)
+    cam = Camera.look_at((250.0, 60.0, 520.0), (250.0, 0.0, 200.0), fov_y=50.0, near=1.0,
+                         far=2000.0)
+    moved = Camera(position=tuple(cam.eye + np.array([3.37, 0.4, -1.91])), yaw=cam.yaw + 17.0,
+                   pitch=cam.pitch - 5.0, fov_y=50.0, near=1.0, far=2000.0)
+    a = fit_cascades(cam, sun, lo, hi, resolution=1024)
+    b = fit_cascades(moved, sun, lo, hi, resolution=1024)
+    assert len(a) == 3 and (np.diff(a.splits) > 0).all()
+    assert (np.diff(a.texel_size) > 0).all()  # far cascades cover more ground
+    np.testing.assert_allclose(a.splits, b.splits)
+    # the slices' bounding spheres do not change with the camera: nor does the texel size
+    np.testing.assert_allclose(a.texel_size, b.texel_size, rtol=1e-12)
+    for cas in (a, b):
+        for k in range(len(cas)):
+            m = cas.matrices[k]
+            # clip x = (x_light − cx) / r: the box's centre sits on a whole texel
+            centre = -m[:2, 3] / np.linalg.norm(m[:2, :3], axis=1)
+            texels = centre / cas.texel_size[k]
+            np.testing.assert_allclose(texels, np.round(texels), atol=1e-6)
+    # a world point keeps its position inside its texel after the move (no shimmer): its
+    # light-space coordinate changes by a whole number of texels in the same cascade
+    p = np.array([300.0, 5.0, 300.0, 1.0])
+    for k in range(3):
+        ta = (a.matrices[k] @ p)[:2] * 0.5 * a.resolution
+        tb = (b.matrices[k] @ p)[:2] * 0.5 * b.resolution
+        np.testing.assert_allclose(ta - tb, np.round(ta - tb), atol=1e-6)
+
+
+def test_object_shadow_modes():
+    assert resolve_object_shadows(None, True) == "cascades"
+    assert resolve_object_shadows(None, False) == "none"
+    assert resolve_object_shadows("none", True) == "none"
+    with pytest.raises(InvalidParameterError, match="object_shadows"):
+        resolve_object_shadows("stencil", True)
+
+
+# --- GL -------------------------------------------------------------------------------
+@pytest.mark.gl
+def test_instanced_draw_equals_a_pretransformed_draw(gl_ctx, boxes):
+    """Three instances of a box, drawn instanced, against one mesh of the same triangles
+    already in world space (drawn once at the origin)."""
+    hm = flat()
+    size = (160, 120)
+    cam = Camera.look_at((32.0, 30.0, 80.0), (32.0, 0.0, 32.0), fov_y=45.0, near=1.0,
+                         far=300.0, aspect=size[0] / size[1])
+    tris = boxes.world_triangles()
+    mesh = boxes.meshes[0]
+    colors = np.repeat(mesh.colors[mesh.indices].reshape(1, -1, 3), len(boxes), 0)
+    normals = []
+    for m, k in zip(boxes.matrices(), range(len(boxes)), strict=True):
+        rot = m[:3, :3] / boxes.scale[k]
+        normals.append(mesh.normals[mesh.indices].reshape(-1, 3) @ rot.T)
+    whole = ObjectMesh("whole", tris.reshape(-1, 3), np.concatenate(normals),
+                       colors.reshape(-1, 3), np.arange(tris.shape[0] * 3).reshape(-1, 3))
+    single = Instances((whole,), [0], [[0.0, 0.0, 0.0]], [1.0], [0.0])
+    params = {"sun": SUN, "object_shadows": "none", "impostor_pixels": 0, "haze": 0.0}
+    r = OffscreenRenderer(gl_ctx, hm, size=size)
+    try:
+        empty = r.render(cam, "plain", params)
+        r.terrain.set_objects(boxes)
+        inst = r.render(cam, "plain", params)
+        assert r.terrain.last_stats["objects_meshes"] == 3
+        r.terrain.set_objects(single)
+        ref = r.render(cam, "plain", params)
+    finally:
+        r.release()
+    diff = np.abs(inst.astype(int) - ref.astype(int)).max(axis=-1)
+    covered = np.abs(inst.astype(int) - empty.astype(int)).max(axis=-1) > 0
+    assert covered.sum() > 300  # the boxes are on screen
+    assert (diff <= 2).mean() > 0.999
+
+
+@pytest.mark.gl
+def test_objects_appear_where_they_were_placed(gl_ctx, boxes):
+    hm = flat()
+    size = (160, 120)
+    cam = Camera.look_at((32.0, 40.0, 85.0), (32.0, 0.0, 30.0), fov_y=45.0, near=1.0,
+                         far=300.0, aspect=size[0] / size[1])
+    r = OffscreenRenderer(gl_ctx, hm, size=size)
+    try:
+        empty = r.render(cam, "plain", {"sun": SUN})
+        r.terrain.set_objects(boxes)
+        with_objects = r.render(cam, "plain", {"sun": SUN})
+    finally:
+        r.release()
+    changed = np.abs(with_objects.astype(int) - empty.astype(int)).max(axis=-1) > 8
+    # a point a little above each foot, on the box's axis
+    pts = boxes.positions + np.c_[np.zeros(3), 1.0 * boxes.scale, np.zeros(3)]
+    px = cam.project(pts, size)
+    for x, y, _ in px:
+        row, col = int(y), int(x)
+        assert changed[row - 1:row + 2, col - 1:col + 2].all(), (row, col)
+    # and nothing changes far from every object and its shadow
+    assert not changed[:10].any()
+
+
+def _shadow_scene(gl_ctx, boxes, size, resolution=2048):
+    hm = flat()
+    cam = overhead(hm, 90.0, size)
+    params = {"sun": SUN, "haze": 0.0, "cascade_resolution": resolution}
+    r = OffscreenRenderer(gl_ctx, hm, size=size)
+    try:
+        empty = r.render(cam, "plain", params)
+        r.terrain.set_objects(boxes)
+        img = r.render(cam, "plain", params)
+        no_shadow = r.render(cam, "plain", {**params, "object_shadows": "none"})
+    finally:
+        r.release()
+    return hm, cam, empty, img, no_shadow
+
+
+def _analytic_shadow(cam, size, boxes):
+    """Per pixel: (ground pixel, in the shadow of a box) from a CPU ray cast: the view ray
+    meets the ground y = 0 (not a box first); the ray from there toward the sun meets a box."""
+    eye, d = pixel_rays(cam, size)
+    t = -eye[1] / d[..., 1]
+    ground = eye + d * t[..., None]
+    sun = sun_direction(*SUN)
+    on_box = np.zeros(d.shape[:2], bool)
+    shadow = np.zeros(d.shape[:2], bool)
+    mesh_lo, mesh_hi = boxes.meshes[0].bounds
+    for k in range(len(boxes)):
+        tris = boxes.world_triangles(k).reshape(-1, 3)
+        lo, hi = tris.min(axis=0), tris.max(axis=0)
+        if boxes.yaw[k] != 0.0:
+            # a turned box: cast in its own frame (rotate the rays by -yaw about its foot)
+            c, s = math.cos(boxes.yaw[k]), math.sin(boxes.yaw[k])
+            inv = np.array([[c, 0, -s], [0, 1, 0], [s, 0, c]])
+            foot = boxes.positions[k]
+            lo = mesh_lo * boxes.scale[k]
+            hi = mesh_hi * boxes.scale[k]
+            o1 = (eye - foot) @ inv.T
+            d1 = d @ inv.T
+            g1 = (ground - foot) @ inv.T
+            s1 = np.broadcast_to(sun @ inv.T, d.shape)
+        else:
+            o1, d1, g1, s1 = eye, d, ground, np.broadcast_to(sun, d.shape)
+        hit, _ = ray_box(o1, d1, lo, hi)
+        on_box |= hit
+        sh, _ = ray_box(g1 + 1e-4 * s1, s1, lo, hi)
+        shadow |= sh
+    return ~on_box, shadow
+
+
+@pytest.mark.gl
+def test_cascade_shadows_fall_where_the_cpu_ray_cast_puts_them(gl_ctx, boxes):
+    size = (192, 192)
+    _, cam, empty, img, no_shadow = _shadow_scene(gl_ctx, boxes, size)
+    ground, shadow = _analytic_shadow(cam, size, boxes)
+    ratio = luma(img) / np.maximum(luma(empty), 1.0)
+    measured = ratio < 0.8
+    # away from contact edges: 2 pixels off every edge of the analytic shadow and the boxes
+    from scipy.ndimage import binary_dilation, binary_erosion
+
+    edge = (binary_dilation(shadow, iterations=2) & ~binary_erosion(shadow, iterations=2))
+    edge |= binary_dilation(~ground, iterations=2)
+    keep = ground & ~edge
+    assert shadow[keep].sum() > 200  # the shadows are in view and sizeable
+    agreement = (measured[keep] == shadow[keep]).mean()
+    assert agreement >= 0.98, agreement
+    # without object shadows the ground is unchanged outside the boxes themselves
+    assert (np.abs(luma(no_shadow) - luma(empty))[keep] < 2).mean() > 0.99
+    # no black shadows: the sky still lights the shadowed ground
+    inner = binary_erosion(shadow, iterations=3) & ground
+    assert luma(img)[inner].min() > 0.25 * luma(empty)[inner].mean()
+
+
+@pytest.mark.gl
+def test_cascade_shadows_point_away_from_the_sun(gl_ctx):
+    """One tall box: the darkened ground lies on the side away from the sun's azimuth."""
+    mesh = box_mesh(size=(2.0, 10.0, 2.0))
+    one = Instances((mesh,), [0], [[32.0, 0.0, 32.0]], [1.0], [0.0])
+    size = (128, 128)
+    _, cam, empty, img, _ = _shadow_scene(gl_ctx, one, size, resolution=1024)
+    dark = luma(img) / np.maximum(luma(empty), 1.0) < 0.8
+    rows, cols = np.nonzero(dark)
+    foot = cam.project([[32.0, 0.0, 32.0]], size)[0]
+    # sun in the south-east (azimuth 135°): the shadow goes north-west — up-left on screen
+    # for a camera looking down with north at the top
+    top = cam.project([[32.0, 0.0, 0.0]], size)[0]
+    assert top[1] < foot[1]  # north is up in this view
+    assert np.mean(cols) < foot[0] - 3
+    assert np.mean(rows) < foot[1] - 3
+
+
+@pytest.mark.gl
+def test_impostors_switch_in_without_a_jump_in_colour(gl_ctx):
+    mesh = box_mesh(size=(3.0, 8.0, 3.0), color=(0.2, 0.35, 0.12))
+    rng = np.random.default_rng(3)
+    n = 60
+    pos = np.c_[rng.uniform(8, 120, n), np.zeros(n), rng.uniform(8, 60, n)]
+    inst = Instances((mesh,), np.zeros(n, int), pos, rng.uniform(0.8, 1.2, n),
+                     rng.uniform(0, 2 * np.pi, n))
+    hm = flat(129)
+    size = (256, 144)
+    cam = Camera.look_at((64.0, 25.0, 200.0), (64.0, 0.0, 30.0), fov_y=40.0, near=1.0,
+                         far=600.0, aspect=size[0] / size[1])
+    r = OffscreenRenderer(gl_ctx, hm, size=size)
+    try:
+        empty = r.render(cam, "plain", {"sun": SUN})
+        r.terrain.set_objects(inst)
+        meshes = r.render(cam, "plain", {"sun": SUN, "impostor_pixels": 0})
+        assert r.terrain.last_stats["objects_impostors"] == 0
+        impostors = r.render(cam, "plain", {"sun": SUN, "impostor_pixels": 1e6})
+        assert r.terrain.last_stats["objects_meshes"] == 0
+        assert r.terrain.last_stats["objects_impostors"] > 40
+    finally:
+        r.release()
+    lum_e, lum_m, lum_i = luma(empty), luma(meshes), luma(impostors)
+    cover_m = np.abs(lum_m - lum_e) > 6
+    cover_i = np.abs(lum_i - lum_e) > 6
+    assert cover_m.sum() > 300
+    # same footprint on screen (within a tenth) and close in mean colour
+    assert abs(int(cover_i.sum()) - int(cover_m.sum())) < 0.1 * cover_m.sum()
+    both = cover_m & cover_i
+    mean_m = meshes[both][:, :3].mean(axis=0)
+    mean_i = impostors[both][:, :3].mean(axis=0)
+    assert np.abs(mean_m - mean_i).max() < 8.0, (mean_m, mean_i)
+    assert abs(meshes[..., :3].mean() - impostors[..., :3].mean()) < 1.0
+
+
+@pytest.mark.gl
+def test_volumes_draw_stencil_volumes_without_a_fallback(gl_ctx, boxes):
+    hm = flat(33)
+    r = OffscreenRenderer(gl_ctx, hm, size=(64, 64))
+    try:
+        r.terrain.set_objects(boxes)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            r.render(None, "plain", {"object_shadows": "volumes"})
+        assert r.terrain.objects.mode == "volumes"
+        assert r.terrain.last_stats["shadow_volume_triangles"] > 0
+        with pytest.raises(InvalidParameterError, match="object_shadows"):
+            r.render(None, "plain", {"object_shadows": "stencil"})
+    finally:
+        r.release()
