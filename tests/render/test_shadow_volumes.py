@@ -145,3 +145,34 @@ def test_bad_mode_is_a_clear_error(scene):
     r, _, _, cam = scene
     with pytest.raises(InvalidParameterError, match="object_shadows must be one of"):
         r.render(cam, "plain", {"object_shadows": "stencil"})
+
+
+def test_built_in_trees_and_a_house_on_hills_match_the_ray_cast(gl_ctx):
+    from terrascape.generate import hills
+    from terrascape.objects import builtin_meshes, surface_height
+    from terrascape.render.offscreen import OffscreenRenderer
+
+    heights = hills(65, count=40, seed=4)
+    hm = Heightmap(heights.heights * (8.0 / max(float(np.ptp(heights.heights)), 1e-6)),
+                   spacing=(1.0, 1.0))
+    meshes = builtin_meshes()
+    names = ["conifer", "broadleaf", "house", "conifer", "bush"]
+    xz = np.array([[20.0, 30.0], [38.0, 24.0], [30.0, 44.0], [46.0, 40.0], [14.0, 48.0]])
+    y = surface_height(hm, xz[:, 0], xz[:, 1])
+    inst = Instances(tuple(meshes[n] for n in dict.fromkeys(names)),
+                     [list(dict.fromkeys(names)).index(n) for n in names],
+                     np.c_[xz[:, 0], y, xz[:, 1]], [1.0, 0.9, 0.6, 0.7, 1.0],
+                     [0.0, 1.0, 0.4, 2.0, 0.0])
+    r = OffscreenRenderer(gl_ctx, hm, size=SIZE)
+    try:
+        r.terrain.set_objects(inst)
+        cam = Camera.look_at((32, 45, 90), (32, 0, 36), aspect=SIZE[0] / SIZE[1], near=1.0,
+                             far=500.0)
+        sun = (60.0, 30.0)
+        r.render(cam, "material", {"object_shadows": "volumes", "sun": sun,
+                                   "impostor_pixels": 0})
+        ref = shadow_reference(cam, r.last_depth(), sun, instances=inst)
+        assert ref.object_shadow.sum() > 400
+        assert agreement(r.last_shadow_count() > 0, ref.object_shadow, ref.surface) >= 0.995
+    finally:
+        r.release()
