@@ -17,7 +17,7 @@ from terrascape.heightmap import Heightmap
 from terrascape.lighting.sun import sun_direction
 from terrascape.objects.model import Instances, ObjectMesh
 from terrascape.render.cascades import fit_cascades, practical_splits
-from terrascape.render.objects import resolve_object_shadows
+from terrascape.render.objects import ObjectShadowFallbackWarning, resolve_object_shadows
 from terrascape.render.offscreen import OffscreenRenderer
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
@@ -195,7 +195,7 @@ def test_objects_appear_where_they_were_placed(gl_ctx, boxes):
     assert not changed[:10].any()
 
 
-def _shadow_scene(gl_ctx, boxes, size, resolution=2048):
+def _shadow_scene(gl_ctx, boxes, size, resolution=None):
     hm = flat()
     cam = overhead(hm, 90.0, size)
     params = {"sun": SUN, "haze": 0.0, "cascade_resolution": resolution}
@@ -335,3 +335,71 @@ def test_volumes_draw_stencil_volumes_without_a_fallback(gl_ctx, boxes):
             r.render(None, "plain", {"object_shadows": "stencil"})
     finally:
         r.release()
+
+
+# --- CLI and API ------------------------------------------------------------------------
+@pytest.mark.gl
+def test_render_cli_objects_equal_the_api(gl_ctx, tmp_path):
+    from PIL import Image
+
+    from terrascape.cli.app import run_app
+    from terrascape.generate.registry import VIEW_SPACING, generate
+    from terrascape.objects import scatter
+    from terrascape.render.offscreen import render_to_array
+
+    out = tmp_path / "objects.png"
+    plain = tmp_path / "plain.png"
+    args = ["render", "--generate", "fbm", "--gen-size", "65", "--seed", "4", "--size",
+            "96x64", "-q"]
+    assert run_app([*args, "-o", str(out), "--objects", "default"]) == 0
+    assert run_app([*args, "-o", str(plain)]) == 0
+    img = np.asarray(Image.open(out))
+    hm = generate("fbm", 65, seed=4, spacing=VIEW_SPACING)
+    inst = scatter(hm, seed=4)
+    assert len(inst) > 0
+    ref = render_to_array(hm, size=(96, 64), ctx=gl_ctx, objects=inst, params={"seed": 4})
+    np.testing.assert_array_equal(img, ref[..., :3])
+    assert (img != np.asarray(Image.open(plain))).any(axis=-1).mean() > 0.005
+    # bad input: one clear line, exit 2
+    assert run_app([*args, "-o", str(tmp_path / "x.png"), "--objects", "default",
+                    "--object-shadows", "stencil"]) == 2
+    assert run_app([*args, "-o", str(tmp_path / "y.png"), "--object-shadows", "none"]) == 2
+
+
+@pytest.mark.gl
+def test_viewer_keys_toggle_objects_and_cycle_their_shadows(gl_ctx, boxes):
+    from terrascape.viewer.controls import HELP
+    from terrascape.viewer.session import ViewerSession
+
+    size = (96, 64)
+    s = ViewerSession(gl_ctx, flat(), size=size, hud=False, warn=lambda m: None,
+                      objects=boxes)
+    s.camera = Camera.look_at((32.0, 40.0, 85.0), (32.0, 0.0, 30.0), fov_y=45.0, near=1.0,
+                              far=300.0)
+    fbo = gl_ctx.simple_framebuffer(size)
+
+    def frame():
+        s.render(fbo, 0.02)
+        return np.frombuffer(fbo.read(components=3), np.uint8).reshape(size[1], size[0], 3)
+
+    try:
+        shown = frame()
+        assert s.stats["objects_meshes"] + s.stats["objects_impostors"] == 3
+        assert s.renderer.objects.mode == "cascades"
+        s.state.handle_key("B")
+        hidden = frame()
+        assert "objects_meshes" not in s.stats
+        assert (shown != hidden).any(axis=-1).mean() > 0.01
+        s.state.handle_key("B")
+        s.state.handle_key("G")  # → volumes (cascades here: this framebuffer has no stencil)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ObjectShadowFallbackWarning)
+            frame()
+        s.state.handle_key("G")  # → none
+        frame()
+        assert s.state.object_shadows == "none" and s.renderer.objects.mode == "none"
+        assert any("object shadows" in d for _, d in HELP)
+        assert any("shadows none" in line for line in s.status_lines())
+    finally:
+        fbo.release()
+        s.release()

@@ -9,6 +9,12 @@ import typer
 
 from terrascape._validate import check_int, check_positive
 from terrascape.cli.app import app, console, timed
+from terrascape.cli.cmd_render import (
+    OBJECT_SHADOWS_HELP,
+    OBJECTS_HELP,
+    check_object_shadows,
+    load_objects_option,
+)
 from terrascape.errors import InvalidParameterError
 from terrascape.generate.registry import VIEW_SPACING, generator_names, get_generator, names_help
 from terrascape.lod.schemes import SCHEMES
@@ -74,6 +80,11 @@ def view_cmd(
     frames: int = typer.Option(
         0, "--frames", help="Quit after this many frames (0: run until Esc).", min=0),
     no_hud: bool = typer.Option(False, "--no-hud", help="Hide the on-screen text."),
+    objects: str = typer.Option(None, "--objects", help=OBJECTS_HELP + " B shows/hides them.",
+                                show_default=False),
+    object_shadows: str = typer.Option(
+        None, "--object-shadows", help=OBJECT_SHADOWS_HELP + " G cycles them.",
+        show_default=False),
 ) -> None:
     """Fly over a terrain in a window: mouse look (click; Esc releases, Esc again quits),
     W A S D / arrows, Q/E down/up, Shift faster, scroll for speed; F1 or H lists every key.
@@ -115,6 +126,9 @@ def view_cmd(
         raise InvalidParameterError(f"--screenshot-dir {screenshot_dir} is not a folder")
     if sea_level is not None and not math.isfinite(sea_level):
         raise InvalidParameterError(f"--sea-level must be finite, got {sea_level}")
+    check_object_shadows(object_shadows)
+    if object_shadows is not None and objects is None:
+        raise InvalidParameterError("--object-shadows needs --objects")
     check_display()
 
     if generate is not None:
@@ -136,6 +150,10 @@ def view_cmd(
         note = sea_level_note(hm, sea_level)
         if note:
             console.print(f"[yellow]warning:[/yellow] {note}")
+    instances = None
+    if objects is not None:
+        with timed("objects"):
+            instances = load_objects_option(objects, hm, seed=seed, exaggeration=exaggeration)
     tex = None
     if texture is not None:
         from terrascape.texture.materials import read_image_rgb
@@ -144,5 +162,6 @@ def view_cmd(
     frames_drawn = run_viewer(hm, size=(width, height), fullscreen=fullscreen,
                               technique=technique, lod=lod, texture=tex,
                               exaggeration=exaggeration, screenshot_dir=screenshot_dir,
-                              max_frames=frames, hud=not no_hud, sea_level=sea_level)
+                              max_frames=frames, hud=not no_hud, sea_level=sea_level,
+                              objects=instances, object_shadows=object_shadows)
     console.print(f"[dim]viewer closed after {frames_drawn} frames[/]")

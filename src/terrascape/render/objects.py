@@ -11,9 +11,14 @@ sun's cascaded shadow maps of objects and terrain together.
   with normals, so it is lit like the mesh.
 * ``object_shadows="cascades"``: the sun's cascaded shadow maps
   (:mod:`terrascape.render.cascades`) drawn from the objects (meshes near, sun-facing
-  impostors far) and from the terrain (a grid thinned to each cascade's texel size), and
-  looked up by the terrain's and the objects' shading (``common/cascades.glsl``).
-  ``"none"``: objects take the terrain's own shadow at their foot and cast none.
+  impostors far), looked up by the terrain's and the objects' shading
+  (``common/cascades.glsl``). The terrain's shadow on the terrain stays its own ray-cast
+  sweep, and on objects it is ray-cast per pixel through the height texture toward the sun
+  (``objects/common/object_shading.glsl``): exact, and on llvmpipe far cheaper than drawing
+  the terrain's 2 M triangles into every cascade. ``cascade_terrain=True`` draws the
+  terrain into the cascades too (a grid thinned to each cascade's texel size) — the
+  "cascades for everything" variant, for comparison. ``"none"``: objects cast no shadow
+  (they still receive the terrain's).
 
 References
 ----------
@@ -47,6 +52,7 @@ CASCADE_COUNT = 3
 _ATLAS_COLOR_UNIT = 8
 _ATLAS_NORMAL_UNIT = 9
 _SUN_SKY_UNIT = 10
+_HEIGHT_UNIT = 11
 CASCADE_UNIT = 15
 _INSTANCE_BYTES = 20  # vec4 place + float yaw
 # Terrain caster blocks: at most this many cells per side (16-bit indices, cheap culling).
@@ -65,6 +71,19 @@ def resolve_object_shadows(value: Any, has_objects: bool) -> str:
         raise InvalidParameterError(
             f"object_shadows must be one of {', '.join(OBJECT_SHADOW_MODES)}, got {value!r}")
     return value if has_objects else "none"
+
+
+def cascade_resolution(value: Any, viewport) -> int:
+    """Texels per side of each cascade: ``value``, or (``None``) the frame's height rounded
+    up to a power of two, 512 to 2048 — about one texel per pixel in the nearest slice; on
+    a software rasteriser clearing and filling the maps is most of their cost."""
+    if value is None:
+        return int(min(2048, max(512, 1 << max(int(viewport[1]) - 1, 1).bit_length())))
+    res = int(value) if isinstance(value, (int, np.integer)) else -1
+    if not 16 <= res <= 8192:
+        raise InvalidParameterError(f"cascade_resolution must be an integer in [16, 8192], "
+                                    f"got {value!r}")
+    return res
 
 
 def sphere_in_frustum(planes: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
@@ -169,6 +188,8 @@ class ObjectRenderer:
         self._warned: set[str] = set()
         self.cascades = None  # the last frame's Cascades (tests, benchmarks)
         self.mode = "none"
+        self.enabled = True  # False: kept on the GPU but not drawn (the viewer's toggle)
+        self._terrain_shadows = True
         self.last_stats: dict[str, int] = {}
         self._view_sets: list[tuple[int, int]] = []
 
@@ -358,7 +379,7 @@ class ObjectRenderer:
                          sun_dir: np.ndarray) -> dict[str, Any]:
         import moderngl
 
-        resolution = int(params.get("cascade_resolution") or 2048)
+        resolution = cascade_resolution(params.get("cascade_resolution"), viewport)
         lo, hi = self.scene_bounds()
         cascades = fit_cascades(camera, sun_dir, lo, hi, count=CASCADE_COUNT,
                                 resolution=resolution)
@@ -378,8 +399,9 @@ class ObjectRenderer:
             for k in range(count):
                 ctx.viewport = (k * res, 0, res, res)
                 mat = cascades.matrices[k]
-                stats["shadow_terrain_triangles"] += self._draw_terrain_caster(
-                    mat, float(cascades.texel_size[k]))
+                if params.get("cascade_terrain"):
+                    stats["shadow_terrain_triangles"] += self._draw_terrain_caster(
+                        mat, float(cascades.texel_size[k]))
                 sets = self._light_sets(mat)
                 stats["shadow_object_triangles"] += self._draw_sets(
                     sets, (mesh_prog, imp_prog), f"c{k}", {"u_view_proj": mat},
@@ -422,10 +444,12 @@ class ObjectRenderer:
         """Before the terrain is drawn: pick the shadow mode, render the cascades (they
         bind their own framebuffer and viewport) and return the uniforms the terrain's and
         the objects' shading read."""
-        mode = resolve_object_shadows(params.get("object_shadows"), len(self.instances) > 0)
+        # an empty set still shadows with cascades (with cascade_terrain: the terrain alone)
+        mode = resolve_object_shadows(params.get("object_shadows"), True)
         # "volumes" reaches here only on a target with a stencil buffer (the renderer
         # falls back to cascades otherwise); terrascape.render.shadow_volumes draws them.
         self.mode = mode
+        self._terrain_shadows = bool(params.get("shadows", True))
         impostor_pixels = float(params.get("impostor_pixels", 48.0))
         if not math.isfinite(impostor_pixels) or impostor_pixels < 0:
             raise InvalidParameterError(
@@ -462,10 +486,15 @@ class ObjectRenderer:
         ctx = self.ctx
         mesh_prog = load_program(ctx, "objects/mesh")
         imp_prog = load_program(ctx, "objects/impostor")
-        sun_sky = self.terrain._env.get("u_sun_sky")
-        extra = {"u_has_sun_sky": int(sun_sky is not None), "u_sun_sky": _SUN_SKY_UNIT}
+        env = self.terrain._env
+        sun_sky, height = env.get("u_sun_sky"), env.get("u_height")
+        extra = {"u_has_sun_sky": int(sun_sky is not None), "u_sun_sky": _SUN_SKY_UNIT,
+                 "u_has_height": int(height is not None), "u_height": _HEIGHT_UNIT,
+                 "u_shadow_march": int(self._terrain_shadows)}
         if sun_sky is not None:
             sun_sky[0].use(location=_SUN_SKY_UNIT)
+        if height is not None:
+            height[0].use(location=_HEIGHT_UNIT)
         for prog in (mesh_prog, imp_prog):
             set_uniforms(prog, **extra)
             self.bind_receiver(prog)
@@ -505,6 +534,7 @@ __all__ = [
     "OBJECT_SHADOW_MODES",
     "ObjectRenderer",
     "ObjectShadowFallbackWarning",
+    "cascade_resolution",
     "impostor_mask",
     "resolve_object_shadows",
     "sphere_in_frustum",

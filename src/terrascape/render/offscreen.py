@@ -264,6 +264,7 @@ def render_to_array(
     ctx=None,
     params: Mapping[str, Any] | None = None,
     quality: str = "default",
+    objects=None,
 ) -> np.ndarray:
     """Render one image of the terrain.
 
@@ -289,6 +290,10 @@ def render_to_array(
         Technique parameters.
     quality
         ``"default"`` or ``"high"`` (2×2 supersampling, 16 shadow sweeps; seconds a frame).
+    objects
+        :class:`~terrascape.objects.model.Instances` to draw on the terrain (trees, rocks,
+        buildings; :func:`terrascape.objects.scatter`), shadowed per
+        ``params["object_shadows"]``.
 
     Returns
     -------
@@ -300,6 +305,7 @@ def render_to_array(
         r = OffscreenRenderer(c, heightmap, size=size, exaggeration=exaggeration,
                               quality=quality)
         try:
+            r.terrain.set_objects(objects)
             return r.render(camera, technique, p)
         finally:
             r.release()
@@ -316,14 +322,17 @@ def render_frames(
     ctx=None,
     params: Mapping[str, Any] | None = None,
     quality: str = "default",
+    objects=None,
 ) -> Iterator[np.ndarray]:
-    """Yield one ``uint8 (h, w, 4)`` frame per camera of a path (one renderer for all)."""
+    """Yield one ``uint8 (h, w, 4)`` frame per camera of a path (one renderer for all);
+    ``objects`` as in :func:`render_to_array`."""
     p = _sun_params(params, sun)
     cams = [_check_camera(c) for c in cameras]
     with _context(ctx) as c:
         r = OffscreenRenderer(c, heightmap, size=size, exaggeration=exaggeration,
                               quality=quality)
         try:
+            r.terrain.set_objects(objects)
             for cam in cams:
                 yield r.render(cam, technique, p)
         finally:
@@ -377,6 +386,7 @@ def turntable(
     force: bool = False,
     progress=None,
     quality: str = "default",
+    objects=None,
 ) -> list[Path]:
     """Render an orbit around the terrain to a PNG sequence or an MP4.
 
@@ -390,6 +400,8 @@ def turntable(
         Overwrite existing files; otherwise any existing target aborts before rendering.
     progress
         Optional callable ``progress(done, total)``.
+    objects
+        Objects on the terrain, as in :func:`render_to_array`.
 
     Returns
     -------
@@ -422,6 +434,7 @@ def turntable(
             ctx=ctx,
             params=params,
             quality=quality,
+            objects=objects,
         )
         for k, (t, img) in enumerate(zip(targets, frames, strict=True)):
             with atomic_output(t, force=force) as tmp:
@@ -447,6 +460,7 @@ def turntable(
             ctx=ctx,
             params=params,
             quality=quality,
+            objects=objects,
         )
         writer = imageio.get_writer(
             tmp,

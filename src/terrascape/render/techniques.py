@@ -302,7 +302,8 @@ COMMON_PARAMS: dict[str, Any] = {
     # objects on the terrain (TerrainRenderer.set_objects; terrascape.render.objects)
     "object_shadows": None,  # cascades | volumes | none; None = cascades with objects
     "impostor_pixels": 48.0,  # objects shorter than this on screen are drawn as impostors
-    "cascade_resolution": 2048,  # texels per side of each of the sun's shadow cascades
+    "cascade_resolution": None,  # texels per side of each sun cascade; None = automatic
+    "cascade_terrain": False,  # draw the terrain into the cascades too (else: ray-cast)
 }
 
 _REGISTRY: dict[str, Technique] = {}

@@ -618,7 +618,7 @@ class TerrainRenderer:
             p = object_shadow_mode(self, fbo, p)  # no stencil: shadow maps, warned once
         uniforms = self.frame_uniforms(camera, p)
         ctx = self.ctx
-        objects = self._objects
+        objects = self._objects if self._objects is not None and self._objects.enabled else None
         # Objects: the sun's shadow maps first (their own framebuffer), read by the terrain.
         uniforms.update(objects.begin_frame(camera, fbo.size, p, uniforms["u_sun_dir"])
                         if objects is not None else {"u_cascade_count": 0})
