@@ -321,16 +321,16 @@ def test_impostors_switch_in_without_a_jump_in_colour(gl_ctx):
 
 
 @pytest.mark.gl
-def test_volumes_fall_back_to_cascades_with_a_warning(gl_ctx, boxes):
+def test_volumes_draw_stencil_volumes_without_a_fallback(gl_ctx, boxes):
     hm = flat(33)
     r = OffscreenRenderer(gl_ctx, hm, size=(64, 64))
     try:
         r.terrain.set_objects(boxes)
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
             r.render(None, "plain", {"object_shadows": "volumes"})
-        assert any(issubclass(w.category, ObjectShadowFallbackWarning) for w in caught)
-        assert r.terrain.objects.mode == "cascades"
+        assert r.terrain.objects.mode == "volumes"
+        assert r.terrain.last_stats["shadow_volume_triangles"] > 0
         with pytest.raises(InvalidParameterError, match="object_shadows"):
             r.render(None, "plain", {"object_shadows": "stencil"})
     finally:
@@ -391,7 +391,7 @@ def test_viewer_keys_toggle_objects_and_cycle_their_shadows(gl_ctx, boxes):
         assert "objects_meshes" not in s.stats
         assert (shown != hidden).any(axis=-1).mean() > 0.01
         s.state.handle_key("B")
-        s.state.handle_key("G")  # → volumes (cascades in this build, with a warning)
+        s.state.handle_key("G")  # → volumes (cascades here: this framebuffer has no stencil)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ObjectShadowFallbackWarning)
             frame()

@@ -31,7 +31,6 @@ Engel, W. (2006). Cascaded shadow maps. In *ShaderX5*, 197-206.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Mapping
 from typing import Any
 
@@ -447,13 +446,8 @@ class ObjectRenderer:
         the objects' shading read."""
         # an empty set still shadows with cascades (with cascade_terrain: the terrain alone)
         mode = resolve_object_shadows(params.get("object_shadows"), True)
-        if mode == "volumes":
-            if "volumes" not in self._warned:
-                self._warned.add("volumes")
-                warnings.warn("object_shadows='volumes' (stencil shadow volumes) is not "
-                              "available in this build; drawing cascaded shadow maps",
-                              ObjectShadowFallbackWarning, stacklevel=3)
-            mode = "cascades"
+        # "volumes" reaches here only on a target with a stencil buffer (the renderer
+        # falls back to cascades otherwise); terrascape.render.shadow_volumes draws them.
         self.mode = mode
         self._terrain_shadows = bool(params.get("shadows", True))
         impostor_pixels = float(params.get("impostor_pixels", 48.0))

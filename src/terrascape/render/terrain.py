@@ -612,6 +612,10 @@ class TerrainRenderer:
             p = tech.resolve(common)
             samplers, program = self._prepare(tech, p)
         self.last_technique = tech.name
+        if p["object_shadows"] == "volumes":
+            from terrascape.render.shadow_volumes import object_shadow_mode
+
+            p = object_shadow_mode(self, fbo, p)  # no stencil: shadow maps, warned once
         uniforms = self.frame_uniforms(camera, p)
         ctx = self.ctx
         objects = self._objects if self._objects is not None and self._objects.enabled else None
@@ -663,6 +667,12 @@ class TerrainRenderer:
         ctx.disable(moderngl.CULL_FACE)
         if objects is not None:
             stats = {**stats, **objects.draw(uniforms)}
+        if objects is not None and objects.mode == "volumes":
+            from terrascape.render.shadow_volumes import shade_shadow_volumes
+
+            stats.update(shade_shadow_volumes(self, fbo, camera, uniforms, plan=plan,
+                                              program=deferred or program,
+                                              deferred=deferred is not None))
         if daylight and (p["sea_level"] is not None or p["water_depth"] is not None):
             self._draw_water(fbo, uniforms, p)
         if p["sky"]:
