@@ -451,3 +451,51 @@ def test_cascades_on_hills_agree_with_the_ray_cast_reference(gl_ctx):
     assert ref.object_shadow[keep].sum() > 300
     agreement = (measured[keep] == ref.object_shadow[keep]).mean()
     assert agreement >= 0.98, agreement
+
+
+@pytest.mark.gl
+def test_objects_in_a_ridges_shadow_are_dark_and_the_others_lit(gl_ctx):
+    """The terrain's shadow on objects (ray-cast through the height texture): a box behind
+    a ridge, away from the sun, gets only sky light on its sunward face; one in the open
+    keeps the sun."""
+    n = 97
+    h = np.zeros((n, n), np.float32)
+    h[:, 40:44] = 20.0  # a north-south wall of 20 m at x = 40..43
+    hm = Heightmap(h, spacing=(1.0, 1.0))
+    mesh = box_mesh(size=(4.0, 6.0, 4.0), color=(0.5, 0.5, 0.5))
+    # sun in the west, 30° up: the wall's shadow reaches 34 m east of it
+    sun = (270.0, 30.0)
+    inst = Instances((mesh,), [0, 0], [[52.0, 0.0, 30.0], [85.0, 0.0, 30.0]], [1.0, 1.0],
+                     [0.0, 0.0])
+    size = (160, 120)
+    # east of the wall, south of the boxes: it sees their west faces
+    cam = Camera.look_at((46.0, 8.0, 5.0), (68.0, 3.0, 30.0), fov_y=60.0, near=0.5,
+                         far=400.0, aspect=size[0] / size[1])
+    params = {"sun": sun, "haze": 0.0, "impostor_pixels": 0, "object_shadows": "none"}
+    r = OffscreenRenderer(gl_ctx, hm, size=size)
+    try:
+        r.terrain.set_objects(inst)
+        shaded = r.render(cam, "plain", params)
+        lit = r.render(cam, "plain", {**params, "shadows": False})
+        # the other variant: the terrain drawn into the cascades, its sweep off
+        cascaded = r.render(cam, "plain", {**params, "shadows": False, "cascade_terrain": True,
+                                           "object_shadows": "cascades"})
+    finally:
+        r.release()
+    ground = cam.project([[62.0, 0.0, 45.0], [92.0, 0.0, 45.0]], size)
+    assert ((ground[:, 0] > 2) & (ground[:, 0] < size[0] - 2) & (ground[:, 1] > 2)
+            & (ground[:, 1] < size[1] - 2)).all()
+    g = [luma(cascaded[int(y) - 1:int(y) + 2, int(x) - 1:int(x) + 2]).mean()
+         / luma(lit[int(y) - 1:int(y) + 2, int(x) - 1:int(x) + 2]).mean() for x, y, _ in ground]
+    assert g[0] < 0.7 and g[1] > 0.97, g  # the wall's shadow on the ground, from the cascades
+    # the west (sunward) face of each box, 3 m up
+    faces = cam.project([[50.0 - 0.05, 3.0, 30.0], [83.0 - 0.05, 3.0, 30.0]], size)
+    ratios = []
+    for x, y, _ in faces:
+        row, col = int(y), int(x)
+        patch = (slice(row - 1, row + 2), slice(col - 1, col + 2))
+        ratios.append(luma(shaded[patch]).mean() / luma(lit[patch]).mean())
+    behind, open_ = ratios
+    assert behind < 0.7, ratios  # in the wall's shadow: sky light only
+    assert behind > 0.15, ratios  # not black
+    assert open_ > 0.97, ratios
