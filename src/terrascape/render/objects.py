@@ -185,7 +185,6 @@ class ObjectRenderer:
         self._atlas = self._bake_atlas()
         self._shadow: tuple | None = None  # (resolution, count, texture, fbo)
         self._casters: dict[int, list] = {}  # terrain caster blocks per grid stride
-        self._warned: set[str] = set()
         self.cascades = None  # the last frame's Cascades (tests, benchmarks)
         self.mode = "none"
         self.enabled = True  # False: kept on the GPU but not drawn (the viewer's toggle)
