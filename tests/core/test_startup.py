@@ -124,4 +124,5 @@ def test_lazy_package_keeps_functions_over_same_named_submodules():
         "assert not isinstance(diamond_square, types.ModuleType), diamond_square\n"
         "assert callable(diamond_square) and callable(luminance)\n"
     )
-    subprocess.run([sys.executable, "-c", code], check=True, env={**os.environ, "PYTHONPATH": SRC}, timeout=120)
+    subprocess.run([sys.executable, "-c", code], check=True,
+                   env={**os.environ, "PYTHONPATH": SRC}, timeout=120)

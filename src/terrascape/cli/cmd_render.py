@@ -153,6 +153,31 @@ def _check_time_options(time, latitude, longitude, day_cycle, frames, turntable)
         raise InvalidParameterError(
             f"--frames must be in [1, {MAX_TURNTABLE_FRAMES}], got {frames}")
     return parse_duration(day_cycle)
+OBJECTS_HELP = (
+    "Objects on the terrain: default (the built-in trees, bushes, rocks and buildings by "
+    "the default rules), a .glb/.gltf mesh (scattered like trees) or a rules file "
+    "(.toml/.json). [default: none]")
+OBJECT_SHADOWS_HELP = (
+    "Shadows of the objects: cascades (the sun's cascaded shadow maps, objects and terrain "
+    "together), volumes (stencil shadow volumes) or none. [default: cascades]")
+
+
+def load_objects_option(spec: str | None, hm, *, seed: int, exaggeration: float):
+    """The Instances of ``--objects SPEC`` (None without the option)."""
+    if spec is None:
+        return None
+    from terrascape.objects import load_objects
+
+    return load_objects(spec, hm, seed=seed, exaggeration=exaggeration)
+
+
+def check_object_shadows(value: str | None) -> str | None:
+    from terrascape.render.objects import OBJECT_SHADOW_MODES
+
+    if value is not None and value not in OBJECT_SHADOW_MODES:
+        raise InvalidParameterError(
+            f"--object-shadows must be one of {', '.join(OBJECT_SHADOW_MODES)}, got {value!r}")
+    return value
 
 
 @app.command("render")
@@ -284,6 +309,9 @@ def render_command(
         show_default=False,
     ),
     wireframe: bool = typer.Option(False, "--wireframe", help="Overlay the triangle edges."),
+    objects: str = typer.Option(None, "--objects", help=OBJECTS_HELP, show_default=False),
+    object_shadows: str = typer.Option(
+        None, "--object-shadows", help=OBJECT_SHADOWS_HELP, show_default=False),
     turntable: int = typer.Option(
         0,
         "--turntable",
@@ -362,7 +390,10 @@ def render_command(
         check_output_path(output, force=force)
     params = {"lighting": lighting, "wireframe": wireframe, "seed": seed,
               "sea_level": sea_level, "surround": surround, "turbidity": turbidity,
-              "exposure": exposure, "haze": haze}
+              "exposure": exposure, "haze": haze,
+              "object_shadows": check_object_shadows(object_shadows)}
+    if object_shadows is not None and objects is None:
+        raise InvalidParameterError("--object-shadows needs --objects")
 
     use_max_memory(max_memory)
     if generate is not None:
@@ -379,6 +410,11 @@ def render_command(
         check_grid("render", hm.rows, hm.cols, hint="render a smaller map (or raise --max-memory)")
     if water_depth is not None:
         params["water_depth"] = _load_water_depth(water_depth, hm)
+    if objects is not None:
+        with timed("objects", quiet=quiet):
+            instances = load_objects_option(objects, hm, seed=seed, exaggeration=exaggeration)
+    else:
+        instances = None
     from terrascape.render.atmosphere import sea_level_note
 
     note = sea_level_note(hm, sea_level)
@@ -443,6 +479,7 @@ def render_command(
                     force=force,
                     progress=lambda done, total: bar.update(task, completed=done),
                     quality=quality,
+                    objects=instances,
                 )
             out.print(
                 f"{files[0]}"
@@ -454,6 +491,7 @@ def render_command(
         renderer = OffscreenRenderer(ctx, hm, size=wh, exaggeration=exaggeration,
                                      quality=quality)
         try:
+            renderer.terrain.set_objects(instances)
             with timed(f"render ({technique})", quiet=quiet):
                 img = renderer.render(cam, technique, {**params, "sun": (sun_az, sun_el)})
         finally:

@@ -9,6 +9,12 @@ import typer
 
 from terrascape._validate import check_int, check_positive
 from terrascape.cli.app import app, console, timed
+from terrascape.cli.cmd_render import (
+    OBJECT_SHADOWS_HELP,
+    OBJECTS_HELP,
+    check_object_shadows,
+    load_objects_option,
+)
 from terrascape.errors import InvalidParameterError
 from terrascape.generate.registry import VIEW_SPACING, generator_names, get_generator, names_help
 from terrascape.lod.schemes import SCHEMES
@@ -87,6 +93,11 @@ def view_cmd(
     longitude: float = typer.Option(
         None, "--longitude", help="Longitude (degrees east) of the sky clock. [default: the "
         "map's georeference]", show_default=False),
+    objects: str = typer.Option(None, "--objects", help=OBJECTS_HELP + " B shows/hides them.",
+                                show_default=False),
+    object_shadows: str = typer.Option(
+        None, "--object-shadows", help=OBJECT_SHADOWS_HELP + " G cycles them.",
+        show_default=False),
 ) -> None:
     """Fly over a terrain in a window: mouse look (click; Esc releases, Esc again quits),
     W A S D / arrows, Q/E down/up, Shift faster, scroll for speed; F1 or H lists every key.
@@ -137,6 +148,9 @@ def view_cmd(
         parse_time(time)
         if latitude is not None:
             check_latitude(latitude)
+    check_object_shadows(object_shadows)
+    if object_shadows is not None and objects is None:
+        raise InvalidParameterError("--object-shadows needs --objects")
     check_display()
 
     if generate is not None:
@@ -158,6 +172,10 @@ def view_cmd(
         note = sea_level_note(hm, sea_level)
         if note:
             console.print(f"[yellow]warning:[/yellow] {note}")
+    instances = None
+    if objects is not None:
+        with timed("objects"):
+            instances = load_objects_option(objects, hm, seed=seed, exaggeration=exaggeration)
     tex = None
     if texture is not None:
         from terrascape.texture.materials import read_image_rgb
@@ -174,5 +192,6 @@ def view_cmd(
                               technique=technique, lod=lod, texture=tex,
                               exaggeration=exaggeration, screenshot_dir=screenshot_dir,
                               max_frames=frames, hud=not no_hud, sea_level=sea_level,
-                              sky_clock=sky_clock)
+                              sky_clock=sky_clock, objects=instances,
+                              object_shadows=object_shadows)
     console.print(f"[dim]viewer closed after {frames_drawn} frames[/]")

@@ -162,6 +162,8 @@ class OffscreenRenderer:
         self._color = ctx.renderbuffer((w, h), 4, samples=0)
         self._depth = ctx.depth_renderbuffer((w, h), samples=0)
         self.fbo = ctx.framebuffer(color_attachments=[self._color], depth_attachment=self._depth)
+        self._stencil: Any = None  # depth + stencil target of object_shadows="volumes"
+        self._last_fbo = self.fbo
 
     def default_camera(self, **kwargs) -> Camera:
         return default_camera(
@@ -182,15 +184,58 @@ class OffscreenRenderer:
         p = dict(params or {})
         if self.samples > 1 and "shadow_samples" not in p:
             p["shadow_samples"] = HIGH_SHADOW_SAMPLES
-        self.terrain.render(self.fbo, camera, technique, p)
-        raw = self.fbo.read(components=4, alignment=1)
+        fbo = self.fbo
+        if p.get("object_shadows") == "volumes":
+            from terrascape.render.shadow_volumes import ShadowVolumes
+
+            fbo = self._stencil_fbo()
+            ShadowVolumes.of(self.terrain).keep_count = True  # for last_shadow_count()
+        self.terrain.render(fbo, camera, technique, p)
+        self._last_fbo = fbo
+        raw = fbo.read(components=4, alignment=1)
         img = np.frombuffer(raw, dtype=np.uint8).reshape(h, w, 4)[::-1]
         if self.samples == 1:
             return img.copy()
         return downsample_srgb(img, self.samples)
 
     @_current
+    def last_shadow_count(self) -> np.ndarray | None:
+        """uint8 ``(h, w)`` (draw size, row 0 at the top): the shadow volume count of the
+        last ``object_shadows="volumes"`` frame, non-zero where objects shade the sun;
+        ``None`` before one."""
+        from terrascape.render.shadow_volumes import ShadowVolumes
+
+        return ShadowVolumes.of(self.terrain).last_count if self._stencil else None
+
+    @_current
+    def last_depth(self) -> np.ndarray:
+        """float32 ``(h, w)`` window depth of the last frame (row 0 at the top, 1 = sky):
+        with the camera it gives each pixel's surface point
+        (:func:`terrascape.objects.shadow_reference.surface_points`)."""
+        if self._stencil and self._last_fbo is self._stencil.fbo:
+            return self._stencil.read_depth()
+        w, h = self._draw_size
+        raw = self.fbo.read(attachment=-1, components=1, dtype="f4")
+        return np.frombuffer(raw, np.float32).reshape(h, w)[::-1].copy()
+
+    def _stencil_fbo(self):
+        """The framebuffer with a stencil buffer that shadow volumes count in (made on first
+        use); the plain one when this GL cannot make it (the renderer then falls back)."""
+        if self._stencil is None:
+            from terrascape.errors import GLUnavailableError
+            from terrascape.render.stencil import StencilFramebuffer
+
+            try:
+                self._stencil = StencilFramebuffer(self.ctx, self._draw_size)
+            except GLUnavailableError:
+                self._stencil = False
+        return self._stencil.fbo if self._stencil else self.fbo
+
+    @_current
     def release(self) -> None:
+        if self._stencil:
+            self._stencil.release()
+        self._stencil = None
         self.terrain.release()
         self.fbo.release()
         self._color.release()
@@ -219,6 +264,7 @@ def render_to_array(
     ctx=None,
     params: Mapping[str, Any] | None = None,
     quality: str = "default",
+    objects=None,
 ) -> np.ndarray:
     """Render one image of the terrain.
 
@@ -244,6 +290,10 @@ def render_to_array(
         Technique parameters.
     quality
         ``"default"`` or ``"high"`` (2×2 supersampling, 16 shadow sweeps; seconds a frame).
+    objects
+        :class:`~terrascape.objects.model.Instances` to draw on the terrain (trees, rocks,
+        buildings; :func:`terrascape.objects.scatter`), shadowed per
+        ``params["object_shadows"]``.
 
     Returns
     -------
@@ -255,6 +305,7 @@ def render_to_array(
         r = OffscreenRenderer(c, heightmap, size=size, exaggeration=exaggeration,
                               quality=quality)
         try:
+            r.terrain.set_objects(objects)
             return r.render(camera, technique, p)
         finally:
             r.release()
@@ -271,14 +322,17 @@ def render_frames(
     ctx=None,
     params: Mapping[str, Any] | None = None,
     quality: str = "default",
+    objects=None,
 ) -> Iterator[np.ndarray]:
-    """Yield one ``uint8 (h, w, 4)`` frame per camera of a path (one renderer for all)."""
+    """Yield one ``uint8 (h, w, 4)`` frame per camera of a path (one renderer for all);
+    ``objects`` as in :func:`render_to_array`."""
     p = _sun_params(params, sun)
     cams = [_check_camera(c) for c in cameras]
     with _context(ctx) as c:
         r = OffscreenRenderer(c, heightmap, size=size, exaggeration=exaggeration,
                               quality=quality)
         try:
+            r.terrain.set_objects(objects)
             for cam in cams:
                 yield r.render(cam, technique, p)
         finally:
@@ -332,6 +386,7 @@ def turntable(
     force: bool = False,
     progress=None,
     quality: str = "default",
+    objects=None,
 ) -> list[Path]:
     """Render an orbit around the terrain to a PNG sequence or an MP4.
 
@@ -345,6 +400,8 @@ def turntable(
         Overwrite existing files; otherwise any existing target aborts before rendering.
     progress
         Optional callable ``progress(done, total)``.
+    objects
+        Objects on the terrain, as in :func:`render_to_array`.
 
     Returns
     -------
@@ -377,6 +434,7 @@ def turntable(
             ctx=ctx,
             params=params,
             quality=quality,
+            objects=objects,
         )
         # The sequence is one output: its frames wait as temporaries and are committed
         # together, so an interrupted run (a fault, SIGTERM) leaves no partial sequence.
@@ -404,6 +462,7 @@ def turntable(
             ctx=ctx,
             params=params,
             quality=quality,
+            objects=objects,
         )
         writer = imageio.get_writer(
             tmp,

@@ -302,6 +302,11 @@ COMMON_PARAMS: dict[str, Any] = {
     # sun, moon and stars of a date and place (terrascape.lighting.solar_position.SkyState);
     # None: the sun of "sun", no moon
     "sky_state": None,
+    # objects on the terrain (TerrainRenderer.set_objects; terrascape.render.objects)
+    "object_shadows": None,  # cascades | volumes | none; None = cascades with objects
+    "impostor_pixels": 48.0,  # objects shorter than this on screen are drawn as impostors
+    "cascade_resolution": None,  # texels per side of each sun cascade; None = automatic
+    "cascade_terrain": False,  # draw the terrain into the cascades too (else: ray-cast)
 }
 
 _REGISTRY: dict[str, Technique] = {}

@@ -287,6 +287,7 @@ class TerrainRenderer:
         self._fallen_back: set[str] = set()
         self._mip_levels: dict[str, int] = {}  # sampler -> levels, for "<sampler>_levels"
         self.last_technique: str | None = None  # what the last frame really drew (R11)
+        self._objects = None  # terrascape.render.objects.ObjectRenderer, set_objects()
 
     # --- geometry ------------------------------------------------------------------------
     def _upload_chunks(self):
@@ -371,6 +372,25 @@ class TerrainRenderer:
             vao = self.ctx.vertex_array(program, content, ibo, index_size, skip_errors=True)
             self._vaos[key] = vao
         return vao
+
+    # --- objects on the terrain --------------------------------------------------------
+    @_current
+    def set_objects(self, instances) -> None:
+        """Draw these :class:`~terrascape.objects.model.Instances` on the terrain in every
+        frame (instanced, impostors far away, the sun's shadows per ``object_shadows``;
+        :mod:`terrascape.render.objects`); ``None`` removes them."""
+        from terrascape.render.objects import ObjectRenderer
+
+        if self._objects is not None:
+            self._objects.release()
+            self._objects = None
+        if instances is not None:
+            self._objects = ObjectRenderer(self, instances)
+
+    @property
+    def objects(self):
+        """The :class:`~terrascape.render.objects.ObjectRenderer` of :meth:`set_objects`."""
+        return self._objects
 
     # --- textures ------------------------------------------------------------------------
     @_current
@@ -594,8 +614,16 @@ class TerrainRenderer:
             p = tech.resolve(common)
             samplers, program = self._prepare(tech, p)
         self.last_technique = tech.name
+        if p["object_shadows"] == "volumes":
+            from terrascape.render.shadow_volumes import object_shadow_mode
+
+            p = object_shadow_mode(self, fbo, p)  # no stencil: shadow maps, warned once
         uniforms = self.frame_uniforms(camera, p)
         ctx = self.ctx
+        objects = self._objects if self._objects is not None and self._objects.enabled else None
+        # Objects: the sun's shadow maps first (their own framebuffer), read by the terrain.
+        uniforms.update(objects.begin_frame(camera, fbo.size, p, uniforms["u_sun_dir"])
+                        if objects is not None else {"u_cascade_count": 0})
         fbo.use()
         ctx.viewport = (0, 0, *fbo.size)
         horizon = uniforms["u_fog_color"]
@@ -611,6 +639,8 @@ class TerrainRenderer:
         self.draw_skirts = daylight
         if daylight:
             self._bind_environment(deferred or program, p)
+        if objects is not None:
+            objects.bind_receiver(deferred or program)
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.front_face = "ccw"
         wire = bool(p["wireframe"])
@@ -637,6 +667,14 @@ class TerrainRenderer:
             finally:
                 ctx.wireframe = False
         ctx.disable(moderngl.CULL_FACE)
+        if objects is not None:
+            stats = {**stats, **objects.draw(uniforms)}
+        if objects is not None and objects.mode == "volumes":
+            from terrascape.render.shadow_volumes import shade_shadow_volumes
+
+            stats.update(shade_shadow_volumes(self, fbo, camera, uniforms, plan=plan,
+                                              program=deferred or program,
+                                              deferred=deferred is not None))
         if daylight and (p["sea_level"] is not None or p["water_depth"] is not None):
             self._draw_water(fbo, uniforms, p)
         if p["sky"]:
@@ -1083,6 +1121,7 @@ class TerrainRenderer:
             vao.release()
         self._fullscreen_vaos.clear()
         self._release_gbuffer()
+        self.set_objects(None)
 
 
 def check_output_size(ctx, size: Any) -> tuple[int, int]:

@@ -206,7 +206,8 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
                fullscreen: bool = False, technique: str = "plain", lod: str = "none",
                texture: np.ndarray | None = None, exaggeration: float = 1.0,
                screenshot_dir: str | os.PathLike | None = None, max_frames: int = 0,
-               hud: bool = True, sea_level: float | None = None, sky_clock=None) -> int:
+               hud: bool = True, sea_level: float | None = None, sky_clock=None,
+               objects=None, object_shadows: str | None = None) -> int:
     """Open the viewer window and fly over ``heightmap`` until Esc / the window is closed.
 
     Parameters
@@ -224,6 +225,9 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
         :func:`default_screenshot_dir` (the user's pictures folder).
     max_frames
         Quit after this many frames (0: run until closed) — for scripted runs.
+    objects, object_shadows
+        :class:`~terrascape.objects.model.Instances` on the terrain (B shows/hides them)
+        and their start shadow mode (G cycles cascades / volumes / none).
 
     Returns
     -------
@@ -251,7 +255,9 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
         moderngl_window.activate_context(window=wnd)
         session = ViewerSession(wnd.ctx, heightmap, size=wnd.buffer_size, technique=technique,
                                 lod=lod, texture=texture, exaggeration=exaggeration, hud=hud,
-                                sea_level=sea_level, sky_clock=sky_clock)
+                                sea_level=sea_level, sky_clock=sky_clock, objects=objects)
+        if object_shadows is not None:
+            session.state.object_shadows = object_shadows
         cls = make_window_config()
         config = cls(session, screenshot_dir=Path(screenshot_dir), max_frames=max_frames,
                      ctx=wnd.ctx, wnd=wnd)

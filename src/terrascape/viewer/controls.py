@@ -59,6 +59,9 @@ class Action(Enum):
 
 
 # (key, needs shift) → description, shown in the help panel in this order.
+# G cycles the objects' shadows (terrascape.render.objects.OBJECT_SHADOW_MODES)
+OBJECT_SHADOW_CYCLE = ("cascades", "volumes", "none")
+
 HELP: tuple[tuple[str, str], ...] = (
     ("W A S D / arrows", "fly (Shift: faster; scroll: change speed)"),
     ("Q / E", "down / up"),
@@ -81,6 +84,8 @@ HELP: tuple[tuple[str, str], ...] = (
     ("Y / U", "time ∓ 15 minutes"),
     ("F", "fog on/off"),
     ("T", "terrain following on/off"),
+    ("B", "objects on the terrain on/off (with --objects)"),
+    ("G", "object shadows: " + " / ".join(OBJECT_SHADOW_CYCLE)),
     ("F1 / H", "this help"),
     ("F12", "screenshot to PNG"),
 )
@@ -108,6 +113,9 @@ class ViewerState:
     terrain_following: bool = False
     show_help: bool = False
     mouse_captured: bool = False
+    has_objects: bool = False  # the session draws objects (--objects)
+    objects: bool = True  # B: shown
+    object_shadows: str = "cascades"  # G: OBJECT_SHADOW_CYCLE
     speed: float = 1.0  # world units per second; set from the terrain size at start
     available: tuple[str, ...] = field(default=TECHNIQUES)
     # The sky clock: an instant (UTC) at a place; None = the sun keys' fixed sun.
@@ -192,6 +200,11 @@ class ViewerState:
             self.fog = not self.fog
         elif key == "T":
             self.terrain_following = not self.terrain_following
+        elif key == "B":
+            self.objects = not self.objects
+        elif key == "G":
+            i = OBJECT_SHADOW_CYCLE.index(self.object_shadows)
+            self.object_shadows = OBJECT_SHADOW_CYCLE[(i + 1) % len(OBJECT_SHADOW_CYCLE)]
         return Action.NONE
 
     # --- the sky clock --------------------------------------------------------------------
@@ -345,6 +358,9 @@ class ViewerState:
         clock = self.time_line()
         if clock is not None:
             lines.append(clock)
+        if self.has_objects:
+            lines.append(f"objects {'on' if self.objects else 'off'}  "
+                         f"shadows {self.object_shadows}")
         return lines
 
 

@@ -332,7 +332,7 @@ class ViewerSession:
                  exaggeration: float = 1.0, hud: bool = True, font_size: int | None = None,
                  lod_time_budget_ms: float | None = 12.0,
                  warn: Callable[[str], None] | None = None,
-                 sea_level: float | None = None, sky_clock=None) -> None:
+                 sea_level: float | None = None, sky_clock=None, objects=None) -> None:
         from terrascape.render.techniques import TextureData, technique_names
         from terrascape.render.terrain import TerrainRenderer
 
@@ -370,6 +370,8 @@ class ViewerSession:
         self.stats: dict[str, int] = {}
         self.frames = 0
         self._lod_drawn = False
+        self.renderer.set_objects(objects)
+        self.state.has_objects = objects is not None
         if texture is not None:
             self.renderer.set_texture("u_color_tex", TextureData(np.asarray(texture),
                                                                 repeat=False))
@@ -417,10 +419,14 @@ class ViewerSession:
 
         tech = get_technique(technique or self.state.technique)
         has_lm = any(s.uniform == "u_lightmap" for s in tech.textures)
-        return technique_params(self.state, tech.parameters(), has_lightmap=has_lm,
-                                fog_density=self.fog_density,
-                                time_s=time.monotonic() - self._start,
-                                sea_level=self.sea_level)
+        p = technique_params(self.state, tech.parameters(), has_lightmap=has_lm,
+                             fog_density=self.fog_density,
+                             time_s=time.monotonic() - self._start,
+                             sea_level=self.sea_level)
+        if self.state.has_objects:
+            p["object_shadows"] = self.state.object_shadows
+            self.renderer.objects.enabled = self.state.objects  # B hides, keeps the buffers
+        return p
 
     def _update_lod(self, camera: Camera, viewport: tuple[int, int]) -> None:
         st = self.state

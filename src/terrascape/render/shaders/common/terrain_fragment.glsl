@@ -2,6 +2,7 @@
 #include "common/lighting.glsl"
 #include "common/atmosphere.glsl"
 #include "common/fog.glsl"
+#include "common/cascades.glsl"
 
 #ifdef DEFERRED
 // Deferred shading (terrascape.render.terrain: full-resolution frames of sub-pixel
@@ -82,9 +83,14 @@ vec3 view_dir() {
     return normalize(u_camera_pos - v_world);
 }
 
-// (sun visibility, sky visibility) of this fragment.
+// (sun visibility, sky visibility) of this fragment; with objects on the terrain, the
+// shadows of the sun's cascades too (the darker of the two: both see the terrain).
 vec2 sun_sky_visibility() {
-    return texture(u_sun_sky, grid_texcoord(vec2(textureSize(u_sun_sky, 0)))).rg;
+    vec2 vis = texture(u_sun_sky, grid_texcoord(vec2(textureSize(u_sun_sky, 0)))).rg;
+    if (u_cascade_count > 0) {
+        vis.x = min(vis.x, cascade_sun_visibility(v_world, normalize(v_normal)));
+    }
+    return vis;
 }
 
 // Colour of a surface point with albedo and unit normal N under the chosen lighting mode.

@@ -1,0 +1,235 @@
+"""Sun shadows of objects by stencil shadow volumes, the renderer's ``object_shadows =
+"volumes"`` mode (the Doom 3 technique).
+
+After the frame's surfaces are drawn (depth and lit colour), the shadow volumes of every
+object (:func:`terrascape.objects.silhouette.shadow_volume`) are drawn into the stencil
+buffer with z-fail counting (:func:`terrascape.render.stencil.zfail_counting`): the count
+left at a pixel is the number of volumes its surface point lies in. The surfaces are then
+drawn again, with the same program, only where the count is not zero and with the sun's
+light switched off (its irradiance and the diffuse and specular terms of Phong lighting set
+to 0), so sky light and bounce light remain. Whatever the scene's program shades — terrain
+of any technique, objects — is shadowed this way without code of its own, and the sun can
+move freely: the volumes are rebuilt on the CPU when it does.
+
+The volume pass uses the frame's own projection with GL_DEPTH_CLAMP on instead of an
+infinite far plane: clamping keeps every part of a volume beyond the far plane (and its
+points at infinity) at the far plane's depth, behind every surface drawn, which is all
+z-fail needs; the scene's depth buffer stays the one the frame was drawn with.
+
+References
+----------
+Everitt, C. & Kilgard, M. J. (2002). Practical and robust stenciled shadow volumes for
+hardware-accelerated rendering. NVIDIA technical report (arXiv:cs/0301002).
+
+Heidmann, T. (1991). Real shadows, real time. *Iris Universe* 18, 28-31.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from terrascape.errors import GLUnavailableError, InvalidParameterError
+from terrascape.objects.model import Instances
+from terrascape.objects.silhouette import shadow_volume
+from terrascape.render.objects import OBJECT_SHADOW_MODES, ObjectShadowFallbackWarning
+from terrascape.render.shaders import load_program, set_uniforms
+from terrascape.render.stencil import (
+    clear_stencil,
+    read_stencil,
+    stencil_bits,
+    stencil_replace,
+    stencil_test,
+    zfail_counting,
+)
+
+# The mode "volumes" falls back to when the target has no stencil buffer (or no PyOpenGL).
+FALLBACK_MODE = "cascades"
+# Uniform values that switch the sun's light off in every lighting model of the shaders
+# (daylight: the sun's irradiance; Phong: its diffuse and specular terms).
+SUN_OFF = {"u_sun_irradiance": (0.0, 0.0, 0.0), "u_kd": 0.0, "u_ks": 0.0}
+
+
+class ShadowVolumeFallbackWarning(ObjectShadowFallbackWarning):
+    """Stencil shadow volumes cannot run on this target; shadow maps are used instead."""
+
+
+def object_shadow_mode(renderer, fbo, params: Mapping[str, Any]) -> dict[str, Any]:
+    """``params`` with ``object_shadows`` checked; ``"volumes"`` on a target without a
+    stencil buffer (or without PyOpenGL) becomes the shadow-map mode, with one warning per
+    renderer."""
+    p = dict(params)
+    mode = p.get("object_shadows")
+    if mode is not None and mode not in OBJECT_SHADOW_MODES:
+        raise InvalidParameterError(
+            f"object_shadows must be one of {', '.join(OBJECT_SHADOW_MODES)}, got {mode!r}")
+    if mode != "volumes" or stencil_bits(fbo) > 0:
+        return p
+    fallen = renderer.__dict__.setdefault("_fallen_back", set())
+    if "object_shadows=volumes" not in fallen:
+        fallen.add("object_shadows=volumes")
+        warnings.warn(
+            "shadow volumes need a stencil buffer (and PyOpenGL), which this render target "
+            f"does not have; object shadows use shadow maps ({FALLBACK_MODE!r}) instead",
+            ShadowVolumeFallbackWarning, stacklevel=3)
+    p["object_shadows"] = FALLBACK_MODE
+    return p
+
+
+class ShadowVolumes:
+    """GL side of the volumes: the program, a vertex buffer of volume triangles and the
+    stencil count. One per renderer (``ShadowVolumes.of(renderer)``)."""
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        self.program = load_program(ctx, "shadow/volume")
+        self._buffer = None
+        self._capacity = 0
+        self._vao = None
+        self._count = 0
+        self._key: Any = None
+        self.build_seconds = 0.0  # CPU time of the last rebuild (silhouettes + upload)
+        # keep_count: read the stencil count back after counting (tests, benchmarks)
+        self.keep_count = False
+        self.last_count: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, renderer) -> ShadowVolumes:
+        have = renderer.__dict__.get("_shadow_volumes")
+        if have is None:
+            have = renderer.__dict__["_shadow_volumes"] = cls(renderer.ctx)
+        return have
+
+    def set_triangles(self, triangles: np.ndarray, key: Any = None) -> int:
+        """Upload float32 ``(M, 3, 4)`` volume triangles (kept until the next call); returns M."""
+        import time
+
+        t0 = time.perf_counter()
+        tri = np.ascontiguousarray(triangles, dtype=np.float32)
+        if tri.ndim != 3 or tri.shape[1:] != (3, 4):
+            raise InvalidParameterError(f"volume triangles must be (M, 3, 4), got {tri.shape}")
+        data = tri.tobytes()
+        if len(data) > self._capacity:
+            if self._buffer is not None:
+                self._vao.release()
+                self._buffer.release()
+            self._capacity = max(len(data) + len(data) // 4, 48)
+            self._buffer = self.ctx.buffer(reserve=self._capacity, dynamic=True)
+            self._vao = self.ctx.vertex_array(self.program, [(self._buffer, "4f", "in_position")])
+        if data:
+            self._buffer.write(data)
+        self._count = len(tri)
+        self._key = key
+        self.build_seconds += time.perf_counter() - t0
+        return self._count
+
+    def set_casters(self, casters: Instances | None, sun_dir) -> int:
+        """Volumes of ``casters`` for the sun toward ``sun_dir``, rebuilt only when either
+        changed; returns the number of volume triangles."""
+        import time
+
+        d = tuple(float(v) for v in np.asarray(sun_dir, np.float64).reshape(3))
+        key = (casters, 0 if casters is None else len(casters), d)
+        if key == self._key:
+            return self._count
+        self.build_seconds = 0.0
+        t0 = time.perf_counter()
+        tri = (np.zeros((0, 3, 4), np.float32) if casters is None or not len(casters)
+               else shadow_volume(casters, d))
+        self.build_seconds = time.perf_counter() - t0
+        return self.set_triangles(tri, key)
+
+    def count(self, fbo, view_proj: np.ndarray, *, depth_offset: float = 2.0) -> None:
+        """Clear ``fbo``'s stencil and count the uploaded volumes into it (z-fail) against
+        the depth already in ``fbo``."""
+        import moderngl
+
+        clear_stencil(fbo)
+        if not self._count:
+            return
+        set_uniforms(self.program, u_view_proj=view_proj)
+        with zfail_counting(self.ctx, fbo, depth_offset=depth_offset):
+            self._vao.render(moderngl.TRIANGLES, vertices=3 * self._count)
+
+    def release(self) -> None:
+        if self._buffer is not None:
+            self._vao.release()
+            self._buffer.release()
+            self._buffer = self._vao = None
+            self._capacity = self._count = 0
+
+
+def shade_shadow_volumes(renderer, fbo, camera, uniforms: Mapping[str, Any], *, program,
+                         deferred: bool, plan) -> dict[str, int]:
+    """The volumes mode of one frame, after its terrain and objects were drawn into
+    ``fbo``: count the objects' volumes into the stencil, then draw the surfaces again
+    without the sun where the count is not zero.
+
+    ``program`` drew the terrain: forward, the technique's program (drawn again with
+    ``plan``); ``deferred``, its full-screen shading pass over the geometry buffer. That pass
+    cannot tell terrain from the objects in front of it, so the objects' pixels are taken
+    out of the stencil (set to 0 under their own depth) before it runs.
+    """
+    import moderngl
+
+    if stencil_bits(fbo) == 0:
+        raise GLUnavailableError("shadow volumes need a render target with a stencil buffer")
+    ctx = renderer.ctx
+    volumes = ShadowVolumes.of(renderer)
+    sun = np.asarray(uniforms["u_sun_dir"], np.float64)
+    objects = renderer.objects
+    casters = objects.instances if objects is not None else None
+    n = volumes.set_casters(casters if sun[1] > 0.0 else None, sun)
+    volumes.count(fbo, uniforms["u_view_proj"])
+    volumes.last_count = read_stencil(fbo) if volumes.keep_count else None
+    if n == 0:
+        return {"shadow_volume_triangles": 0}
+    dark = {**uniforms, **SUN_OFF}
+    saved = {k: uniforms[k] for k in SUN_OFF if k in uniforms}
+    fbo.depth_mask = False
+    fbo.use()
+    try:
+        ctx.depth_func = "<="
+        if objects is not None:
+            with stencil_test(nonzero=True):
+                objects.draw(dark)
+            if deferred:
+                with stencil_replace(0):
+                    fbo.color_mask = (False, False, False, False)
+                    fbo.use()
+                    try:
+                        objects.draw(uniforms)
+                    finally:
+                        fbo.color_mask = (True, True, True, True)
+                        fbo.use()
+        set_uniforms(program, **SUN_OFF)
+        with stencil_test(nonzero=True):
+            if deferred:
+                # the shading pass as drawn: at depth 1 where the terrain's depth is nearer
+                ctx.disable(moderngl.CULL_FACE)
+                ctx.depth_func = ">"
+                renderer._fullscreen(program)
+            else:
+                ctx.enable(moderngl.CULL_FACE)
+                renderer._draw_geometry(program, camera, fbo.size, plan)
+    finally:
+        set_uniforms(program, **saved)
+        ctx.depth_func = "<"
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE)
+        fbo.depth_mask = True
+        fbo.use()
+    return {"shadow_volume_triangles": n}
+
+
+__all__ = [
+    "FALLBACK_MODE",
+    "SUN_OFF",
+    "ShadowVolumeFallbackWarning",
+    "ShadowVolumes",
+    "object_shadow_mode",
+    "shade_shadow_volumes",
+]

@@ -1,0 +1,136 @@
+import warnings
+
+import numpy as np
+import pytest
+
+from terrascape.errors import InvalidParameterError
+from terrascape.objects import Instances, ObjectMesh
+from terrascape.objects.silhouette import (
+    OpenMeshWarning,
+    mesh_edges,
+    mesh_volume,
+    shadow_volume,
+    welded,
+)
+
+
+def box(name="box", size=(1.0, 1.0, 1.0)):
+    """Flat-shaded box (4 vertices per face, so edges meet only by position), its foot at
+    the origin, counter-clockwise from outside."""
+    sx, sy, sz = (s / 2 for s in size)
+    faces = [  # (normal, 4 corners counter-clockwise seen from outside)
+        ((1, 0, 0), [(1, -1, 1), (1, -1, -1), (1, 1, -1), (1, 1, 1)]),
+        ((-1, 0, 0), [(-1, -1, -1), (-1, -1, 1), (-1, 1, 1), (-1, 1, -1)]),
+        ((0, 1, 0), [(-1, 1, 1), (1, 1, 1), (1, 1, -1), (-1, 1, -1)]),
+        ((0, -1, 0), [(-1, -1, -1), (1, -1, -1), (1, -1, 1), (-1, -1, 1)]),
+        ((0, 0, 1), [(-1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1)]),
+        ((0, 0, -1), [(1, -1, -1), (-1, -1, -1), (-1, 1, -1), (1, 1, -1)]),
+    ]
+    pos, nrm, idx = [], [], []
+    for n, quad in faces:
+        base = len(pos)
+        pos += [(x * sx, (y + 1) * sy, z * sz) for x, y, z in quad]
+        nrm += [n] * 4
+        idx += [(base, base + 1, base + 2), (base, base + 2, base + 3)]
+    pos = np.array(pos, np.float32)
+    return ObjectMesh(name, pos, np.array(nrm, np.float32), np.full_like(pos, 0.6), idx)
+
+
+def _outward(mesh):
+    p, t = welded(mesh)
+    tri = p[t]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    centre = p.mean(axis=0)
+    return np.einsum("ij,ij->i", n, tri.mean(axis=1) - centre) > 0
+
+
+def _closed_counts(vol):
+    """(directed edge -> count) of a triangle soup of homogeneous vertices."""
+    from collections import Counter
+
+    edges = Counter()
+    for tri in vol.astype(np.float64):
+        keys = [tuple(np.round(v, 5)) for v in tri]
+        for k in range(3):
+            edges[(keys[k], keys[(k + 1) % 3])] += 1
+    return edges
+
+
+def test_box_is_closed_and_welded():
+    b = box()
+    assert np.all(_outward(b))
+    e = mesh_edges(welded(b)[1])
+    assert e.closed and len(e.edges) == 18  # 12 box edges + 6 face diagonals
+    # the flat-shaded vertices alone share no edges: 4 open edges per face
+    assert mesh_edges(b.indices).open_edges == 24
+
+
+@pytest.mark.parametrize(
+    ("light", "caps", "sides"),
+    [
+        ((0.0, 1.0, 0.0, 0.0), 2, 4),  # straight down: the top face lit, a square silhouette
+        ((0.3, 0.8, 0.5, 0.0), 6, 6),  # three faces lit, a hexagonal silhouette
+        ((3.0, 4.0, 2.0, 1.0), 6, 6),  # a point light toward the same corner
+    ],
+)
+def test_cube_volume_counts_and_closed(light, caps, sides):
+    vol = mesh_volume(box(), np.eye(4)[None], light)
+    point = light[3] == 1.0
+    assert vol.shape == ((caps + sides) * (2 if point else 1), 3, 4)
+    w = vol[..., 3]
+    assert (w[:caps * (2 if point else 1)].sum() > 0) and set(np.unique(w)) <= {0.0, 1.0}
+    edges = _closed_counts(vol)
+    # closed: every directed edge once, and its reverse once
+    assert all(n == 1 for n in edges.values())
+    assert all(edges.get((b, a)) == 1 for a, b in edges)
+    if not point:  # every vertex at infinity is the one point (-L, 0)
+        d = np.array(light[:3]) / np.linalg.norm(light[:3])
+        inf = vol[w == 0][:, :3]
+        np.testing.assert_allclose(inf, np.broadcast_to(-d, inf.shape), atol=1e-6)
+
+
+def test_side_quads_face_out_of_the_volume():
+    # sun straight down onto a unit box: each side triangle's normal points away from the
+    # box's vertical axis (the volume's outside)
+    vol = mesh_volume(box(), np.eye(4)[None], (0, 1, 0))
+    sides = vol[vol[..., 3].min(axis=1) == 0]
+    finite = sides[:, :2, :3].astype(np.float64)  # the two vertices on the box
+    # triangle (q, p, p'): normal (p − q) × (p' − q), and p' − q runs along the extrusion
+    n = np.cross(finite[:, 1] - finite[:, 0], [0.0, -1.0, 0.0])
+    mid = finite.mean(axis=1)
+    out = mid - np.array([0.0, mid[0, 1], 0.0])
+    assert np.all(np.einsum("ij,ij->i", n, out) > 0)
+
+
+def test_instances_follow_their_matrices():
+    b = box()
+    inst = Instances((b,), [0, 0], [[10, 0, 0], [0, 0, 20]], [2.0, 1.0], [0.3, 0.0])
+    vol = shadow_volume(inst, (0, 1, 0))
+    assert vol.shape == (12, 3, 4)
+    caps = vol[vol[..., 3].min(axis=1) == 1]
+    # the first instance's top face at height 2 (scale 2), around x = 10
+    top = caps[:2, :, :3]
+    np.testing.assert_allclose(top[..., 1], 2.0, atol=1e-6)
+    assert np.all(np.abs(top[..., 0] - 10.0) < 1.5)
+
+
+def test_open_mesh_warns_once_and_still_closes():
+    # a single square facing up: open edges; lit from above it casts its own square
+    p = np.array([[0, 0, 0], [1, 0, 0], [1, 0, -1], [0, 0, -1]], np.float32)
+    sheet = ObjectMesh("sheet-test", p, np.tile([0, 1, 0], (4, 1)), np.ones((4, 3)),
+                       [[0, 1, 2], [0, 2, 3]])
+    with pytest.warns(OpenMeshWarning, match="not closed"):
+        vol = mesh_volume(sheet, np.eye(4)[None], (0, 1, 0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mesh_volume(sheet, np.eye(4)[None], (0, 1, 0))
+    assert vol.shape == (2 + 4, 3, 4)
+    edges = _closed_counts(vol)
+    assert all(edges.get((b, a)) == 1 for a, b in edges)
+
+
+def test_bad_light():
+    with pytest.raises(InvalidParameterError, match="w must"):
+        mesh_volume(box(), np.eye(4)[None], (0, 1, 0, 2))
+    with pytest.raises(InvalidParameterError, match="non-zero"):
+        mesh_volume(box(), np.eye(4)[None], (0, 0, 0))

@@ -1,0 +1,178 @@
+"""Stencil shadow volumes on pixels: against the CPU ray cast and the analytic shadow of a box
+on flat ground; the fallback without a stencil buffer."""
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy.spatial import Delaunay
+
+from terrascape.camera import Camera
+from terrascape.heightmap import Heightmap
+from terrascape.lighting.sun import sun_direction
+from terrascape.objects import Instances, ObjectMesh
+from terrascape.objects.shadow_reference import agreement, boundary_band, shadow_reference
+
+pytestmark = pytest.mark.gl
+
+SIZE = (200, 150)
+SUN = (45.0, 35.0)  # the shadows fall toward the camera
+
+
+def box(size):
+    """Closed box (8 shared corners), foot at the origin, counter-clockwise from outside."""
+    sx, sy, sz = size[0] / 2, size[1], size[2] / 2
+    p = np.array([[x, y, z] for y in (0, sy) for z in (-sz, sz) for x in (-sx, sx)], np.float32)
+    # corners: 0..3 bottom (x, z) = (-,-) (+,-) (-,+) (+,+); 4..7 the same on top
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4),
+             (1, 5, 7, 3)]
+    idx = [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]
+    n = p - p.mean(axis=0)
+    return ObjectMesh("test-box", p, n / np.linalg.norm(n, axis=1, keepdims=True),
+                      np.full_like(p, 0.7), idx)
+
+
+@pytest.fixture(scope="module")
+def scene(gl_ctx):
+    from terrascape.render.offscreen import OffscreenRenderer
+
+    hm = Heightmap(np.zeros((97, 97), np.float32), spacing=(1.0, 1.0))
+    r = OffscreenRenderer(gl_ctx, hm, size=SIZE)
+    boxes = Instances((box((10.0, 16.0, 8.0)),), [0, 0], [[48, 0, 48], [25, 0, 72]],
+                      [1.0, 0.8], [0.0, 0.6])
+    r.terrain.set_objects(boxes)
+    cam = Camera.look_at((45, 70, 100), (42, 0, 55), aspect=SIZE[0] / SIZE[1], near=1.0,
+                         far=1000.0)
+    yield r, hm, boxes, cam
+    r.release()
+
+
+def test_box_is_outward():
+    b = box((2, 2, 2))
+    tri = b.positions[b.indices]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    assert np.all(np.einsum("ij,ij->i", n, tri.mean(axis=1) - [0, 1, 0]) > 0)
+
+
+@pytest.mark.parametrize("technique", ["plain", "material"])  # forward, deferred
+def test_volumes_match_the_ray_cast(scene, technique):
+    r, _, boxes, cam = scene
+    r.render(cam, technique, {"object_shadows": "volumes", "sun": SUN})
+    count = r.last_shadow_count()
+    ref = shadow_reference(cam, r.last_depth(), SUN, instances=boxes)
+    surface = ref.surface
+    assert surface.mean() > 0.5 and ref.object_shadow.sum() > 300  # a real shadow
+    assert agreement(count > 0, ref.object_shadow, surface) >= 0.995
+    # away from the shadow's edge they agree on every pixel
+    inner = surface & ~boundary_band(ref.object_shadow, 1)
+    assert agreement(count > 0, ref.object_shadow, inner) == 1.0
+
+
+def _analytic_shadow(boxes, sun):
+    """Ground points (x, z) inside the shadow of each box: the convex hull of its footprint
+    and its top corners projected along the sun onto y = 0."""
+    d = np.asarray(sun_direction(*sun), np.float64)
+    hulls = []
+    for tri in np.split(boxes.world_triangles().reshape(-1, 3), len(boxes)):
+        corners = np.unique(tri.astype(np.float64), axis=0)
+        ground = corners[:, [0, 2]] - corners[:, 1:2] / d[1] * d[[0, 2]]
+        hulls.append(Delaunay(ground))
+    return hulls
+
+
+@pytest.mark.parametrize("technique", ["plain", "material"])
+def test_shadow_lies_where_the_box_projects_it(scene, technique):
+    r, _, boxes, cam = scene
+    params = {"sun": SUN, "fog_density": 0.0}
+    lit = r.render(cam, technique, {**params, "object_shadows": "none"}).astype(float)
+    shaded = r.render(cam, technique, {**params, "object_shadows": "volumes"}).astype(float)
+    from terrascape.objects.shadow_reference import surface_points
+
+    pts = surface_points(cam, r.last_depth())
+    # ground pixels (not the boxes' own faces): surface points at height 0
+    on_ground = np.isfinite(pts).all(axis=-1) & (np.abs(np.nan_to_num(pts[..., 1])) < 0.05)
+    xz = np.where(on_ground[..., None], pts[..., [0, 2]], -1e9)
+    inside = np.zeros(on_ground.shape, bool)
+    for hull in _analytic_shadow(boxes, SUN):
+        inside |= hull.find_simplex(xz) >= 0
+    edge = boundary_band(inside, 1)
+    luma_lit = lit[..., :3].mean(axis=-1)
+    luma = shaded[..., :3].mean(axis=-1)
+    core = inside & ~edge & on_ground
+    out = ~inside & ~edge & on_ground
+    assert core.sum() > 500
+    # inside: only sky light is left (much darker); outside: the same pixels as without
+    assert np.all(luma[core] < 0.75 * luma_lit[core])
+    assert np.array_equal(shaded[out], lit[out])
+    count = r.last_shadow_count()
+    assert np.all(count[core] > 0) and np.all(count[out] == 0)
+
+
+def test_no_stencil_falls_back_with_one_warning(scene, gl_ctx):
+    from terrascape.render.context import current
+    from terrascape.render.shadow_volumes import FALLBACK_MODE, ShadowVolumeFallbackWarning
+    from terrascape.render.terrain import TerrainRenderer
+
+    _, hm, boxes, cam = scene
+    with current(gl_ctx):
+        t = TerrainRenderer(gl_ctx, hm)
+        t.set_objects(boxes)
+        color = gl_ctx.renderbuffer(SIZE, 4)
+        depth = gl_ctx.depth_renderbuffer(SIZE)
+        fbo = gl_ctx.framebuffer([color], depth)
+
+        def frame(mode):
+            t.render(fbo, cam, "plain", {"object_shadows": mode, "sun": SUN})
+            return np.frombuffer(fbo.read(components=4), np.uint8)
+
+        with pytest.warns(ShadowVolumeFallbackWarning, match="stencil") as caught:
+            first = frame("volumes")
+            second = frame("volumes")
+        assert len([w for w in caught if w.category is ShadowVolumeFallbackWarning]) == 1
+        assert np.array_equal(first, second)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            assert np.array_equal(first, frame(FALLBACK_MODE))
+        t.release()
+        fbo.release()
+        color.release()
+        depth.release()
+
+
+def test_bad_mode_is_a_clear_error(scene):
+    from terrascape.errors import InvalidParameterError
+
+    r, _, _, cam = scene
+    with pytest.raises(InvalidParameterError, match="object_shadows must be one of"):
+        r.render(cam, "plain", {"object_shadows": "stencil"})
+
+
+def test_built_in_trees_and_a_house_on_hills_match_the_ray_cast(gl_ctx):
+    from terrascape.generate import hills
+    from terrascape.objects import builtin_meshes, surface_height
+    from terrascape.render.offscreen import OffscreenRenderer
+
+    heights = hills(65, count=40, seed=4)
+    hm = Heightmap(heights.heights * (8.0 / max(float(np.ptp(heights.heights)), 1e-6)),
+                   spacing=(1.0, 1.0))
+    meshes = builtin_meshes()
+    names = ["conifer", "broadleaf", "house", "conifer", "bush"]
+    xz = np.array([[20.0, 30.0], [38.0, 24.0], [30.0, 44.0], [46.0, 40.0], [14.0, 48.0]])
+    y = surface_height(hm, xz[:, 0], xz[:, 1])
+    inst = Instances(tuple(meshes[n] for n in dict.fromkeys(names)),
+                     [list(dict.fromkeys(names)).index(n) for n in names],
+                     np.c_[xz[:, 0], y, xz[:, 1]], [1.0, 0.9, 0.6, 0.7, 1.0],
+                     [0.0, 1.0, 0.4, 2.0, 0.0])
+    r = OffscreenRenderer(gl_ctx, hm, size=SIZE)
+    try:
+        r.terrain.set_objects(inst)
+        cam = Camera.look_at((32, 45, 90), (32, 0, 36), aspect=SIZE[0] / SIZE[1], near=1.0,
+                             far=500.0)
+        sun = (60.0, 30.0)
+        r.render(cam, "material", {"object_shadows": "volumes", "sun": sun,
+                                   "impostor_pixels": 0})
+        ref = shadow_reference(cam, r.last_depth(), sun, instances=inst)
+        assert ref.object_shadow.sum() > 400
+        assert agreement(r.last_shadow_count() > 0, ref.object_shadow, ref.surface) >= 0.995
+    finally:
+        r.release()
