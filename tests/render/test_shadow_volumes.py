@@ -176,3 +176,26 @@ def test_built_in_trees_and_a_house_on_hills_match_the_ray_cast(gl_ctx):
         assert agreement(r.last_shadow_count() > 0, ref.object_shadow, ref.surface) >= 0.995
     finally:
         r.release()
+
+
+def test_render_cli_with_volumes_equals_the_api(gl_ctx, tmp_path):
+    from PIL import Image
+
+    from terrascape.cli.app import run_app
+    from terrascape.generate.registry import VIEW_SPACING, generate
+    from terrascape.objects import scatter
+    from terrascape.render.offscreen import render_to_array
+
+    args = ["render", "--generate", "fbm", "--gen-size", "65", "--seed", "4", "--size",
+            "96x64", "-q", "--objects", "default"]
+    out, flat_out = tmp_path / "volumes.png", tmp_path / "none.png"
+    assert run_app([*args, "-o", str(out), "--object-shadows", "volumes"]) == 0
+    assert run_app([*args, "-o", str(flat_out), "--object-shadows", "none"]) == 0
+    img = np.asarray(Image.open(out))
+    hm = generate("fbm", 65, seed=4, spacing=VIEW_SPACING)
+    ref = render_to_array(hm, size=(96, 64), ctx=gl_ctx, objects=scatter(hm, seed=4),
+                          params={"seed": 4, "object_shadows": "volumes"})
+    np.testing.assert_array_equal(img, ref[..., :3])
+    # the objects' shadows darken the frame
+    none = np.asarray(Image.open(flat_out)).astype(float)
+    assert (img.astype(float).mean(axis=-1) < 0.85 * none.mean(axis=-1)).mean() > 0.005

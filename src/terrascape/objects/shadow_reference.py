@@ -28,10 +28,11 @@ from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.objects.model import Instances
 
-# Start each shadow ray this far along it (relative to the point's distance from the eye
-# plus one hundredth of a grid cell): a depth-buffer point sits up to a depth quantum below
-# its surface and must not shadow itself.
-_START_REL = 2e-4
+# Start each shadow ray this many depth quanta along it: a point from a 24-bit depth buffer
+# lies up to a quantum off its surface (behind it, inside the object) and must not shadow
+# itself.
+_START_QUANTA = 4.0
+_DEPTH_BITS = 24
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -310,6 +311,15 @@ def surface_points(camera: Camera, depth: np.ndarray) -> np.ndarray:
     return pts
 
 
+def depth_quantum(camera: Camera, points: np.ndarray) -> np.ndarray:
+    """Eye-space length of one step of a 24-bit depth buffer at world ``points`` (N, 3):
+    ``Δz = 2⁻²⁴ · z² · (f − n) / (f · n)`` for eye depth z (perspective depth is 1/z-like)."""
+    pts = np.asarray(points, np.float64).reshape(-1, 3)
+    z = -(np.c_[pts, np.ones(len(pts))] @ camera.view_matrix().T)[:, 2]
+    n, f = camera.near, camera.far
+    return 2.0 ** -_DEPTH_BITS * z * z * (f - n) / (f * n)
+
+
 @dataclass(frozen=True)
 class ShadowReference:
     """Per pixel of a frame (row 0 at the top): the surface point seen and its sun shadow."""
@@ -349,9 +359,7 @@ def shadow_reference(camera: Camera, depth: np.ndarray, sun, *,
     pts = surface_points(camera, depth)
     h, w = pts.shape[:2]
     flat = pts.reshape(-1, 3)
-    dist = np.linalg.norm(flat - camera.eye, axis=1)
-    cell = min(heightmap.spacing) if heightmap is not None else 0.0
-    start = np.where(np.isfinite(dist), _START_REL * dist + 0.01 * cell, 0.0)
+    start = np.nan_to_num(_START_QUANTA * depth_quantum(camera, flat)) + 1e-6
     tris = instances.world_triangles() if instances is not None else None
     obj, ter = sun_occlusion(flat, sun, triangles=tris, heightmap=heightmap,
                              exaggeration=exaggeration, start=start)
@@ -388,6 +396,7 @@ __all__ = [
     "TriangleGrid",
     "agreement",
     "boundary_band",
+    "depth_quantum",
     "shadow_reference",
     "sun_occlusion",
     "surface_points",

@@ -51,6 +51,9 @@ FALLBACK_MODE = "cascades"
 # Uniform values that switch the sun's light off in every lighting model of the shaders
 # (daylight: the sun's irradiance; Phong: its diffuse and specular terms).
 SUN_OFF = {"u_sun_irradiance": (0.0, 0.0, 0.0), "u_kd": 0.0, "u_ks": 0.0}
+# Polygon offset (depth units) that pushes the volumes' near caps behind the sunlit faces
+# they lie on (see terrascape.render.stencil.zfail_counting).
+VOLUME_DEPTH_OFFSET = 2.0
 
 
 class ShadowVolumeFallbackWarning(ObjectShadowFallbackWarning):
@@ -142,7 +145,7 @@ class ShadowVolumes:
         self.build_seconds = time.perf_counter() - t0
         return self.set_triangles(tri, key)
 
-    def count(self, fbo, view_proj: np.ndarray, *, depth_offset: float = 2.0) -> None:
+    def count(self, fbo, view_proj: np.ndarray, *, depth_offset: float | None = None) -> None:
         """Clear ``fbo``'s stencil and count the uploaded volumes into it (z-fail) against
         the depth already in ``fbo``."""
         import moderngl
@@ -151,7 +154,8 @@ class ShadowVolumes:
         if not self._count:
             return
         set_uniforms(self.program, u_view_proj=view_proj)
-        with zfail_counting(self.ctx, fbo, depth_offset=depth_offset):
+        offset = VOLUME_DEPTH_OFFSET if depth_offset is None else depth_offset
+        with zfail_counting(self.ctx, fbo, depth_offset=offset):
             self._vao.render(moderngl.TRIANGLES, vertices=3 * self._count)
 
     def release(self) -> None:
