@@ -20,6 +20,7 @@ import typer
 
 from terrascape.camera import Camera
 from terrascape.cli.app import app, out, timed
+from terrascape.cli.app import console as err
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
 from terrascape.lod.schemes import SCHEMES
@@ -197,6 +198,12 @@ def mesh_command(
         hm = _read(heightmap, spacing, vertical_scale)
         if fit != "none":
             hm = hm.to_pow2_plus1(fit)
+    from terrascape.io.geotiff import degree_warning
+
+    degrees = degree_warning(hm)
+    if degrees is not None:
+        # the mesh would be a needle: heights in metres over an extent in degrees
+        err.print(f"[yellow]warning:[/] {degrees}")
 
     if mesher not in ("rtin", "greedy"):
         raise InvalidParameterError(f"--mesher must be rtin or greedy, got {mesher!r}")
