@@ -3,6 +3,7 @@
 import * as THREE from 'three';
 import { GLTFLoader } from 'GLTFLoader';
 import { OrbitControls } from 'OrbitControls';
+import { MeshoptDecoder } from 'MeshoptDecoder';
 
 const config = JSON.parse(document.getElementById('terrain-config').textContent);
 const canvas = document.getElementById('view');
@@ -52,7 +53,8 @@ function frame(root) {
 
 const text = document.getElementById('terrain-glb').textContent.trim();
 const bytes = Uint8Array.from(atob(text), (c) => c.charCodeAt(0));
-new GLTFLoader().parse(bytes.buffer, '', (gltf) => {
+// the glb is EXT_meshopt_compression encoded: meshoptimizer's decoder (WebAssembly) reads it
+new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).parse(bytes.buffer, '', (gltf) => {
   const root = gltf.scene;
   root.traverse((o) => {
     // The texture already holds the sun and the shadows: draw it unlit, as baked.
