@@ -109,6 +109,10 @@ def run(quick: bool = False) -> list[BenchTable]:
                        f"(half step {p_half_step:.3g} m)",
                        "yes" if ratio <= _QUANTIZED_RATIO_TARGET and within else
                        f"no (target ≤ {_QUANTIZED_RATIO_TARGET}× and within half a step)"])
+    table.check_target("meshopt glb bytes / plain glb bytes", ratio,
+                       at_most=_QUANTIZED_RATIO_TARGET, unit="×")
+    table.check_target("meshopt glb decoded position error / half quantization step",
+                       p_err / p_half_step, at_most=1.0 + 1e-9)
     (textured, _), t_tex, c_tex = _timed(
         lambda: build_glb(hm, tri, texture=True, compress=True, texture_size=4096))
     table.rows.append(["glb quantized + meshopt + baked texture", t_tex, c_tex,
@@ -125,6 +129,9 @@ def run(quick: bool = False) -> list[BenchTable]:
                            "on 2 cores",
                            "yes" if t_qm <= _PYRAMID_SECONDS_TARGET else
                            f"no (target ≤ {_PYRAMID_SECONDS_TARGET:g} s wall)"])
+        table.check_target(f"quantized-mesh pyramid of a 4097² map, wall (load {load:.1f})",
+                           t_qm if side == 4097 else None,
+                           at_most=_PYRAMID_SECONDS_TARGET, unit=" s")
         folder = Path(tmp) / "rgb"
         _, t_rgb, c_rgb = _timed(lambda: get_destination("terrain_rgb").export(
             hm, folder, ExportOptions(name="bench", lonlat=_LONLAT)))
