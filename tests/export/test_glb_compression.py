@@ -208,3 +208,28 @@ def test_cli_mesh_compress_and_uint16(tmp_path, gltf_validator):
     assert len(doc.meshes[0].primitives) >= 2
     assert all(doc.accessors[p.indices].componentType == pygltflib.UNSIGNED_SHORT
                for p in doc.meshes[0].primitives)
+
+
+def test_compressed_glb_with_texture_normal_map_and_skirt(terrain, tmp_path, gltf_validator,
+                                                          gltf_transform_reader):
+    tri = rtin_rectangle(terrain, max_error=2.0)
+    data, mesh = build_glb(terrain, tri, compress=True, normal_map=True, skirt=30.0)
+    path = tmp_path / "t.glb"
+    path.write_bytes(data)
+    issues = gltf_validator(path)
+    assert issues["numErrors"] == 0 and issues["numWarnings"] == 0, issues["messages"]
+    read = gltf_transform_reader(path)
+    (node,) = [n for n in read["nodes"] if n["primitives"]]
+    (prim,) = node["primitives"]
+    assert set(prim["attributes"]) == {"POSITION", "NORMAL", "TEXCOORD_0", "TANGENT"}
+    world = _world_positions(node, prim["attributes"]["POSITION"])
+    step = 2.0 * np.asarray(pygltflib.GLTF2.load(path).nodes[1].scale) / 65534.0
+    assert np.all(np.abs(world - mesh.positions) <= step / 2 + 1e-6)
+    # the skirt vertices stay last and hang 30 below their border samples
+    k = mesh.skirt_vertices
+    assert k > 0
+    below = terrain.heights.reshape(-1)[mesh.grid_index[-k:]] - 30.0
+    np.testing.assert_allclose(world[-k:, 1], below, atol=step[1])
+    _check_against_terrain(world[:-k], terrain, step)
+    uv = np.asarray(prim["attributes"]["TEXCOORD_0"]["array"]).reshape(-1, 2) / 65535.0
+    np.testing.assert_allclose(uv, mesh.uvs, atol=0.5 / 65535 + 1e-7)
