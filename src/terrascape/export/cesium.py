@@ -16,10 +16,8 @@ within that error of the tile's samples (a true bound, measured on every sample 
 quantized-mesh then stores heights in 15 bits over the tile's height range, truncating (a
 further ``(max − min) / 32767`` at most).
 
-Tiles are encoded and written in parallel worker processes, each with one numba thread: a
-tile is small and many in flight keep both cores busy without numba's thread start-up per
-tiny kernel. The tiles do not depend on each other or on the number of workers: the same
-bytes on one process or many.
+Tiles are encoded in parallel worker processes, each with one numba thread: a tile is small
+and many in flight keep both cores busy without numba's thread start-up per tiny kernel.
 
 References
 ----------
@@ -211,32 +209,21 @@ def encode_tile(grid: GeoGrid, z: int, x: int, y: int, error: float) -> tuple[by
     return gzip.compress(bytes(data), compresslevel=_GZIP_LEVEL, mtime=0), len(tri)
 
 
-_WORKER_STATE: tuple | None = None  # (grid, out_dir, force) of a worker process
+_WORKER_GRID: GeoGrid | None = None
 
 
-def _init_worker(grid: GeoGrid, out_dir: Path | None, force: bool) -> None:
+def _init_worker(grid: GeoGrid) -> None:
     import numba
 
-    global _WORKER_STATE
+    global _WORKER_GRID
     numba.set_num_threads(1)
-    _WORKER_STATE = (grid, out_dir, force)
+    _WORKER_GRID = grid
 
 
-def _tile(grid: GeoGrid, out_dir: Path | None, force: bool, job: tuple[int, int, int, float]
-          ) -> tuple[tuple[int, int, int], bytes | Path, int]:
-    """Encode one tile; with ``out_dir`` write it there (``z/x/y.terrain``, atomically) and
-    return its path in place of its bytes."""
+def _encode_job(job: tuple[int, int, int, float]) -> tuple[tuple[int, int, int], bytes, int]:
     z, x, y, error = job
-    data, n = encode_tile(grid, z, x, y, error)
-    if out_dir is None:
-        return (z, x, y), data, n
-    path = out_dir / str(z) / str(x) / f"{y}.terrain"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return (z, x, y), write_bytes(path, data, force=force), n
-
-
-def _tile_job(job: tuple[int, int, int, float]) -> tuple[tuple[int, int, int], bytes | Path, int]:
-    return _tile(*_WORKER_STATE, job)  # type: ignore[misc]
+    data, n = encode_tile(_WORKER_GRID, z, x, y, error)  # type: ignore[arg-type]
+    return (z, x, y), data, n
 
 
 def tile_jobs(grid: GeoGrid, bottom: int, top: int, max_error: float
@@ -254,24 +241,19 @@ def tile_jobs(grid: GeoGrid, bottom: int, top: int, max_error: float
     return jobs, available
 
 
-def encode_pyramid(grid: GeoGrid, jobs, *, workers: int = 2, min_parallel_jobs: int = 400,
-                   out_dir: Path | None = None, force: bool = False):
+def encode_pyramid(grid: GeoGrid, jobs, *, workers: int = 2, min_parallel_jobs: int = 400):
     """Yield ``((z, x, y), gzip bytes, triangles)`` for ``jobs`` in their order, in ``workers``
     processes when there are at least ``min_parallel_jobs`` (starting the workers costs
-    seconds). A tile's bytes depend on its job alone, so they are the same either way.
-
-    With ``out_dir`` the process that encoded a tile also writes it (``z/x/y.terrain``,
-    atomically; the writes cost as much as a third of the encoding) and the path is yielded
-    in place of the bytes.
-    """
+    seconds). A tile's bytes depend on its job alone, so they are the same either way."""
     if workers <= 1 or len(jobs) < min_parallel_jobs:
         import numba
 
         previous = numba.get_num_threads()
         numba.set_num_threads(1)
         try:
-            for job in jobs:
-                yield _tile(grid, out_dir, force, job)
+            for z, x, y, error in jobs:
+                data, n = encode_tile(grid, z, x, y, error)
+                yield (z, x, y), data, n
         finally:
             numba.set_num_threads(previous)
         return
@@ -280,8 +262,8 @@ def encode_pyramid(grid: GeoGrid, jobs, *, workers: int = 2, min_parallel_jobs: 
 
     context = multiprocessing.get_context("spawn")  # no forked numba thread pools
     with ProcessPoolExecutor(workers, mp_context=context, initializer=_init_worker,
-                             initargs=(grid, out_dir, force)) as pool:
-        yield from pool.map(_tile_job, jobs, chunksize=16)
+                             initargs=(grid,)) as pool:
+        yield from pool.map(_encode_job, jobs, chunksize=16)
 
 
 def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
@@ -295,9 +277,10 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     written: list[Path] = []
     data_bounds = grid.bounds
     jobs, available = tile_jobs(grid, bottom, top, max_error)
-    for _zxy, path, _ in encode_pyramid(grid, jobs, workers=options.workers, out_dir=out,
-                                        force=options.force):
-        written.append(path)
+    for (z, x, y), data, _ in encode_pyramid(grid, jobs, workers=options.workers):
+        path = out / str(z) / str(x) / f"{y}.terrain"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        written.append(write_bytes(path, data, force=options.force))
     layer = {
         "tilejson": "2.1.0",
         "name": options.name,
