@@ -208,6 +208,10 @@ def test_cli_mesh_compress_and_uint16(tmp_path, gltf_validator):
     assert len(doc.meshes[0].primitives) >= 2
     assert all(doc.accessors[p.indices].componentType == pygltflib.UNSIGNED_SHORT
                for p in doc.meshes[0].primitives)
+    # the glb options on another format: one clear error, nothing written
+    assert run_app(["mesh", str(tmp_path / "t.npy"), "-o", str(tmp_path / "t.obj"),
+                    "--max-error", "1", "--compress", "-q"]) == 2
+    assert not (tmp_path / "t.obj").exists()
 
 
 def test_compressed_glb_with_texture_normal_map_and_skirt(terrain, tmp_path, gltf_validator,

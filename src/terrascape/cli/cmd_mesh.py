@@ -156,6 +156,8 @@ def mesh_command(
             f"output must end in {', '.join(MESH_FORMATS)}, got {output.name!r}"
         )
     check_output_path(output, force=force)
+    if (compress or uint16) and output.suffix.lower() != ".glb":
+        raise InvalidParameterError("--compress and --uint16 are for .glb output")
     if max_triangles_roam is not None:
         if triangles is not None and triangles != max_triangles_roam:
             raise InvalidParameterError(
