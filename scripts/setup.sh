@@ -60,6 +60,11 @@ missing_system_packages() {
     command -v xdotool >/dev/null 2>&1 || echo xdotool
     command -v import >/dev/null 2>&1 || echo imagemagick
     command -v chromium >/dev/null 2>&1 || echo chromium
+    # meshoptimizer (the export extra) is built from source: a C++ compiler and Python.h
+    command -v c++ >/dev/null 2>&1 || echo g++
+    "$python" -c 'import os, sys, sysconfig
+sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")))' \
+      >/dev/null 2>&1 || echo python3-dev
   fi
   return 0
 }

@@ -12,7 +12,7 @@ src="$work/node_modules/three"
 cp "$src/build/three.core.js" "$src/build/three.module.js" "$dest/"
 cp "$src/examples/jsm/loaders/GLTFLoader.js" "$src/examples/jsm/controls/OrbitControls.js" \
   "$src/examples/jsm/utils/BufferGeometryUtils.js" "$src/examples/jsm/utils/SkeletonUtils.js" \
-  "$dest/"
+  "$src/examples/jsm/libs/meshopt_decoder.module.js" "$dest/"
 cp "$src/LICENSE" "$dest/LICENSE"
 echo "three $(node -p "require('$src/package.json').version")" > "$dest/VERSION"
 echo "vendored three into $dest"

@@ -80,7 +80,7 @@ FULL_TREE = (
     f"usr/lib/{TRIPLET}/libGL.so.1",
     f"usr/lib/{TRIPLET}/dri/swrast_dri.so",
 )
-COMMANDS = ("Xvfb", "xdotool", "import", "chromium")
+COMMANDS = ("Xvfb", "xdotool", "import", "chromium", "c++")
 
 
 def _fake_system(root: Path, files=FULL_TREE, commands=COMMANDS) -> dict[str, str]:
@@ -119,7 +119,7 @@ def test_fake_tree_reports_exactly_the_missing_library(tmp_path, removed, packag
 
 @pytest.mark.parametrize(("command", "package"),
                          [("Xvfb", "xvfb"), ("xdotool", "xdotool"), ("import", "imagemagick"),
-                          ("chromium", "chromium")])
+                          ("chromium", "chromium"), ("c++", "g++")])
 def test_fake_tree_reports_exactly_the_missing_command(tmp_path, command, package):
     commands = tuple(c for c in COMMANDS if c != command)
     env = _fake_system(tmp_path, commands=commands)

@@ -56,3 +56,70 @@ def gltf_validator():
         return json.loads(done.stdout)
 
     return validate
+
+
+# An independent glTF reader: glTF-Transform (npm @gltf-transform/core + extensions) with
+# meshoptimizer's own JavaScript/WebAssembly decoder for EXT_meshopt_compression.
+_READER_PACKAGES = ["@gltf-transform/core@4", "@gltf-transform/extensions@4", "meshoptimizer@0"]
+_READER = """
+import { NodeIO } from '@gltf-transform/core';
+import { ALL_EXTENSIONS } from '@gltf-transform/extensions';
+import { MeshoptDecoder } from 'meshoptimizer';
+import fs from 'fs';
+
+await MeshoptDecoder.ready;
+const io = new NodeIO().registerExtensions(ALL_EXTENSIONS)
+  .registerDependencies({ 'meshopt.decoder': MeshoptDecoder });
+const doc = await io.readBinary(new Uint8Array(fs.readFileSync(process.argv[2])));
+const root = doc.getRoot();
+const out = { extensionsUsed: root.listExtensionsUsed().map((e) => e.extensionName), nodes: [] };
+for (const node of root.listNodes()) {
+  const entry = { name: node.getName(), world: Array.from(node.getWorldMatrix()), primitives: [] };
+  const mesh = node.getMesh();
+  if (mesh) {
+    for (const prim of mesh.listPrimitives()) {
+      const p = { attributes: {}, indices: Array.from(prim.getIndices().getArray()),
+                  indexType: prim.getIndices().getComponentType() };
+      for (const semantic of prim.listSemantics()) {
+        const acc = prim.getAttribute(semantic);
+        p.attributes[semantic] = { array: Array.from(acc.getArray()), size: acc.getElementSize(),
+                                   componentType: acc.getComponentType(),
+                                   normalized: acc.getNormalized() };
+      }
+      entry.primitives.push(p);
+    }
+  }
+  out.nodes.push(entry);
+}
+process.stdout.write(JSON.stringify(out));
+"""
+
+
+@pytest.fixture(scope="session")
+def gltf_transform_reader():
+    """``read(path) -> dict``: nodes (world matrix, primitives with raw attribute arrays and
+    indices) as glTF-Transform decodes them, meshopt-compressed buffers included."""
+    node = shutil.which("node")
+    if node is None:
+        _unavailable("node is not installed")
+    needed = [NODE_DIR / "node_modules" / p.rsplit("@", 1)[0] for p in _READER_PACKAGES]
+    if not all(p.exists() for p in needed):
+        NODE_DIR.mkdir(parents=True, exist_ok=True)
+        npm = shutil.which("npm")
+        if npm is None:
+            _unavailable("npm is not installed")
+        done = subprocess.run([npm, "install", "--no-audit", "--no-fund", "--prefix",
+                               str(NODE_DIR), *_READER_PACKAGES], capture_output=True,
+                              text=True, timeout=300)
+        if done.returncode != 0 or not all(p.exists() for p in needed):
+            _unavailable(f"npm install of glTF-Transform failed: {done.stderr[-300:]}")
+    runner = NODE_DIR / "read_glb.mjs"
+    runner.write_text(_READER)
+
+    def read(path) -> dict:
+        done = subprocess.run([node, str(runner), str(path)], capture_output=True, text=True,
+                              timeout=120, cwd=NODE_DIR)
+        assert done.returncode == 0, done.stderr
+        return json.loads(done.stdout)
+
+    return read

@@ -15,10 +15,18 @@ from terrascape import Heightmap
 from terrascape.cli import run_app
 from terrascape.export import ExportOptions, get_destination
 from terrascape.export._geo import geo_grid, tms_geographic_bounds
-from terrascape.export.cesium import TILE_SAMPLES, level_error, tile_samples
+from terrascape.export.cesium import (
+    TILE_SAMPLES,
+    encode_pyramid,
+    encode_tile,
+    level_error,
+    tile_jobs,
+    tile_samples,
+)
 from terrascape.lod.mesh_checks import max_vertical_error
 
 pytest.importorskip("quantized_mesh_encoder")
+quantized_mesh_tile = pytest.importorskip("quantized_mesh_tile")
 
 
 def _zigzag_deltas(raw: np.ndarray) -> np.ndarray:
@@ -65,6 +73,27 @@ def read_quantized_mesh(data: bytes) -> dict:
             "occlusion": header[12:15]}
 
 
+def _same_as_quantized_mesh_tile(data: bytes, tile: dict, zxy) -> None:
+    """The quantized-mesh-tile package (another reader) decodes the same tile."""
+    import io
+
+    from quantized_mesh_tile.terrain import TerrainTile
+
+    w, s, e, n = tms_geographic_bounds(*zxy)
+    other = TerrainTile(west=w, south=s, east=e, north=n)
+    other.fromBytesIO(io.BytesIO(data), hasLighting=True, hasWatermask=True)
+    np.testing.assert_array_equal(other.u, tile["u"])
+    np.testing.assert_array_equal(other.v, tile["v"])
+    np.testing.assert_array_equal(other.h, tile["h"])
+    np.testing.assert_array_equal(np.asarray(other.indices).reshape(-1, 3), tile["triangles"])
+    assert len(other.vLight) == len(tile["u"])
+    assert other.header["minimumHeight"] == pytest.approx(tile["min_height"])
+    lon, lat, h = np.asarray(other.getVerticesCoordinates()).T
+    assert np.all((lon >= w - 1e-9) & (lon <= e + 1e-9) & (lat >= s - 1e-9) & (lat <= n + 1e-9))
+    span = tile["max_height"] - tile["min_height"]
+    np.testing.assert_allclose(h, tile["min_height"] + tile["h"] * span / 32767, atol=1e-3)
+
+
 @pytest.fixture(scope="module")
 def terrain() -> Heightmap:
     rng = np.random.default_rng(8)
@@ -90,6 +119,7 @@ def test_pyramid_tiles_decode_within_the_level_error(terrain, tmp_path):
                 raw = (tmp_path / str(z) / str(x) / f"{y}.terrain").read_bytes()
                 assert raw[:2] == b"\x1f\x8b"  # gzip
                 tile = read_quantized_mesh(gzip.decompress(raw))
+                _same_as_quantized_mesh_tile(gzip.decompress(raw), tile, (z, x, y))
                 assert np.isfinite(tile["occlusion"]).all()
                 assert set(tile["extensions"]) == {1, 2}  # octvertexnormals, watermask
                 assert len(tile["extensions"][1]) == 2 * len(tile["u"])
@@ -142,3 +172,47 @@ def test_georeferenced_dem_needs_no_lonlat_and_local_maps_do(tmp_path):
     np.save(tmp_path / "local.npy", h)
     assert run_app(["export", "cesium", str(tmp_path / "local.npy"), "-o",
                     str(tmp_path / "x")]) == 2
+
+
+def test_tile_samples_are_the_bilinear_map_samples(terrain):
+    grid = geo_grid(terrain, (15.97, 45.81))
+    jobs, _ = tile_jobs(grid, 0, 14, 1.0)
+    for z, x, y, _err in jobs[::7]:
+        lon, lat, heights, inside, _ = tile_samples(grid, z, x, y)
+        reference, reference_inside = grid.sample(lon, lat)
+        np.testing.assert_array_equal(inside, reference_inside)
+        np.testing.assert_allclose(heights, np.where(inside, reference, 0.0), atol=1e-9)
+
+
+def test_normals_are_those_quantized_mesh_encoder_computes(terrain):
+    """The octvertexnormals payload equals the library's own VertexNormalsExtension."""
+    from quantized_mesh_encoder import VertexNormalsExtension
+
+    grid = geo_grid(terrain, (15.97, 45.81))
+    jobs, _ = tile_jobs(grid, 12, 14, 1.0)
+    for job in jobs[::5]:
+        tile = read_quantized_mesh(gzip.decompress(encode_tile(grid, *job)[0]))
+        w, s, e, n = tms_geographic_bounds(*job[:3])
+        span = tile["max_height"] - tile["min_height"]
+        # the library's normals from the decoded (dequantised) vertices and triangles
+        lon = w + tile["u"] / 32767 * (e - w)
+        lat = s + tile["v"] / 32767 * (n - s)
+        h = tile["min_height"] + tile["h"] * span / 32767
+        positions = np.stack([lon, lat, h], axis=1).reshape(-1)
+        ours = np.frombuffer(tile["extensions"][1], np.uint8).reshape(-1, 2).astype(int)
+        theirs = np.frombuffer(VertexNormalsExtension(
+            indices=tile["triangles"].astype(np.uint32), positions=positions).encode()[5:],
+            np.uint8).reshape(-1, 2).astype(int)
+        # same up to the vertex quantisation of the decoded positions: one code at most
+        assert np.abs(ours - theirs).max() <= 1
+        assert np.mean(ours == theirs) > 0.95
+
+
+def test_parallel_pyramid_is_bit_identical_to_serial(terrain):
+    grid = geo_grid(terrain, (15.97, 45.81))
+    jobs, _ = tile_jobs(grid, 10, 14, 1.0)
+    serial = list(encode_pyramid(grid, jobs, workers=1))
+    parallel = list(encode_pyramid(grid, jobs, workers=2, min_parallel_jobs=1))
+    assert len(serial) == len(jobs) >= 20
+    assert [t[0] for t in serial] == [j[:3] for j in jobs]
+    assert serial == parallel

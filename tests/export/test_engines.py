@@ -167,3 +167,30 @@ def test_blender_tiff_and_glb(terrain, tmp_path, gltf_validator):
     trimesh = pytest.importorskip("trimesh")
     scene = trimesh.load(tmp_path / "g" / "b.glb", process=False)
     assert scene.bounds[1][1] == pytest.approx(terrain.max, rel=1e-6)
+
+
+def test_unreal_png_tiles_of_a_utm_dem_are_placed_by_rasterio(terrain, tmp_path):
+    """World files (.pgw) and the CRS (.aux.xml) put every PNG tile where it belongs."""
+    rasterio = pytest.importorskip("rasterio")
+    from rasterio.crs import CRS
+    from rasterio.transform import Affine
+
+    h = np.asarray(ndimage.zoom(terrain.heights, 253 / 129, order=1))[:253, :253]
+    hm = Heightmap(h.astype(np.float32), (30.0, 30.0), origin=(500000.0, 5000000.0),
+                   crs="EPSG:32633")
+    get_destination("unreal").export(hm, tmp_path, ExportOptions(name="L", tiles=2,
+                                                                 layers=False))
+    for i in range(2):
+        for j in range(2):
+            path = tmp_path / f"L_x{j}_y{i}.png"
+            assert path.with_suffix(".pgw").exists()
+            with rasterio.open(path) as ds:
+                assert ds.crs == CRS.from_epsg(32633)
+                # tile (i, j) starts at sample [126·i, 126·j]; the transform is of corners
+                assert ds.transform.almost_equals(Affine(
+                    30.0, 0.0, 500000.0 + 126 * 30.0 * j, 0.0, -30.0, 5000000.0 - 126 * 30.0 * i))
+                np.testing.assert_array_equal(ds.read(1), np.asarray(Image.open(path)))
+    # a map without a CRS gets no world file
+    get_destination("unreal").export(Heightmap(h.astype(np.float32)), tmp_path / "plain",
+                                     ExportOptions(name="L", layers=False))
+    assert not list((tmp_path / "plain").glob("*.pgw"))

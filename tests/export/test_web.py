@@ -72,6 +72,13 @@ def test_page_is_self_contained(site, gltf_validator):
     assert "src=" not in html.split("<body>")[1].replace("img src", "")  # nothing fetched
     assert (folder / "t.glb").read_bytes()[:4] == b"glTF"
     assert "MIT License" in (folder / "THREE_LICENSE.txt").read_text()
+    # the page's three.js decodes meshopt-compressed geometry (the screenshots below show it)
+    import pygltflib
+
+    doc = pygltflib.GLTF2.load(folder / "t.glb")
+    assert set(doc.extensionsRequired) == {"EXT_meshopt_compression", "KHR_mesh_quantization"}
+    assert "setMeshoptDecoder(MeshoptDecoder)" in html
+    assert "meshoptimizer library and is distributed under the terms of MIT License" in html
 
 
 def test_top_view_from_file_matches_the_baked_texture(site, tmp_path):

@@ -20,6 +20,7 @@ import typer
 
 from terrascape.camera import Camera
 from terrascape.cli.app import app, out, timed
+from terrascape.cli.app import console as err
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
 from terrascape.lod.schemes import SCHEMES
@@ -113,6 +114,17 @@ def mesh_command(
         False, "--quantize",
         help=".glb: KHR_mesh_quantization (int16 positions, int8 normals, uint16 UVs).",
     ),
+    compress: bool = typer.Option(
+        False, "--compress",
+        help=".glb: EXT_meshopt_compression on top of --quantize (implied): about a fifth of "
+        "the plain file. three.js, Babylon.js and glTFast (Unity) decode it; Blender and Godot "
+        "do not (use --quantize alone there).",
+    ),
+    uint16: bool = typer.Option(
+        False, "--uint16",
+        help=".glb: split meshes of 65535+ vertices into parts with 16-bit indices (WebGL 1 "
+        "and other targets without 32-bit indices).",
+    ),
     skirt: float = typer.Option(
         0.0, "--skirt", help=".glb: depth of a skirt hung from the border (world units; "
         "hides cracks between tiles).", show_default="none",
@@ -144,6 +156,8 @@ def mesh_command(
             f"output must end in {', '.join(MESH_FORMATS)}, got {output.name!r}"
         )
     check_output_path(output, force=force)
+    if (compress or uint16) and output.suffix.lower() != ".glb":
+        raise InvalidParameterError("--compress and --uint16 are for .glb output")
     if max_triangles_roam is not None:
         if triangles is not None and triangles != max_triangles_roam:
             raise InvalidParameterError(
@@ -186,6 +200,12 @@ def mesh_command(
         hm = _read(heightmap, spacing, vertical_scale)
         if fit != "none":
             hm = hm.to_pow2_plus1(fit)
+    from terrascape.io.geotiff import degree_warning
+
+    degrees = degree_warning(hm)
+    if degrees is not None:
+        # the mesh would be a needle: heights in metres over an extent in degrees
+        err.print(f"[yellow]warning:[/] {degrees}")
 
     if mesher not in ("rtin", "greedy"):
         raise InvalidParameterError(f"--mesher must be rtin or greedy, got {mesher!r}")
@@ -253,7 +273,8 @@ def mesh_command(
             from terrascape.io.atomic import atomic_output
 
             data, mesh = build_glb(hm, tri, texture=texture, normal_map=normal_map,
-                                   quantize=quantize, skirt=skirt,
+                                   quantize=quantize, compress=compress,
+                                   split_uint16=uint16, skirt=skirt,
                                    georeference_node=georeference_node)
             with atomic_output(output, force=force) as tmp:
                 tmp.write_bytes(data)

@@ -35,13 +35,19 @@ def _load(heightmap: Path | None, generate: str | None, gen_size: int, seed: int
         return make(generate, gen_size, seed=seed, spacing=VIEW_SPACING,
                     **parse_params(generate, gen_param))
     from terrascape.io import read_heightmap
+    from terrascape.io.geotiff import degree_warning
 
     try:
-        return read_heightmap(heightmap)
+        hm = read_heightmap(heightmap)
     except TerrascapeError:
         raise
     except (OSError, ValueError) as exc:
         raise FileFormatError(f"cannot read heightmap {heightmap}: {exc}") from exc
+    degrees = degree_warning(hm)
+    if degrees is not None:  # render has no --spacing: the fix is a converted file
+        err.print(f"[yellow]warning:[/] {degrees}; with terrascape convert {heightmap.name} "
+                  "OUT.tif before rendering")
+    return hm
 
 
 def _clip_planes(hm, exaggeration: float, eye: np.ndarray) -> tuple[float, float]:

@@ -216,3 +216,35 @@ def check_name(name: str) -> str:
     if not name or any(ch in name for ch in "/\\:*?\"<>|") or name.startswith("."):
         raise InvalidParameterError(f"--name must be a plain file name, got {name!r}")
     return name
+
+
+def write_world_file(image: Path, heightmap: Heightmap, *, row: int = 0, col: int = 0,
+                     force: bool) -> list[Path]:
+    """Georeference an image that holds ``heightmap`` from sample ``[row, col]`` on (its
+    row 0 to the north): an ESRI world file (``.pgw`` next to a ``.png``) and the CRS in a
+    GDAL ``.aux.xml``, which GDAL, QGIS and rasterio read. Nothing for a map without a CRS.
+
+    The world file's six lines are the pixel's x size, two rotations (0), minus its y size,
+    and the CRS coordinates of the *centre* of the image's first pixel.
+    """
+    if heightmap.crs is None:
+        return []
+    from terrascape.io.geotiff import crs_pixel_size
+
+    px, py = crs_pixel_size(heightmap)
+    x = heightmap.origin[0] + (col + 0.5) * px
+    y = heightmap.origin[1] - (row + 0.5) * py
+    suffix = image.suffix.lower()
+    world = image.with_suffix(suffix[:2] + suffix[-1] + "w")  # .png → .pgw
+    lines = [f"{px!r}", "0.0", "0.0", f"{-py!r}", f"{x!r}", f"{y!r}"]
+    written = [write_text(world, "\n".join(lines) + "\n", force=force)]
+    try:
+        from rasterio.crs import CRS
+    except ImportError:  # the world file alone still places the image
+        return written
+    wkt = CRS.from_user_input(heightmap.crs).to_wkt()
+    wkt = wkt.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    aux = image.with_name(image.name + ".aux.xml")
+    written.append(write_text(aux, f"<PAMDataset>\n  <SRS>{wkt}</SRS>\n</PAMDataset>\n",
+                              force=force))
+    return written

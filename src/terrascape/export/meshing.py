@@ -22,12 +22,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from terrascape._numba import CACHE, FASTMATH, njit
 from terrascape._validate import check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.lod.rtin import Rtin, rtin_mesh
 
-__all__ = ["TerrainMesh", "border_edges", "rtin_rectangle", "terrain_mesh"]
+__all__ = ["TerrainMesh", "border_edges", "rtin_rectangle", "terrain_mesh", "uint16_parts"]
 
 
 def _next_pow2_plus1(n: int) -> int:
@@ -88,6 +89,66 @@ def border_edges(faces: np.ndarray) -> np.ndarray:
     key = np.sort(edges, axis=1)
     _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
     return edges[counts[inverse.ravel()] == 1]
+
+
+def uint16_parts(faces: np.ndarray, max_vertices: int = 65535
+                 ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Cut a triangle list into consecutive runs that each use fewer than ``max_vertices``
+    vertices (65 535: the largest ``UNSIGNED_SHORT`` index, 65 535, is glTF's and OpenGL ES's
+    primitive-restart value, so a 16-bit index must stay below it).
+
+    Each run is the longest run of the remaining triangles that fits (one greedy pass), so
+    the parts follow the mesh's own triangle order; RTIN's bintree order keeps each part a
+    compact patch of the terrain and the repeated vertices on the cuts few.
+
+    Returns
+    -------
+    list of (vertex_ids, local_faces)
+        ``vertex_ids`` int64 (sorted) into the mesh's vertices; ``local_faces`` uint32
+        ``(m, 3)`` indices into ``vertex_ids`` with the original winding. Concatenating the
+        parts' ``vertex_ids[local_faces]`` gives back ``faces`` exactly.
+    """
+    f = np.asarray(faces)
+    if f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
+        raise InvalidParameterError(f"faces must have shape (M>0, 3), got {f.shape}")
+    if max_vertices < 3:
+        raise InvalidParameterError(f"max_vertices must be at least 3, got {max_vertices}")
+    limit = max_vertices - 1  # vertices per part, so that every local index < max_vertices
+    f = np.ascontiguousarray(f, dtype=np.int64)
+    if f.min() < 0:
+        raise InvalidParameterError("face indices must not be negative")
+    stops = _part_stops(f, int(f.max()) + 1, limit)
+    parts = []
+    start = 0
+    for stop in stops:
+        ids, local = np.unique(f[start:stop], return_inverse=True)
+        parts.append((ids.astype(np.int64), local.reshape(-1, 3).astype(np.uint32)))
+        start = int(stop)
+    return parts
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _part_stops(faces, n_vertices, limit):
+    # Greedy: a triangle joins the current part unless its new vertices would pass the limit.
+    stamp = np.full(n_vertices, -1, np.int64)
+    stops = np.empty(len(faces) + 1, np.int64)
+    part = 0
+    used = 0
+    for t in range(len(faces)):
+        a, b, c = faces[t, 0], faces[t, 1], faces[t, 2]
+        fresh = (stamp[a] != part) + (stamp[b] != part and b != a) + (
+            stamp[c] != part and c != a and c != b)
+        if used + fresh > limit:
+            stops[part] = t
+            part += 1
+            used = 0
+            fresh = 1 + (b != a) + (c != a and c != b)
+        stamp[a] = part
+        stamp[b] = part
+        stamp[c] = part
+        used += fresh
+    stops[part] = len(faces)
+    return stops[:part + 1]
 
 
 @dataclass(frozen=True)

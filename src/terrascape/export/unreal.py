@@ -29,6 +29,7 @@ from terrascape.export._common import (
     write_bytes,
     write_png,
     write_text,
+    write_world_file,
 )
 from terrascape.export.instances import write_engine_instances
 from terrascape.heightmap import Heightmap
@@ -57,10 +58,14 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     codes = uint16_codes(hm.heights, lo, hi)
     written: list[Path] = []
     blocks = split_tiles(codes, options.tiles)
+    step_r, step_c = (hm.rows - 1) // options.tiles, (hm.cols - 1) // options.tiles
     for (i, j), block in blocks.items():
         stem = name if options.tiles == 1 else f"{name}_x{j}_y{i}"
         if fmt == "png":
             written.append(write_png(out / f"{stem}.png", block, force=options.force))
+            # GIS tools place the PNG (Unreal ignores these files)
+            written += write_world_file(out / f"{stem}.png", hm, row=i * step_r,
+                                        col=j * step_c, force=options.force)
         else:
             written.append(write_bytes(out / f"{stem}.r16", block.astype("<u2").tobytes(),
                                        force=options.force))

@@ -1,12 +1,13 @@
 """A self-contained web page showing the textured terrain: ``terrascape export web``.
 
-The page (``index.html``) embeds the quantized, textured glb (:mod:`terrascape.export.glb`)
-as base64 and three.js (npm ``three``, vendored under ``web_assets/three`` with its MIT
-licence by ``scripts/vendor_three.sh``): it opens from ``file://`` — module scripts cannot be
-fetched there, so the modules are inlined as text and imported from ``blob:`` URLs — and from
-any static server. The glb is also written next to it (``NAME.glb``). The viewer draws the
-baked colour texture unlit (it already holds the sun and the shadows) with orbit controls;
-``index.html#top`` looks straight down at the whole map.
+The page (``index.html``) embeds the quantized, meshopt-compressed, textured glb
+(:mod:`terrascape.export.glb`) as base64 and three.js (npm ``three``, vendored under
+``web_assets/three`` with its MIT licence by ``scripts/vendor_three.sh``, with meshoptimizer's
+decoder from three's ``examples/jsm/libs``, MIT too): it opens from ``file://`` — module
+scripts cannot be fetched there, so the modules are inlined as text and imported from
+``blob:`` URLs — and from any static server. The glb is also written next to it
+(``NAME.glb``). The viewer draws the baked colour texture unlit (it already holds the sun and
+the shadows) with orbit controls; ``index.html#top`` looks straight down at the whole map.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ _MODULES = {
     "THREE_SKU": "three/SkeletonUtils.js",
     "THREE_GLTF": "three/GLTFLoader.js",
     "THREE_ORBIT": "three/OrbitControls.js",
+    "MESHOPT_DECODER": "three/meshopt_decoder.module.js",
     "VIEWER": "viewer.js",
 }
 
@@ -68,7 +70,7 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     relief = max(heightmap.max - heightmap.min, 1e-6)
     max_error = options.max_error if options.max_error is not None else relief / 500.0
     tri = rtin_rectangle(heightmap, max_error=max_error)
-    glb, mesh = build_glb(heightmap, tri, quantize=True, texture_size=2048,
+    glb, mesh = build_glb(heightmap, tri, compress=True, texture_size=2048,
                           objects=objects_for(options, heightmap))
     title = (f"{options.name}: {heightmap.cols}×{heightmap.rows} samples, {len(mesh.faces):,} "
              f"triangles (max error {max_error:.3g})")

@@ -3,6 +3,7 @@
 import * as THREE from 'three';
 import { GLTFLoader } from 'GLTFLoader';
 import { OrbitControls } from 'OrbitControls';
+import { MeshoptDecoder } from 'MeshoptDecoder';
 
 const config = JSON.parse(document.getElementById('terrain-config').textContent);
 const canvas = document.getElementById('view');
@@ -58,7 +59,8 @@ const sun = new THREE.DirectionalLight(0xfff0dc, 2.2);
 sun.position.set(0.64, 0.57, 0.64);  // the baked texture's sun: azimuth 135°, 35° up
 scene.add(sun);
 
-new GLTFLoader().parse(bytes.buffer, '', (gltf) => {
+// the glb is EXT_meshopt_compression encoded: meshoptimizer's decoder (WebAssembly) reads it
+new GLTFLoader().setMeshoptDecoder(MeshoptDecoder).parse(bytes.buffer, '', (gltf) => {
   const root = gltf.scene;
   root.traverse((o) => {
     // The texture already holds the sun and the shadows: draw it unlit, as baked.
