@@ -270,3 +270,29 @@ def test_web_page_draws_the_instanced_trees(terrain, tmp_path):
         r, g, b = img[..., 0], img[..., 1], img[..., 2]
         shots[label] = np.mean((g > r + 4) & (g > b) & (img.mean(axis=2) < 70))
     assert shots["trees"] > shots["bare"] + 0.03, shots
+
+
+def test_cli_preview_marks_every_object(terrain, tmp_path):
+    from terrascape.io import write_heightmap
+    from terrascape.objects.preview import MARK_COLOURS
+
+    src = tmp_path / "t.tif"
+    write_heightmap(terrain, src)
+    out, png = tmp_path / "o.json", tmp_path / "o.png"
+    assert run_app(["objects", "scatter", str(src), str(out), "--preview", str(png),
+                    "-q"]) == 0
+    img = np.asarray(Image.open(png).convert("RGB"))
+    assert img.shape == (1024, 1024, 3)
+    inst = scatter(read_heightmap(src), seed=0)
+    ex, ez = terrain.extent
+    col = np.rint(inst.positions[:, 0] * 1023 / ex).astype(int)
+    row = np.rint(inst.positions[:, 2] * 1023 / ez).astype(int)
+    names = [inst.meshes[k].name for k in inst.kind]
+    for name in ("conifer", "bush", "rock"):  # drawn last: small marks on top
+        sel = [i for i, n in enumerate(names) if n == name]
+        hit = np.mean([tuple(img[row[i], col[i]]) == MARK_COLOURS[name] for i in sel])
+        assert len(sel) >= 10 and hit > 0.8, (name, len(sel), hit)
+    # a wrong preview name fails before anything is written
+    assert run_app(["objects", "scatter", str(src), str(tmp_path / "p.json"), "--preview",
+                    str(tmp_path / "p.jpg")]) == 2
+    assert not (tmp_path / "p.json").exists()
