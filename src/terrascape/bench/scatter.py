@@ -1,4 +1,4 @@
-"""``terrascape bench objects``: scattering trees, rocks and buildings by the default rules,
+"""``terrascape bench scatter``: scattering trees, rocks and buildings by the default rules,
 and Poisson-disk dart throwing near the packing limit.
 
 Terrain: diamond-square, spacing 4 m (a 1025² map is 4.1 km wide), relief 20 % of the
