@@ -23,6 +23,7 @@ from terrascape.export.instances import (
     engine_to_world,
     read_engine_instances,
     read_instances_json,
+    texture_shore,
     world_to_engine,
 )
 from terrascape.export.meshing import rtin_rectangle
@@ -54,8 +55,8 @@ def _check_instanced_glb(path, inst, validate):
     other = [m for m in issues["messages"] if m["severity"] <= 1]
     assert not other, other
     doc = pygltflib.GLTF2.load_binary(path)
-    # the specification asks for it in extensionsRequired (there is no fallback)
-    assert INSTANCING in doc.extensionsUsed and INSTANCING in doc.extensionsRequired
+    # used, not required: viewers without it still load the terrain
+    assert INSTANCING in doc.extensionsUsed and INSTANCING not in (doc.extensionsRequired or [])
     found = 0
     for node in doc.nodes:
         ext = (node.extensions or {}).get(INSTANCING)
@@ -109,7 +110,10 @@ def test_cli_web_and_blender_glb_with_objects(terrain, tmp_path, gltf_validator)
     write_heightmap(terrain, src)
     assert run_app(["export", "web", str(src), "-o", str(tmp_path / "web"), "--objects",
                     "default", "--seed", "3", "-q"]) == 0
-    inst = scatter(read_heightmap(src), seed=3)
+    hm = read_heightmap(src)
+    # textured glbs keep the objects out of the texture's water by default
+    inst = scatter(hm, seed=3, sea_level=texture_shore(hm))
+    assert inst.positions[:, 1].min() >= texture_shore(hm) - 1e-3 > hm.min
     _check_instanced_glb(tmp_path / "web" / "t.glb", inst, gltf_validator)
     assert run_app(["export", "blender", str(src), "-o", str(tmp_path / "b"), "--format", "glb",
                     "--objects", "default", "--seed", "3", "-q"]) == 0
@@ -266,3 +270,29 @@ def test_web_page_draws_the_instanced_trees(terrain, tmp_path):
         r, g, b = img[..., 0], img[..., 1], img[..., 2]
         shots[label] = np.mean((g > r + 4) & (g > b) & (img.mean(axis=2) < 70))
     assert shots["trees"] > shots["bare"] + 0.03, shots
+
+
+def test_cli_preview_marks_every_object(terrain, tmp_path):
+    from terrascape.io import write_heightmap
+    from terrascape.objects.preview import MARK_COLOURS
+
+    src = tmp_path / "t.tif"
+    write_heightmap(terrain, src)
+    out, png = tmp_path / "o.json", tmp_path / "o.png"
+    assert run_app(["objects", "scatter", str(src), str(out), "--preview", str(png),
+                    "-q"]) == 0
+    img = np.asarray(Image.open(png).convert("RGB"))
+    assert img.shape == (1024, 1024, 3)
+    inst = scatter(read_heightmap(src), seed=0)
+    ex, ez = terrain.extent
+    col = np.rint(inst.positions[:, 0] * 1023 / ex).astype(int)
+    row = np.rint(inst.positions[:, 2] * 1023 / ez).astype(int)
+    names = [inst.meshes[k].name for k in inst.kind]
+    for name in ("conifer", "bush", "rock"):  # drawn last: small marks on top
+        sel = [i for i, n in enumerate(names) if n == name]
+        hit = np.mean([tuple(img[row[i], col[i]]) == MARK_COLOURS[name] for i in sel])
+        assert len(sel) >= 10 and hit > 0.8, (name, len(sel), hit)
+    # a wrong preview name fails before anything is written
+    assert run_app(["objects", "scatter", str(src), str(tmp_path / "p.json"), "--preview",
+                    str(tmp_path / "p.jpg")]) == 2
+    assert not (tmp_path / "p.json").exists()

@@ -128,3 +128,39 @@ def test_not_a_mesh_is_a_clear_error(tmp_path):
     doc.save_binary(str(path))
     with pytest.raises(FileFormatError, match="KHR_draco_mesh_compression"):
         load_gltf_mesh(path)
+
+
+def test_damaged_files_give_one_clear_error(tmp_path):
+    """Bytes of a valid glb changed at random (JSON and binary chunks): a mesh or a
+    FileFormatError, never another exception (hypothesis, capped examples)."""
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from terrascape.errors import TerrascapeError
+
+    def coloured(box):
+        return trimesh.visual.ColorVisuals(box, vertex_colors=np.full((8, 4), 200, np.uint8))
+
+    path, _, _ = _box_scene(tmp_path, coloured)
+    good = path.read_bytes()
+
+    @settings(max_examples=120, deadline=None, derandomize=True)
+    @given(edits=st.lists(st.tuples(st.integers(0, len(good) - 1), st.integers(0, 255)),
+                          min_size=1, max_size=6),
+           cut=st.one_of(st.none(), st.integers(0, len(good))))
+    def check(edits, cut):
+        data = bytearray(good)
+        for where, value in edits:
+            data[where] = value
+        if cut is not None:
+            data = data[:cut]
+        bad = tmp_path / "bad.glb"
+        bad.write_bytes(bytes(data))
+        try:
+            m = load_gltf_mesh(bad)
+        except TerrascapeError as exc:
+            assert "\n" not in str(exc)
+            return
+        assert m.triangles > 0 and np.isfinite(m.positions).all()
+
+    check()

@@ -245,3 +245,21 @@ def test_the_documented_rules_file_parses():
     rs = ruleset_from_dict(data, meshes={"pine": builtin_mesh("conifer")})
     assert [r.name for r in rs.rules] == ["pines", "scree"] and rs.sea_level == 12.0
     assert rs.rules[1].masks["wear"] == Band(0.3, math.inf, 0.2)
+
+
+def test_feet_reach_into_sloping_ground(hilly):
+    """The lowest vertices of every placed model (trunk bases, stone bottoms, foundation
+    corners) are under the drawn surface (within 2 cm): nothing floats on the downhill
+    side."""
+    inst = scatter(hilly, seed=6)
+    mats = inst.matrices().astype(np.float64)
+    for k, mesh in enumerate(inst.meshes):
+        sel = inst.of_kind(k)
+        if len(sel) == 0:
+            continue
+        p = mesh.positions.astype(np.float64)
+        bottom = p[p[:, 1] <= p[:, 1].min() + 1e-6]
+        world = np.einsum("nij,vj->nvi", mats[sel, :3, :3], bottom) + mats[sel, None, :3, 3]
+        ground = surface_height(hilly, world[..., 0], world[..., 2])
+        above = world[..., 1] - ground
+        assert above.max() <= 0.02, (mesh.name, float(above.max()))

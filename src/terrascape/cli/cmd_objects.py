@@ -45,6 +45,10 @@ def scatter_cmd(
         "are an error (the built-in rules thin out instead).", show_default="200,000"),
     spacing: str = typer.Option(None, "--spacing", help="Sample spacing DX or DX,DZ in world "
                                 "units (overrides the file).", show_default="from file"),
+    preview: Path = typer.Option(
+        None, "--preview", help="Also write a top-down map (.png): the shaded terrain with "
+        "every object as a dot of its footprint (conifers dark green, broadleaf trees light "
+        "green, bushes yellow, rocks grey, houses red, halls magenta).", show_default="none"),
     force: bool = _FORCE,
     quiet: bool = _QUIET,
 ) -> None:
@@ -52,13 +56,18 @@ def scatter_cmd(
     from terrascape.cli.cmd_files import _parse_spacing
     from terrascape.errors import InvalidParameterError
     from terrascape.export.instances import instances_json
-    from terrascape.io import atomic_output, check_output_path, read_heightmap
+    from terrascape.io import check_output_path, read_heightmap
+    from terrascape.io.atomic import atomic_outputs
     from terrascape.objects.load import load_objects, read_masks
 
     if output.suffix.lower() != ".json":
         raise InvalidParameterError(f"the instance list is JSON: give OUT as a .json file, got "
                                     f"{output.name}")
     check_output_path(output, force=force)
+    if preview is not None:
+        if preview.suffix.lower() != ".png":
+            raise InvalidParameterError(f"--preview is a .png image, got {preview.name}")
+        check_output_path(preview, force=force)
     with timed("read", quiet=quiet):
         hm = read_heightmap(input_path, spacing=_parse_spacing(spacing))
         mask_arrays = read_masks(masks) if masks is not None else None
@@ -66,8 +75,15 @@ def scatter_cmd(
         inst = load_objects(objects, hm, seed=seed, exaggeration=exaggeration,
                             masks=mask_arrays, sea_level=sea_level, max_objects=max_objects)
     text = instances_json(inst, hm)
-    with atomic_output(output, force=force) as tmp:
-        Path(tmp).write_text(text, encoding="utf-8")
+    paths = [output] if preview is None else [output, preview]
+    with atomic_outputs(paths, force=force) as tmps:  # both files or neither
+        Path(tmps[0]).write_text(text, encoding="utf-8")
+        if preview is not None:
+            from PIL import Image
+
+            from terrascape.objects.preview import objects_preview
+
+            Image.fromarray(objects_preview(hm, inst)).save(tmps[1], format="PNG")
     if not quiet:
         for rule in inst.metadata.get("rules", []):
             note = "" if rule["placed"] == rule["target"] else f" (of {rule['target']} asked)"

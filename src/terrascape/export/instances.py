@@ -5,8 +5,9 @@ x.glb``): :func:`add_instancing` adds each object mesh to the terrain's glTF doc
 (``POSITION``, ``NORMAL``, linear ``COLOR_0``, a rough non-metallic material) and one node per
 mesh carrying ``EXT_mesh_gpu_instancing`` with ``TRANSLATION``, ``ROTATION`` (unit quaternions
 about +Y) and ``SCALE`` accessors — one draw per mesh in viewers that support it (three.js,
-Babylon.js, Blender's importer, CesiumJS). As the extension's specification asks, it is
-listed in ``extensionsRequired`` too (there is no fallback for viewers without it).
+Babylon.js, CesiumJS). The extension is listed in ``extensionsUsed`` only, although its
+specification recommends ``extensionsRequired``: a viewer or importer without it then still
+loads the terrain (showing each model once at the map's corner) instead of refusing the file.
 
 **Engines** (:func:`write_engine_instances`): ``NAME_objects.glb`` holds every mesh once,
 at the origin, one node named after the mesh (import it as the prefabs / static meshes), and
@@ -198,11 +199,10 @@ def add_instancing(doc, instances: Instances, *, parent: int = 0) -> list[int]:
         nodes.append(len(doc.nodes) - 1)
     root = doc.nodes[parent]
     root.children = list(root.children or []) + nodes
-    for key in ("extensionsUsed", "extensionsRequired"):
-        names = list(getattr(doc, key) or [])
-        if INSTANCING not in names:
-            names.append(INSTANCING)
-        setattr(doc, key, names)
+    used = list(doc.extensionsUsed or [])
+    if INSTANCING not in used:
+        used.append(INSTANCING)
+    doc.extensionsUsed = used
     if not doc.buffers:
         doc.buffers = [pygltflib.Buffer(byteLength=0)]
     doc.buffers[0].byteLength = len(blob.blob)

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import io
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -241,10 +242,19 @@ def load_gltf_mesh(path: str | os.PathLike, *, name: str | None = None) -> Objec
     if not p.is_file():
         raise FileFormatError(f"{p}: no such glTF file")
     try:
-        if p.read_bytes()[:4] == b"glTF":
-            doc = pygltflib.GLTF2.load_binary(p)
-        else:
-            doc = pygltflib.GLTF2.load_json(p)
+        head = p.read_bytes()[:8]
+    except OSError as exc:
+        raise FileFormatError(f"{p}: cannot read it ({exc.strerror})") from None
+    if head[:4] == b"glTF" and head[4:8] != (2).to_bytes(4, "little"):
+        version = int.from_bytes(head[4:8], "little")
+        raise FileFormatError(f"{p}: a glb of version {version}; terrascape reads glTF 2.0")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # pygltflib warns on odd chunks; errors follow
+            if head[:4] == b"glTF":
+                doc = pygltflib.GLTF2.load_binary(p)
+            else:
+                doc = pygltflib.GLTF2.load_json(p)
     except Exception as exc:  # pygltflib raises anything from IOError to JSON/KeyError
         raise FileFormatError(f"{p}: not a readable glTF file ({type(exc).__name__}: "
                               f"{str(exc)[:120]})") from None

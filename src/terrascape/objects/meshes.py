@@ -7,9 +7,9 @@ package) in real-world metres, its foot at the origin and Y up:
   dark needles;
 * ``broadleaf`` — a deciduous tree 11 m tall: a trunk and a crown of three overlapping faceted
   blobs (about 8 m across);
-* ``bush`` — a shrub 1.6 m tall and 2.6 m across;
+* ``bush`` — a shrub 1.3 m tall and 2.6 m across;
 * ``rock`` and ``boulder`` — irregular stones (convex hulls of seeded random points on a
-  squashed ellipsoid), about 1.6 m and 3.5 m across, sunk a little into the ground;
+  squashed ellipsoid), about 1.6 m and 3.5 m across, partly buried;
 * ``house`` — 10 × 8 m plastered walls 4 m high with a gabled tile roof to 7 m;
 * ``hall`` — a larger building, 22 × 14 m, 9 m walls and a hipped roof to 14 m.
 
@@ -18,8 +18,9 @@ normal), coloured in linear RGB (bark, needles, leaves, stone, plaster, roof til
 seeded per-face variation keeps large faces from looking flat), wound counter-clockwise seen
 from outside. Each mesh is a union of closed parts (every edge of a part, with the vertices
 welded, is shared by exactly two triangles in opposite directions), which shadow volumes need.
-Buildings stand on a foundation reaching 1.5 m below their foot so that they meet sloping
-ground without a gap.
+Whatever stands on slopes reaches below its foot so that it meets sloping ground without a
+gap: trunks 0.6 m, stones down to 0.55 m and 1.2 m (a 35° slope drops 0.6 m and 1.3 m under
+their downhill edges), buildings on a foundation 1.5 m deep.
 """
 
 from __future__ import annotations
@@ -43,6 +44,8 @@ FOUNDATION = (0.200, 0.190, 0.175)
 
 #: How far the buildings' foundations reach below their foot (metres).
 FOUNDATION_DEPTH = 1.5
+#: How far tree trunks reach below their foot (metres).
+TRUNK_DEPTH = 0.6
 
 
 class _Builder:
@@ -130,7 +133,7 @@ def _box(x0: float, x1: float, y0: float, y1: float, z0: float, z1: float) -> np
 def conifer() -> ObjectMesh:
     """A spruce-like conifer, 15 m tall."""
     b = _Builder(seed=11)
-    b.add(_frustum(6, 0.30, 0.0, 0.22, 3.2), BARK, (0, 1.6, 0), jitter=0.05)
+    b.add(_frustum(6, 0.30, -TRUNK_DEPTH, 0.22, 3.2), BARK, (0, 1.6, 0), jitter=0.05)
     # three tiers of needles, each cone overlapping the one below like a spruce's whorls
     for r, y0, y1, phase in ((3.0, 2.2, 8.6, 0.0), (2.3, 6.0, 11.8, 0.4), (1.5, 9.4, 15.0, 0.8)):
         b.add(_frustum(8, r, y0, 0.0, y1, phase), NEEDLES, (0, y0 + (y1 - y0) / 4, 0))
@@ -140,7 +143,7 @@ def conifer() -> ObjectMesh:
 def broadleaf() -> ObjectMesh:
     """A deciduous tree, 11 m tall with a crown about 8 m across."""
     b = _Builder(seed=12)
-    b.add(_frustum(6, 0.38, 0.0, 0.26, 5.0), BARK, (0, 2.5, 0), jitter=0.05)
+    b.add(_frustum(6, 0.38, -TRUNK_DEPTH, 0.26, 5.0), BARK, (0, 2.5, 0), jitter=0.05)
     rng = np.random.default_rng(120)
     for centre, radii in (((0.0, 7.2, 0.0), (3.4, 2.9, 3.4)),
                           ((1.3, 8.6, 0.7), (2.4, 2.4, 2.3)),
@@ -150,13 +153,14 @@ def broadleaf() -> ObjectMesh:
 
 
 def bush() -> ObjectMesh:
-    """A shrub 1.6 m tall and about 2.6 m across."""
+    """A shrub 1.3 m tall above its foot and about 2.6 m across."""
     b = _Builder(seed=13)
     rng = np.random.default_rng(130)
-    b.add(_blob(rng, (0.0, 0.75, 0.0), (1.3, 0.85, 1.2), points=28), SHRUB, (0, 0.75, 0),
+    # sunk by half its height: on a slope its downhill side still meets the ground
+    b.add(_blob(rng, (0.0, 0.3, 0.0), (1.3, 0.95, 1.2), points=28), SHRUB, (0, 0.3, 0),
           jitter=0.12)
-    b.add(_blob(rng, (0.55, 0.55, 0.35), (0.8, 0.6, 0.75), points=18), SHRUB,
-          (0.55, 0.55, 0.35), jitter=0.12)
+    b.add(_blob(rng, (0.55, 0.15, 0.35), (0.8, 0.65, 0.75), points=18), SHRUB,
+          (0.55, 0.15, 0.35), jitter=0.12)
     return b.mesh("bush")
 
 
@@ -169,13 +173,13 @@ def _rock(name: str, seed: int, radii, sink: float) -> ObjectMesh:
 
 
 def rock() -> ObjectMesh:
-    """A stone about 1.6 m across, sunk 0.2 m into the ground."""
-    return _rock("rock", 21, (0.85, 0.5, 0.7), 0.2)
+    """A stone about 1.6 m across, half buried (0.55 m below its foot)."""
+    return _rock("rock", 21, (0.85, 0.5, 0.7), 0.55)
 
 
 def boulder() -> ObjectMesh:
-    """A boulder about 3.5 m across and 2 m high, sunk 0.4 m into the ground."""
-    return _rock("boulder", 22, (1.8, 1.1, 1.5), 0.4)
+    """A boulder about 3.5 m across, 1.6 m above its foot and 1.2 m below."""
+    return _rock("boulder", 22, (1.8, 1.4, 1.5), 1.2)
 
 
 def _gable_roof(x0, x1, z0, z1, y0, y1) -> np.ndarray:

@@ -370,7 +370,7 @@ def default_rules(*, masks: Sequence[str] = (), sea_level: float | None = None,
         ScatterRule("broadleaf trees", ("broadleaf",), density=40.0, spacing=7.0,
                     slope=Band(0.0, 22.0, 6.0), height_fraction=Band(-math.inf, 0.45, 0.12),
                     materials=dry, scale=(0.75, 1.25)),
-        ScatterRule("bushes", ("bush",), density=25.0, spacing=3.0, slope=Band(0.0, 30.0, 6.0),
+        ScatterRule("bushes", ("bush",), density=25.0, spacing=3.0, slope=Band(0.0, 26.0, 5.0),
                     height_fraction=Band(-math.inf, 0.75, 0.1), materials=dry,
                     scale=(0.6, 1.4)),
     ]
