@@ -67,6 +67,10 @@ class TextureData:
         half the size of the previous one, sampled NEAREST (e.g. min/max depth pyramids,
         which averaging would break). The renderer also sets the integer uniform
         ``<sampler>_levels`` to the number of levels including level 0.
+    mip_blend
+        With ``mipmaps``: blend the two nearest mip levels (trilinear). ``False`` reads only
+        the nearest level (half the texel reads; for textures a shader samples many times
+        per pixel, where a software rasteriser pays for every read).
     """
 
     data: np.ndarray
@@ -75,6 +79,7 @@ class TextureData:
     mipmaps: bool = True
     nearest: bool = False
     levels: tuple[np.ndarray, ...] = ()
+    mip_blend: bool = True
 
 
 TextureBuilder = Callable[[Heightmap, Mapping[str, Any]], TextureData]

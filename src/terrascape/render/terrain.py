@@ -118,7 +118,7 @@ def as_texture_data(value: Any, *, name: str = "texture") -> TextureData:
                     f"{data.shape[2:] or 1} channel(s), got {lv.shape} {lv.dtype}"
                 )
     return TextureData(np.ascontiguousarray(data), tex.kind, bool(tex.repeat), bool(tex.mipmaps),
-                       bool(tex.nearest), levels)
+                       bool(tex.nearest), levels, bool(tex.mip_blend))
 
 
 def upload_texture(ctx, tex: TextureData, *, name: str = "texture", limits: dict | None = None):
@@ -167,7 +167,8 @@ def upload_texture(ctx, tex: TextureData, *, name: str = "texture", limits: dict
         gl_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
     elif tex.mipmaps and tex.kind != "3d":
         gl_tex.build_mipmaps()
-        gl_tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        gl_tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR if tex.mip_blend
+                         else moderngl.LINEAR_MIPMAP_NEAREST, moderngl.LINEAR)
         # No anisotropic filtering: on llvmpipe it costs 2-4× the frame time of a technique.
     else:
         gl_tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
