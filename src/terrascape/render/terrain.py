@@ -55,6 +55,10 @@ _GBUFFER_UNIT = 12
 # Texture units of the daylight look's own textures (terrain shadows + sky view, heights).
 _SUN_SKY_UNIT = 10
 _HEIGHT_UNIT = 11
+_HAZE_UNIT = 9
+# Cells (azimuth from the sun, elevation) of the per-frame horizon sky table of the haze
+# (terrain/haze_lut.glsl).
+HAZE_LUT_SIZE = (64, 32)
 _FALLBACK = "plain"
 # Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
 # (129 ≢ 0, ±1 mod 256, llvmpipe's vertex-cache hash) with few draw calls (64 at 1025²).
@@ -263,6 +267,7 @@ class TerrainRenderer:
         self.world = heightmap if self.exaggeration == 1.0 else heightmap.scaled(
             self.exaggeration)
         self._env: dict[str, tuple[Any, Any]] = {}  # daylight textures: name -> (tex, key)
+        self._haze: tuple | None = None  # (texture, framebuffer, vertex array) of the haze table
         self._sky_visibility: np.ndarray | None = None
         self._edge_albedo: dict[int, np.ndarray] = {}
         self._water_vao = None
@@ -595,6 +600,8 @@ class TerrainRenderer:
         self.last_technique = tech.name
         uniforms = self.frame_uniforms(camera, p)
         ctx = self.ctx
+        if p["lighting"] == "daylight":
+            self._draw_haze_lut(uniforms)
         fbo.use()
         ctx.viewport = (0, 0, *fbo.size)
         horizon = uniforms["u_fog_color"]
@@ -913,12 +920,38 @@ class TerrainRenderer:
                               samples=int(params["shadow_samples"]))
         return np.ascontiguousarray(np.stack([sun, self._sky_visibility], axis=-1))
 
+    def _draw_haze_lut(self, uniforms: Mapping[str, Any]) -> None:
+        """The frame's horizon sky table of the terrain's haze (terrain/haze_lut.glsl)."""
+        import moderngl
+
+        ctx = self.ctx
+        prog = load_program(ctx, "terrain/haze_lut")
+        if self._haze is None:
+            tex = ctx.texture(HAZE_LUT_SIZE, 4, dtype="f2")
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x = tex.repeat_y = False
+            self._haze = (tex, ctx.framebuffer(color_attachments=[tex]),
+                          ctx.vertex_array(prog, []))
+        _, lut_fbo, vao = self._haze
+        set_uniforms(prog, **uniforms)
+        set_uniforms(prog, u_lut_size=HAZE_LUT_SIZE)
+        lut_fbo.use()
+        ctx.viewport = (0, 0, *HAZE_LUT_SIZE)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
+        vao.render(moderngl.TRIANGLES, vertices=3)
+
     def _bind_environment(self, program, params: Mapping[str, Any]) -> None:
+        if "u_haze_lut" in program and self._haze is not None:
+            self._haze[0].use(location=_HAZE_UNIT)
+            program["u_haze_lut"].value = _HAZE_UNIT
         key = tuple(repr(params[k]) for k in ("sun", "shadows", "sun_radius", "shadow_samples"))
         if "u_sun_sky" in program:
+            # 8-bit: llvmpipe filters unorm8 on its fast path, float textures on a slow one
+            # (a tenth of a plain daylight frame); visibility needs no more precision.
             tex = self._env_texture(
                 "u_sun_sky", key,
-                lambda: TextureData(self.sun_sky_visibility(params), repeat=False))
+                lambda: TextureData(np.round(np.clip(self.sun_sky_visibility(params), 0, 1)
+                                             * 255.0).astype(np.uint8), repeat=False))
             tex.use(location=_SUN_SKY_UNIT)
             program["u_sun_sky"].value = _SUN_SKY_UNIT
         self._env_texture(
@@ -1048,6 +1081,10 @@ class TerrainRenderer:
         for tex, _ in self._env.values():
             tex.release()
         self._env.clear()
+        if self._haze is not None:
+            for obj in reversed(self._haze):
+                obj.release()
+            self._haze = None
         if self._water_vao is not None:
             self._water_vao.release()
             self._water_buf.release()

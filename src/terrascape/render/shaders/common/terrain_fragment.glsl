@@ -120,9 +120,42 @@ vec3 terrain_phong(vec3 albedo, vec3 N, vec3 L, vec3 V) {
 }
 #define phong terrain_phong
 
+// Sky radiance toward the horizon below direction d from the per-frame table
+// (terrain/haze_lut.glsl; TerrainRenderer draws it for every daylight frame).
+uniform sampler2D u_haze_lut;
+vec3 haze_horizon(vec3 d) {
+    vec2 s = u_sky_sun_dir.xz;
+    s = dot(s, s) > 1e-12 ? normalize(s) : vec2(1.0, 0.0);
+    vec2 h = d.xz / max(length(d.xz), 1e-6);
+    float u = sqrt(clamp(0.5 - 0.5 * dot(h, s), 0.0, 1.0));  // sin(φ/2)
+    float v = sqrt(max(d.y, 0.0));
+    vec2 size = vec2(textureSize(u_haze_lut, 0));
+    return texture(u_haze_lut, (vec2(u, v) * (size - 1.0) + 0.5) / size).rgb;
+}
+
+// aerial_perspective() of common/atmosphere.glsl with the horizon's sky radiance from the
+// table: the same extinction through air thinning with height, in-scattered light toward
+// the sky colour of the same view direction at the horizon.
+vec3 terrain_aerial_perspective(vec3 radiance, vec3 p, vec3 eye) {
+    vec3 ray = p - eye;
+    float dist = length(ray);
+    float ha = (eye.y - u_haze_base) / u_haze_height;
+    float hb = (p.y - u_haze_base) / u_haze_height;
+    float dh = hb - ha;
+    float mean_density = abs(dh) < 1e-3 ? exp(-0.5 * (ha + hb))
+                                        : (exp(-ha) - exp(-hb)) / dh;
+    vec3 transmittance = exp(-u_haze_beta * dist * mean_density);
+    vec3 horizon = haze_horizon(ray / max(dist, 1e-6));
+    return radiance * transmittance + horizon * (1.0 - transmittance);
+}
+
 vec4 finish(vec3 color) {
     if (u_lighting == 3) {
+#ifdef EXACT_HAZE  // the sky model per pixel (the reference the table is tested against)
         return vec4(display(aerial_perspective(color, v_world, u_camera_pos)), 1.0);
+#else
+        return vec4(display(terrain_aerial_perspective(color, v_world, u_camera_pos)), 1.0);
+#endif
     }
     return vec4(apply_fog(color, distance(v_world, u_camera_pos)), 1.0);
 }
