@@ -68,10 +68,22 @@ def test_default_material_render_has_no_texture_period(plane):
     px = 2.0 * 32.0  # pixels per material repeat
     assert img[..., :3].std() > 4  # textured, not flat
     assert peak_ratio(img, px) <= 3.0
-    # the same view with plain wrap sampling (splat's tiled layers) does show the period
-    tiled = plane.render(_overhead(), technique="splat")
+    # the same view with plain wrap sampling (splat's layers wrapped) does show the period
+    tiled = plane.render(_overhead(), technique="splat", params={"hex_tiling": False})
     assert peak_ratio(tiled, px) > 3.0
     assert np.array_equal(img, plane.render(_overhead(), technique="material"))
+
+
+@pytest.mark.parametrize("technique", ["splat", "texture3d"])
+def test_splat_and_texture3d_layers_show_no_tile_period(plane, technique):
+    px = 2.0 * 32.0  # pixels per layer repeat (tile size 32 world units)
+    hexed = plane.render(_overhead(), technique=technique)
+    wrapped = plane.render(_overhead(), technique=technique, params={"hex_tiling": False})
+    assert hexed[..., :3].std() > 3  # textured, not flat
+    assert peak_ratio(wrapped, px) > 3.0  # the seed's wrapped layers repeat ...
+    assert peak_ratio(hexed, px) <= 3.0  # ... hex-tiled they do not
+    # the same colours: hex-tiling moves the texture around, it does not change it
+    assert np.abs(hexed[..., :3].mean((0, 1)) - wrapped[..., :3].mean((0, 1))).max() < 6
 
 
 def test_bump_detail_normals_have_no_grid_of_seams(plane):
