@@ -268,6 +268,9 @@ class TerrainRenderer:
             self.exaggeration)
         self._env: dict[str, tuple[Any, Any]] = {}  # daylight textures: name -> (tex, key)
         self._haze: tuple | None = None  # (texture, framebuffer, vertex array) of the haze table
+        # Sun/sky visibility as an 8-bit texture (llvmpipe filters unorm8 on its fast path);
+        # False uploads float32 (the exact values, for comparisons: bench terrain_shading).
+        self.visibility_8bit = True
         self._sky_visibility: np.ndarray | None = None
         self._edge_albedo: dict[int, np.ndarray] = {}
         self._water_vao = None
@@ -481,9 +484,10 @@ class TerrainRenderer:
 
             seed = int(params.get("seed", 0))
             if seed not in self._edge_albedo:
-                from terrascape.render.atmosphere import edge_albedo
+                from terrascape.texture.terrain_material import lowest_ground_albedo
 
-                self._edge_albedo[seed] = edge_albedo(self.heightmap, seed)
+                # the ground beyond the edge: the material the terrain's lowest ground has
+                self._edge_albedo[seed] = lowest_ground_albedo(self.heightmap, seed=seed)
             u.update(daylight_uniforms(self.world, params, edge_albedo=self._edge_albedo[seed],
                                        exaggeration=self.exaggeration))
         if "detail_size" in params:
@@ -948,10 +952,13 @@ class TerrainRenderer:
         if "u_sun_sky" in program:
             # 8-bit: llvmpipe filters unorm8 on its fast path, float textures on a slow one
             # (a tenth of a plain daylight frame); visibility needs no more precision.
-            tex = self._env_texture(
-                "u_sun_sky", key,
-                lambda: TextureData(np.round(np.clip(self.sun_sky_visibility(params), 0, 1)
-                                             * 255.0).astype(np.uint8), repeat=False))
+            def build():
+                vis = self.sun_sky_visibility(params)
+                if self.visibility_8bit:
+                    vis = np.round(np.clip(vis, 0.0, 1.0) * 255.0).astype(np.uint8)
+                return TextureData(vis, repeat=False)
+
+            tex = self._env_texture("u_sun_sky", (*key, self.visibility_8bit), build)
             tex.use(location=_SUN_SKY_UNIT)
             program["u_sun_sky"].value = _SUN_SKY_UNIT
         self._env_texture(
