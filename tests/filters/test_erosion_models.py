@@ -96,6 +96,12 @@ def test_cli_erode_without_options_and_masks(tmp_path: Path) -> None:
         saved = np.load(masks / f"{name}.npy")
         assert saved.dtype == np.float32
         np.testing.assert_array_equal(saved, grid.masks[name])
+    # --deposition 0: the river erosion without fans
+    bare = tmp_path / "bare.npy"
+    assert run_app(["erode", str(src), str(bare), "--deposition", "0", "-q"]) == 0
+    np.testing.assert_array_equal(
+        np.load(bare), erode(Heightmap(hm.heights), deposition=0.0).heightmap.heights)
+    assert not np.array_equal(np.load(bare), np.load(dst))
     # Existing masks are not overwritten without --force, and nothing else is written.
     out3 = tmp_path / "again.npy"
     assert run_app(["erode", str(src), str(out3), "--masks", str(masks), "-q"]) == 2
@@ -115,6 +121,8 @@ def test_cli_erode_without_options_and_masks(tmp_path: Path) -> None:
         ["--model", "grid", "--rain", "-0.5"],
         ["--model", "grid", "--dt", "5"],
         ["--model", "grid", "--evaporation", "100"],
+        ["--model", "grid", "--deposition", "1"],
+        ["--deposition", "-1"],
     ],
 )
 def test_cli_bad_input_writes_nothing(tmp_path: Path, args: list[str]) -> None:

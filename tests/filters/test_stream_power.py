@@ -76,3 +76,63 @@ def test_routing_interval_keeps_the_surface_drained(hills: Heightmap) -> None:
     assert cut_fourth.mean() == pytest.approx(cut_every.mean(), rel=0.1)
     with pytest.raises(InvalidParameterError):
         stream_power_erosion(hills, routing_interval=0)
+
+
+FRONT = 48  # row of the mountain front
+
+
+@pytest.fixture(scope="module")
+def mountain_front() -> Heightmap:
+    """Steep noisy mountains on rows < FRONT over a plain that slopes gently to the far
+    border: rivers leave steep ground at the front."""
+    n = 129
+    z = np.arange(n)[:, None] * np.ones((1, n))
+    noise = fbm(n, scale=32.0, octaves=5, seed=4, spacing=4.0).normalised(0, 1).heights
+    mountains = np.where(z < FRONT, 60 + (FRONT - z) * 6.0 * (0.6 + 0.8 * noise), 0.0)
+    plain = (n - 1 - z) * 0.15 + 3 * noise
+    return Heightmap(np.maximum(mountains, plain).astype(np.float32), spacing=(4.0, 4.0))
+
+
+def test_deposition_builds_fans_at_the_slope_break(mountain_front: Heightmap) -> None:
+    drained = stream_power_erosion(mountain_front, iterations=0).heightmap.heights
+    kw = {"iterations": 20, "strength": 9e-3, "routing_interval": 4}
+    bare = stream_power_erosion(mountain_front, deposition=0.0, **kw).heightmap.heights
+    fans = stream_power_erosion(mountain_front, deposition=1.0, **kw)
+    h = fans.heightmap.heights
+    inner = slice(8, -8)
+    mountains, front = (slice(5, FRONT - 4), inner), (slice(FRONT, FRONT + 12), inner)
+    # Without deposition nothing rises above the drained input; with it, the ground below
+    # the front aggrades while the mountains still erode.
+    assert (bare - drained).max() <= 1e-4
+    assert ((h - drained)[front] > 0.05).mean() > 0.5
+    assert ((h - drained)[mountains] > 0.05).mean() < 0.05
+    assert (h - bare)[front].mean() > 0.3
+    assert (h - drained)[mountains].mean() < 0
+    # Mass budget: every deposit comes from material eroded upstream, and less of it
+    # leaves the map than without deposition.
+    gained = np.maximum(h - drained, 0).sum()
+    lost = np.maximum(drained - h, 0).sum()
+    assert 0 < gained < lost
+    assert (drained - h).sum() < (drained - bare).sum()
+    # the load leaves through the base level: it grows downstream
+    assert fans.sediment_flux.max() > 0
+    assert depression_share(fans.heightmap) == 0.0
+    # deterministic
+    again = stream_power_erosion(mountain_front, deposition=1.0, **kw)
+    assert again.heightmap.heights.tobytes() == h.tobytes()
+
+
+def test_default_erosion_deposits_fans_in_its_mask(mountain_front: Heightmap) -> None:
+    from terrascape.filters import erode
+
+    with_fans = erode(mountain_front).masks["deposition"]
+    without = erode(mountain_front, deposition=0.0).masks["deposition"]
+    front = (slice(FRONT, FRONT + 12), slice(8, -8))
+    assert with_fans[front].mean() > 0.3
+    assert with_fans[front].mean() > 5 * without[front].mean()
+
+
+@pytest.mark.parametrize("value", [-0.5, 11.0, float("nan")])
+def test_deposition_out_of_range_is_refused(hills: Heightmap, value: float) -> None:
+    with pytest.raises(InvalidParameterError, match="deposition"):
+        stream_power_erosion(hills, deposition=value)

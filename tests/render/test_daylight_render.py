@@ -113,10 +113,10 @@ def test_sky_rows_are_monotone_without_a_kink(gl_ctx):
 
 
 def test_nothing_empty_below_the_horizon(gl_ctx):
-    """With the default surround (a plane at the lowest height) the ground reaches the
+    """With the plane surround (a plane at the lowest height) the ground reaches the
     horizon: below it no pixel shows the sky."""
     fade = _sky_profile(gl_ctx, 10.0, "fade")
-    plane = _sky_profile(gl_ctx, 10.0, None)
+    plane = _sky_profile(gl_ctx, 10.0, "plane")
     rows = fade.shape[0]
     # horizon at row rows/2 - tan(10°)/tan(30°)·rows/2 (pitch up 10° in a 60° view)
     horizon = int(rows / 2 + np.tan(np.radians(10)) / np.tan(np.radians(30)) * rows / 2)

@@ -68,10 +68,22 @@ def test_default_material_render_has_no_texture_period(plane):
     px = 2.0 * 32.0  # pixels per material repeat
     assert img[..., :3].std() > 4  # textured, not flat
     assert peak_ratio(img, px) <= 3.0
-    # the same view with plain wrap sampling (splat's tiled layers) does show the period
-    tiled = plane.render(_overhead(), technique="splat")
+    # the same view with plain wrap sampling (splat's layers wrapped) does show the period
+    tiled = plane.render(_overhead(), technique="splat", params={"hex_tiling": False})
     assert peak_ratio(tiled, px) > 3.0
     assert np.array_equal(img, plane.render(_overhead(), technique="material"))
+
+
+@pytest.mark.parametrize("technique", ["splat", "texture3d"])
+def test_splat_and_texture3d_layers_show_no_tile_period(plane, technique):
+    px = 2.0 * 32.0  # pixels per layer repeat (tile size 32 world units)
+    hexed = plane.render(_overhead(), technique=technique)
+    wrapped = plane.render(_overhead(), technique=technique, params={"hex_tiling": False})
+    assert hexed[..., :3].std() > 3  # textured, not flat
+    assert peak_ratio(wrapped, px) > 3.0  # the seed's wrapped layers repeat ...
+    assert peak_ratio(hexed, px) <= 3.0  # ... hex-tiled they do not
+    # the same colours: hex-tiling moves the texture around, it does not change it
+    assert np.abs(hexed[..., :3].mean((0, 1)) - wrapped[..., :3].mean((0, 1))).max() < 6
 
 
 def test_bump_detail_normals_have_no_grid_of_seams(plane):
@@ -130,3 +142,44 @@ def test_a_mask_changed_only_inside_rebuilds_the_weights(ramp):
     a = r.render(cam, technique="material", params={**flat, "water": dry}).astype(int)
     b = r.render(cam, technique="material", params={**flat, "water": wet}).astype(int)
     assert (b[..., 2] - b[..., 0]).mean() > (a[..., 2] - a[..., 0]).mean() + 5
+
+
+def _all_layers_trilinear():
+    """The material technique as it was before the viewer's cuts: every layer sampled per
+    pixel, trilinear layer textures (the reference the cheaper default must match)."""
+    from dataclasses import replace
+
+    tech = get_technique("material")
+
+    def trilinear(builder):
+        def wrapped(hm, params):
+            return replace(builder(hm, params), mip_blend=True)
+        return wrapped
+
+    slots = tuple(replace(s, builder=trilinear(s.builder))
+                  if s.uniform in ("u_layers", "u_normals") else s for s in tech.textures)
+    return replace(tech, name="material_reference", textures=slots,
+                   defines={**tech.defines, "MATERIAL_TOP_LAYERS": 7})
+
+
+def test_three_heaviest_layers_and_nearest_mips_look_like_every_layer(gl_ctx):
+    # The default samples a pixel's 3 heaviest layers with nearest-mip reads (a third of
+    # the texture reads); the picture must stay that of every layer, trilinear.
+    from terrascape.generate.registry import generate
+
+    hm = generate("diamond-square", 129, seed=3, spacing=2.0)
+    w, d = hm.extent
+    cam = Camera.look_at((-0.1 * w, hm.max + 0.3 * w, -0.1 * d), (0.6 * w, hm.min, 0.6 * d),
+                         fov_y=50.0, near=1.0, far=4.0 * w, aspect=1.6)
+    fast = OffscreenRenderer(gl_ctx, hm, size=(320, 200))
+    ref = OffscreenRenderer(gl_ctx, hm, size=(320, 200))
+    try:
+        a = fast.render(cam, technique="material")[..., :3].astype(int)
+        b = ref.render(cam, technique=_all_layers_trilinear())[..., :3].astype(int)
+    finally:
+        fast.release()
+        ref.release()
+    diff = np.abs(a - b)
+    assert a.std() > 10  # a textured landscape, not an empty frame
+    assert diff.mean() < 1.5
+    assert np.percentile(diff, 99) <= 12

@@ -67,6 +67,7 @@ def run(quick: bool = False) -> list[BenchTable]:
 
     from terrascape.analysis.drainage import drainage_statistics
     from terrascape.filters import DEFAULT_MODEL, erode
+    from terrascape.filters.erosion_models import DEFAULT_DEPOSITION
 
     table = BenchTable(
         title="Erosion: time and drainage like real terrain (β of P(A ≥ a) ~ a^−β, "
@@ -111,7 +112,8 @@ def run(quick: bool = False) -> list[BenchTable]:
                 (met if seconds <= TIME_LIMITS[side] else missed).append(
                     f"{side}² in {seconds:.1f} s ≤ {TIME_LIMITS[side]:g} s")
     table.notes += [
-        f"default model: {DEFAULT_MODEL}; each model at its defaults (terrascape erode "
+        f"default model: {DEFAULT_MODEL} (deposition G = {DEFAULT_DEPOSITION:g}: fans where "
+        "rivers leave steep ground); each model at its defaults (terrascape erode "
         "--model NAME); one run per cell, after a compile run on 65²",
         "targets met: " + ("; ".join(met) if met else "none"),
         "targets missed: " + ("; ".join(missed) if missed else "none"),

@@ -13,6 +13,7 @@ from terrascape.cli.app import MAX_MEMORY, app, out, timed, use_max_memory
 from terrascape.cli.cmd_generate import _FORCE, _QUIET, _SEED, _check_outputs, _finish
 from terrascape.errors import InvalidParameterError
 from terrascape.filters import MASK_NAMES, MODELS, erode, hydraulic_erosion, thermal_erosion
+from terrascape.filters.erosion_models import DEFAULT_DEPOSITION
 from terrascape.io import atomic_output, check_output_path, read_heightmap
 from terrascape.memory import check_grid
 
@@ -48,6 +49,11 @@ def erode_cmd(
         show_default="stream-power 20, grid 300, droplets 1 per sample, thermal 50"),
     strength: float = typer.Option(
         1.0, "--strength", help="Erosion rate relative to the model's default."),
+    deposition: float = typer.Option(
+        None, "--deposition",
+        help="Stream-power: how much of the river load settles where the slope eases "
+             "(0 = erode only; larger builds bigger fans), 0 to 10.",
+        show_default="1"),
     masks: Path = typer.Option(
         None, "--masks",
         help="Folder for float32 .npy masks: flow, deposition, wear, water.",
@@ -87,6 +93,8 @@ def erode_cmd(
     if model is not None and model not in MODELS:
         raise InvalidParameterError(f"--model must be one of {', '.join(MODELS)}, got {model!r}")
     legacy = model is None and (thermal > 0 or hydraulic > 0)
+    if deposition is not None and (legacy or (model or "stream-power") != "stream-power"):
+        raise InvalidParameterError("--deposition applies to the stream-power model only")
     _check_outputs(output, None, force)
     mask_paths: dict[str, Path] = {}
     if masks is not None:
@@ -117,7 +125,8 @@ def erode_cmd(
         name = model or "stream-power"
         with timed(f"{name} erosion", quiet=quiet):
             result = erode(hm, model=name, iterations=iterations, strength=strength, seed=seed,
-                           talus_angle=talus_angle, rain=rain, dt=dt, evaporation=evaporation)
+                           talus_angle=talus_angle, rain=rain, dt=dt, evaporation=evaporation,
+                           deposition=DEFAULT_DEPOSITION if deposition is None else deposition)
         hm, result_masks = result.heightmap, result.masks
     if thermal:
         with timed("thermal erosion", quiet=quiet):

@@ -294,8 +294,8 @@ def render_command(
     surround: str = typer.Option(
         None, "--surround",
         help="Beyond the terrain's edge: sea (water to the horizon), plane (ground at the "
-        "lowest height, the edge's colour) or fade (haze). [default: sea with --sea-level, "
-        "else plane]",
+        "lowest height, in the colour of the terrain's lowest ground) or fade (haze). "
+        "[default: sea with --sea-level, else fade]",
         show_default=False,
     ),
     quality: str = typer.Option(

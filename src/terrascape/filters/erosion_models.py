@@ -36,6 +36,10 @@ MODELS = ("stream-power", "grid", "droplets", "thermal")
 DEFAULT_MODEL = "stream-power"
 MASK_NAMES = ("flow", "deposition", "wear", "water")
 
+# Yuan et al.'s deposition coefficient G of the stream-power model: fans where rivers leave
+# steep ground, β and depressions unchanged (terrascape bench erosion).
+DEFAULT_DEPOSITION = 1.0
+
 # Default iterations per model (droplets: None = one droplet per sample).
 _DEFAULT_ITERATIONS = {"stream-power": 20, "grid": 300, "droplets": None, "thermal": 50}
 
@@ -65,6 +69,7 @@ def erode(
     rain: float | np.ndarray | None = None,
     dt: float | None = None,
     evaporation: float | None = None,
+    deposition: float = DEFAULT_DEPOSITION,
 ) -> ErosionResult:
     """Erode ``heightmap`` with ``model`` and return the result with its masks.
 
@@ -89,6 +94,10 @@ def erode(
     dt, evaporation
         Grid time step (default half the stable limit; above the limit is refused) and
         evaporation per second (default 0.01; ``evaporation · dt`` must stay below 1).
+    deposition
+        Stream-power: share of the river load that settles per unit drainage area (Yuan et
+        al. 2019's ``G``, ``[0, 10]``; 0 = erode only). The default builds alluvial fans
+        where rivers leave steep ground; they show in the ``deposition`` mask.
     """
     if not isinstance(heightmap, Heightmap):
         raise InvalidParameterError(f"expected a Heightmap, got {type(heightmap).__name__}")
@@ -103,7 +112,7 @@ def erode(
         # Routing every 4th step halves the time at the same β and depth of cut
         # (terrascape bench erosion).
         sp = stream_power_erosion(heightmap, iterations=iterations, strength=9e-3 * strength,
-                                  routing_interval=4)
+                                  routing_interval=4, deposition=deposition)
         out = sp.heightmap
         masks["flow"] = sp.flow
         masks["water"] = _drainage_masks(out)[1]
@@ -134,4 +143,4 @@ def erode(
     return ErosionResult(out, {name: masks[name] for name in MASK_NAMES})
 
 
-__all__ = ["DEFAULT_MODEL", "MASK_NAMES", "MODELS", "ErosionResult", "erode"]
+__all__ = ["DEFAULT_DEPOSITION", "DEFAULT_MODEL", "MASK_NAMES", "MODELS", "ErosionResult", "erode"]

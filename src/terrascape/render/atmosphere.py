@@ -69,7 +69,9 @@ def sea_level_note(heightmap: Heightmap, sea_level: float | None) -> str | None:
 def resolve_surround(params: Mapping[str, Any]) -> str:
     surround = params.get("surround")
     if surround is None:
-        return "sea" if params.get("sea_level") is not None else "plane"
+        # Without a sea, haze: past the edge the land melts into the horizon (a flat plane
+        # reads as a slab under the mountains; --surround plane still draws one).
+        return "sea" if params.get("sea_level") is not None else "fade"
     if surround not in SURROUNDS:
         raise InvalidParameterError(
             f"surround must be one of {', '.join(SURROUNDS)}, got {surround!r}")

@@ -55,7 +55,7 @@ _ATLAS_COLOR_UNIT = 8
 _ATLAS_NORMAL_UNIT = 9
 _SUN_SKY_UNIT = 10
 _HEIGHT_UNIT = 11
-CASCADE_UNIT = 15
+CASCADE_UNIT = 17  # after the sky table (15) and the spare unit (16)
 _INSTANCE_BYTES = 20  # vec4 place + float yaw
 # Terrain caster blocks: at most this many cells per side (16-bit indices, cheap culling).
 _CASTER_BLOCK = 64

@@ -133,7 +133,10 @@ def build_layer_albedo(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
     from terrascape.texture.photo_materials import photo_material_layers
 
     layers = photo_material_layers(int(params["material_size"]), seed=int(params["seed"]))
-    return TextureData(np.ascontiguousarray(layers.albedo), kind="array", repeat=True)
+    # Nearest mip level: each pixel reads the layers 18 times (3 layers × 3 hex lookups ×
+    # albedo and normal), and the hex blend hides the level steps.
+    return TextureData(np.ascontiguousarray(layers.albedo), kind="array", repeat=True,
+                       mip_blend=False)
 
 
 def build_layer_normals(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
@@ -141,7 +144,8 @@ def build_layer_normals(hm: Heightmap, params: Mapping[str, Any]) -> TextureData
     from terrascape.texture.photo_materials import photo_material_layers
 
     layers = photo_material_layers(int(params["material_size"]), seed=int(params["seed"]))
-    return TextureData(np.ascontiguousarray(layers.normals), kind="array", repeat=True)
+    return TextureData(np.ascontiguousarray(layers.normals), kind="array", repeat=True,
+                       mip_blend=False)
 
 
 MATERIAL_TECHNIQUE = register_technique(

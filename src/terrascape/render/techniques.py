@@ -38,6 +38,7 @@ import numpy as np
 
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
+from terrascape.texture.hextile import HEX_CONTRAST, HEX_ROTATION, HEX_SHARPNESS
 
 LIGHTING_MODES = {"none": 0, "vertex": 1, "lightmap": 2, "daylight": 3}
 
@@ -67,6 +68,10 @@ class TextureData:
         half the size of the previous one, sampled NEAREST (e.g. min/max depth pyramids,
         which averaging would break). The renderer also sets the integer uniform
         ``<sampler>_levels`` to the number of levels including level 0.
+    mip_blend
+        With ``mipmaps``: blend the two nearest mip levels (trilinear). ``False`` reads only
+        the nearest level (half the texel reads; for textures a shader samples many times
+        per pixel, where a software rasteriser pays for every read).
     """
 
     data: np.ndarray
@@ -75,6 +80,7 @@ class TextureData:
     mipmaps: bool = True
     nearest: bool = False
     levels: tuple[np.ndarray, ...] = ()
+    mip_blend: bool = True
 
 
 TextureBuilder = Callable[[Heightmap, Mapping[str, Any]], TextureData]
@@ -297,7 +303,8 @@ COMMON_PARAMS: dict[str, Any] = {
     "shadow_samples": 6,  # shadow sweeps over the sun's disc (penumbra levels)
     "sea_level": None,  # water surface height (heightmap units, before exaggeration)
     "water_depth": None,  # float32 (rows, cols) water depth on the terrain (lakes), or None
-    "surround": None,  # beyond the terrain: sea | plane | fade; None = sea with a sea level
+    "surround": None,  # beyond the terrain: sea | plane | fade; None = sea with a sea level,
+    # else fade
     "time": 0.0,  # seconds, animates the water ripples
     # sun, moon and stars of a date and place (terrascape.lighting.solar_position.SkyState);
     # None: the sun of "sun", no moon
@@ -446,6 +453,15 @@ register_technique(
         description="seed 001 T1 region blending on the GPU: (range − |h − max|)/range",
     )
 )
+# Layers sampled through hex-tiling (Mikkelsen 2022) so their tile period does not show;
+# hex_tiling=False wraps them as the seed does.
+_HEX_TILING_DEFAULTS: dict[str, Any] = {
+    "hex_tiling": True,
+    "hex_rotation": HEX_ROTATION,
+    "hex_contrast": HEX_CONTRAST,
+    "hex_sharpness": HEX_SHARPNESS,
+    "hex_seed": 0,
+}
 register_technique(
     Technique(
         "texture3d",
@@ -465,7 +481,8 @@ register_technique(
             ),
             LIGHTMAP_SLOT,
         ),
-        description="seed 001 T2: 3D texture addressed by height",
+        defaults=_HEX_TILING_DEFAULTS,
+        description="seed 001 T2: 3D texture addressed by height, hex-tiled",
     )
 )
 register_technique(
@@ -494,7 +511,8 @@ register_technique(
             ),
             LIGHTMAP_SLOT,
         ),
-        description="seed 001 T3: texture splatting, all layers in one pass",
+        defaults=_HEX_TILING_DEFAULTS,
+        description="seed 001 T3: texture splatting, all layers in one pass, hex-tiled",
     )
 )
 register_technique(

@@ -119,7 +119,7 @@ def as_texture_data(value: Any, *, name: str = "texture") -> TextureData:
                     f"{data.shape[2:] or 1} channel(s), got {lv.shape} {lv.dtype}"
                 )
     return TextureData(np.ascontiguousarray(data), tex.kind, bool(tex.repeat), bool(tex.mipmaps),
-                       bool(tex.nearest), levels)
+                       bool(tex.nearest), levels, bool(tex.mip_blend))
 
 
 def upload_texture(ctx, tex: TextureData, *, name: str = "texture", limits: dict | None = None):
@@ -168,7 +168,8 @@ def upload_texture(ctx, tex: TextureData, *, name: str = "texture", limits: dict
         gl_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
     elif tex.mipmaps and tex.kind != "3d":
         gl_tex.build_mipmaps()
-        gl_tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        gl_tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR if tex.mip_blend
+                         else moderngl.LINEAR_MIPMAP_NEAREST, moderngl.LINEAR)
         # No anisotropic filtering: on llvmpipe it costs 2-4× the frame time of a technique.
     else:
         gl_tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
@@ -263,6 +264,9 @@ class TerrainRenderer:
         self.world = heightmap if self.exaggeration == 1.0 else heightmap.scaled(
             self.exaggeration)
         self._env: dict[str, tuple[Any, Any]] = {}  # daylight textures: name -> (tex, key)
+        # Sun/sky visibility as an 8-bit texture (llvmpipe filters unorm8 on its fast path);
+        # False uploads float32 (the exact values, for comparisons: bench terrain_shading).
+        self.visibility_8bit = True
         self._sky_visibility: np.ndarray | None = None
         self._edge_albedo: dict[int, np.ndarray] = {}
         self._water_vao = None
@@ -497,9 +501,10 @@ class TerrainRenderer:
 
             seed = int(params.get("seed", 0))
             if seed not in self._edge_albedo:
-                from terrascape.render.atmosphere import edge_albedo
+                from terrascape.texture.terrain_material import lowest_ground_albedo
 
-                self._edge_albedo[seed] = edge_albedo(self.heightmap, seed)
+                # the ground beyond the edge: the material the terrain's lowest ground has
+                self._edge_albedo[seed] = lowest_ground_albedo(self.heightmap, seed=seed)
             u.update(daylight_uniforms(self.world, params, edge_albedo=self._edge_albedo[seed],
                                        exaggeration=self.exaggeration))
         if "detail_size" in params:
@@ -961,9 +966,15 @@ class TerrainRenderer:
                *(repr(params[k]) for k in ("shadows", "sun_radius", "shadow_samples")))
         self._use_sky_lut(program, params)
         if "u_sun_sky" in program:
-            tex = self._env_texture(
-                "u_sun_sky", key,
-                lambda: TextureData(self.sun_sky_visibility(params), repeat=False))
+            # 8-bit: llvmpipe filters unorm8 on its fast path, float textures on a slow one
+            # (a tenth of a plain daylight frame); visibility needs no more precision.
+            def build():
+                vis = self.sun_sky_visibility(params)
+                if self.visibility_8bit:
+                    vis = np.round(np.clip(vis, 0.0, 1.0) * 255.0).astype(np.uint8)
+                return TextureData(vis, repeat=False)
+
+            tex = self._env_texture("u_sun_sky", (*key, self.visibility_8bit), build)
             tex.use(location=_SUN_SKY_UNIT)
             program["u_sun_sky"].value = _SUN_SKY_UNIT
         self._env_texture(

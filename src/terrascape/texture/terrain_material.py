@@ -409,6 +409,32 @@ def material_texture(
     return out
 
 
+def lowest_ground_albedo(heightmap: Heightmap | Any, *, seed: int = 0,
+                         share: float = 0.05, material_size: int = 64) -> np.ndarray:
+    """Linear RGB albedo of the terrain's lowest ground: the material blend (mean colour of
+    each photo layer, by :func:`material_weights`) over the lowest ``share`` of the
+    samples, water left out. The colour of the plane that continues the terrain beyond its
+    edge, so the world past the edge is made of the ground the terrain ends in.
+    """
+    share = check_range(share, "share", 1e-4, 1.0)
+    hm = heightmap if isinstance(heightmap, Heightmap) else Heightmap(heightmap)
+    step = max(1, math.ceil(max(hm.shape) / 257))  # the weights of a coarser copy suffice
+    dx, dz = hm.spacing
+    small = Heightmap(np.ascontiguousarray(hm.heights[::step, ::step]), (dx * step, dz * step))
+    weights = material_weights(small, seed=seed).astype(np.float64)
+    h = small.heights
+    low = h <= np.quantile(h, share)
+    w = weights[:, low].sum(axis=1)
+    w[_L["water"]] = 0.0
+    if w.sum() <= 0.0:
+        w[:] = 0.0
+        w[_L["grass"]] = 1.0
+    layers = photo_material_layers(material_size, seed=seed).albedo[..., :3]
+    srgb = layers.reshape(len(MATERIAL_LAYERS), -1, 3).astype(np.float64) / 255.0
+    linear = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+    return (w / w.sum()) @ linear.mean(axis=1)
+
+
 def dominant_layer(weights: np.ndarray) -> np.ndarray:
     """Index of the heaviest layer per vertex, ``uint8 (rows, cols)``."""
     return np.argmax(np.asarray(weights), axis=0).astype(np.uint8)
@@ -420,6 +446,7 @@ __all__ = [
     "MaterialRules",
     "check_masks",
     "dominant_layer",
+    "lowest_ground_albedo",
     "material_texture",
     "material_weights",
 ]

@@ -5,7 +5,8 @@
 // no texture period shows; the layers are combined by height-based blending (the layer whose
 // detail height + weight is highest wins a transition, within u_blend_depth) — the same
 // blend as terrascape.texture.material_texture on the CPU. The detail normals of the blend
-// perturb the vertex normal in its tangent frame before shade().
+// perturb the vertex normal in its tangent frame before shade(). Only a pixel's three
+// heaviest layers are sampled (MATERIAL_TOP_LAYERS; the CPU blends all of them).
 #define TERRAIN_TANGENTS
 #if defined VERTEX_SHADER
 #include "common/terrain_vertex.glsl"
@@ -13,6 +14,9 @@
 #include "common/terrain_fragment.glsl"
 #include "common/hextile.glsl"
 #define N_LAYERS 7
+#ifndef MATERIAL_TOP_LAYERS
+#define MATERIAL_TOP_LAYERS 3
+#endif
 uniform sampler2D u_weights0;        // layers 0-3 (RGBA), one texel per vertex
 uniform sampler2D u_weights1;        // layers 4-6 (RGB)
 uniform sampler2DArray u_layers;     // RGB albedo, A detail height
@@ -34,35 +38,49 @@ void main() {
     vec4 w1 = texture(u_weights1, guv);
     float w[N_LAYERS] = float[N_LAYERS](w0.r, w0.g, w0.b, w0.a, w1.r, w1.g, w1.b);
     HexTile t = hex_tile(v_world.xz / u_tile_size, u_hex_rotation, uint(max(u_hex_seed, 0)));
-    vec3 col[N_LAYERS];
-    vec2 nxy[N_LAYERS];
-    float hk[N_LAYERS];
+    // Only the MATERIAL_TOP_LAYERS heaviest layers of this pixel are sampled. A software
+    // rasteriser runs every instruction of a loop body for every pixel, skipped or not, so
+    // the cost is the loop's length; the 4th-heaviest layer weighs at most about 0.2 and
+    // rarely reaches the height blend's transition band.
+    int idx[MATERIAL_TOP_LAYERS];
+    float wt[MATERIAL_TOP_LAYERS];
+    for (int j = 0; j < MATERIAL_TOP_LAYERS; ++j) {
+        int m = 0;
+        for (int k = 1; k < N_LAYERS; ++k) {
+            if (w[k] > w[m]) m = k;
+        }
+        idx[j] = m;
+        wt[j] = w[m];
+        w[m] = -1.0;
+    }
+    vec3 col[MATERIAL_TOP_LAYERS];
+    vec2 nxy[MATERIAL_TOP_LAYERS];
+    float hk[MATERIAL_TOP_LAYERS];
     float best = -1e30;
-    for (int k = 0; k < N_LAYERS; ++k) {
-        hk[k] = -1e30;
-        if (w[k] <= 1e-3) continue;
+    for (int j = 0; j < MATERIAL_TOP_LAYERS; ++j) {
+        float layer = float(idx[j]);
         vec4 a[3];
-        hex_fetch_array(u_layers, float(k), t, a);
+        hex_fetch_array(u_layers, layer, t, a);
         vec3 hw = hex_blend_weights(t, vec3(a[0].a, a[1].a, a[2].a), u_hex_contrast,
                                     u_hex_sharpness);
-        col[k] = hw.x * a[0].rgb + hw.y * a[1].rgb + hw.z * a[2].rgb;
-        hk[k] = hw.x * a[0].a + hw.y * a[1].a + hw.z * a[2].a + w[k];
+        col[j] = hw.x * a[0].rgb + hw.y * a[1].rgb + hw.z * a[2].rgb;
+        // a layer of (almost) no weight takes no part in the blend
+        hk[j] = wt[j] > 1e-3 ? hw.x * a[0].a + hw.y * a[1].a + hw.z * a[2].a + wt[j] : -1e30;
         vec4 n[3];
-        hex_fetch_array(u_normals, float(k), t, n);
-        nxy[k] = hw.x * hex_unrotate(t, 0, n[0].xy * 2.0 - 1.0)
+        hex_fetch_array(u_normals, layer, t, n);
+        nxy[j] = hw.x * hex_unrotate(t, 0, n[0].xy * 2.0 - 1.0)
                + hw.y * hex_unrotate(t, 1, n[1].xy * 2.0 - 1.0)
                + hw.z * hex_unrotate(t, 2, n[2].xy * 2.0 - 1.0);
-        best = max(best, hk[k]);
+        best = max(best, hk[j]);
     }
     vec3 albedo = vec3(0.0);
     vec2 detail = vec2(0.0);
     float total = 0.0;
-    for (int k = 0; k < N_LAYERS; ++k) {
-        float b = hk[k] - best + u_blend_depth;
-        if (b <= 0.0) continue;
+    for (int j = 0; j < MATERIAL_TOP_LAYERS; ++j) {
+        float b = max(hk[j] - best + u_blend_depth, 0.0);
         total += b;
-        albedo += b * col[k];
-        detail += b * nxy[k];
+        albedo += b * col[j];
+        detail += b * nxy[j];
     }
     albedo /= max(total, 1e-6);
     detail = detail / max(total, 1e-6) * u_detail_strength;
