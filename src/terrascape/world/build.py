@@ -17,13 +17,12 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import dask.array as da
 import numpy as np
 
 from terrascape.errors import EnvironmentFailure, InvalidParameterError
 from terrascape.world.recipe import Recipe
 from terrascape.world.stages import make_chunk, shadow_halo
-from terrascape.world.store import array_specs, chunk_grid, create_or_resume
+from terrascape.world.store import array_specs, create_or_resume, task_grid
 
 #: Seconds to wait for a scheduler given by address before giving up.
 CONNECT_TIMEOUT = 5.0
@@ -79,10 +78,12 @@ def connect(scheduler: str = "local", *, workers: int = 2, memory_limit: str | N
         yield client
 
 
-def _height_range(client, path: str) -> tuple[float, float]:
-    h = da.from_zarr(path, component="height")
-    lo, hi = client.compute([h.min(), h.max()], sync=True)
-    return float(lo), float(hi)
+def _height_range(path: str) -> tuple[float, float]:
+    """The world's lowest and highest height, from the per-chunk bounds."""
+    import zarr
+
+    bounds = np.asarray(zarr.open_group(path, mode="r")["bounds"][...])
+    return float(bounds[..., 0].min()), float(bounds[..., 1].max())
 
 
 def build_world(
@@ -129,16 +130,16 @@ def build_world(
     start = time.perf_counter()
     budget = max_chunks
     url = str(path)
-    for name, (shape, _, _) in array_specs(recipe).items():
+    for name in array_specs(recipe):
         done = np.asarray(group[f"done/{name}"][...])
-        grid = chunk_grid(shape, recipe.chunk)
+        grid = task_grid(name, recipe)
         pending = [(i, j) for i in range(grid[0]) for j in range(grid[1]) if not done[i, j]]
         result.skipped += len(done.nonzero()[0])
         if not pending:
             continue
         extra: dict = {}
         if name == "shadow":
-            result.height_range = _height_range(client, url)
+            result.height_range = _height_range(url)
             extra["shadow_halo"] = shadow_halo(recipe, *result.height_range)
         if budget is not None:
             pending = pending[:budget]

@@ -14,6 +14,7 @@ The halos make every chunk equal, bit for bit, to the same window of the whole-m
 * shadow — toward the sun, the number of ray steps after which a ray starting at the lowest
   sample has climbed above the highest one (``(h_max - h_min) / rise``), plus two samples
   across the ray lines: nothing farther can occlude.
+* bounds — the min and max of the chunk's heights: no halo.
 * pyramid levels — every other sample of the previous level: no halo.
 """
 
@@ -96,6 +97,11 @@ def make_chunk(path: str, recipe, stage: str, i: int, j: int, extra: dict) -> in
         return 1
     bounds = chunk_bounds(shape, recipe.chunk, i, j)
     r0, r1, c0, c1 = bounds
+    if stage == "bounds":
+        heights = np.asarray(group["height"][r0:r1, c0:c1])
+        group[stage][i, j, :] = np.array([heights.min(), heights.max()], np.float32)
+        group[f"done/{stage}"][i, j] = 1
+        return 1
     if stage in ("height_raw", "height") and (stage == "height_raw" or recipe.thermal is None):
         from terrascape.generate import noise
 
