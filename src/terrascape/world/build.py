@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from terrascape.errors import EnvironmentFailure, InvalidParameterError
+from terrascape.world.droplets import PHASES, phase
 from terrascape.world.recipe import Recipe
 from terrascape.world.stages import make_chunk, shadow_halo
 from terrascape.world.store import array_specs, create_or_resume, task_grid
@@ -141,17 +142,24 @@ def build_world(
         if name == "shadow":
             result.height_range = _height_range(url)
             extra["shadow_halo"] = shadow_halo(recipe, *result.height_range)
+        if name == "droplet_window":  # phase order: a stopped build has finished the earlier phases
+            pending.sort(key=lambda c: phase(*c))
         if budget is not None:
             pending = pending[:budget]
         t0 = time.perf_counter()
-        futures = client.map(make_chunk, [url] * len(pending), [recipe] * len(pending),
-                             [name] * len(pending), [i for i, _ in pending],
-                             [j for _, j in pending], [extra] * len(pending), pure=False)
-        if not quiet:
-            print(f"{name}: {len(pending)} chunks")
-            progress(futures)
-            print()
-        result.written += sum(client.gather(futures))
+        # Droplet chunks run in four phases (each needs the earlier ones finished); every
+        # other stage is one batch of independent chunks.
+        batches = ([[c for c in pending if phase(*c) == p] for p in range(PHASES)]
+                   if name == "droplet_window" else [pending])
+        for batch in batches:
+            futures = client.map(make_chunk, [url] * len(batch), [recipe] * len(batch),
+                                 [name] * len(batch), [i for i, _ in batch],
+                                 [j for _, j in batch], [extra] * len(batch), pure=False)
+            if not quiet:
+                print(f"{name}: {len(batch)} chunks")
+                progress(futures)
+                print()
+            result.written += sum(client.gather(futures))
         result.stage_seconds[name] = time.perf_counter() - t0
         if budget is not None:
             budget -= len(pending)

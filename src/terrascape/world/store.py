@@ -5,7 +5,10 @@ Layout::
     height          float32 (rows, cols), chunk × chunk
     bounds          float32 (chunk rows, chunk cols, 2): min and max height of each chunk
                     (frustum culling and the shadow halo read these, not the heights)
-    height_raw      float32, the generator's heights before thermal erosion (with [thermal])
+    height_raw      float32, the generator's heights before erosion (with [erosion]/[thermal])
+    droplet_window  float64 (chunk rows, chunk cols, W, W): each chunk's window of
+                    W = chunk + 2 · halo samples after its droplet phase (droplet [erosion])
+    height_eroded   float32, after [erosion], before [thermal] (with both)
     normals         float32 (rows, cols, 3), world-space unit normals, Y up
     shadow          uint8 (rows, cols), 1 = in shadow
     levels/1 … k    float32, level k + 1 = every other sample of level k (level 0 = height)
@@ -28,7 +31,7 @@ import numpy as np
 import zarr
 
 from terrascape.errors import FileFormatError, OutputExistsError
-from terrascape.world.recipe import Recipe, recipe_from_dict
+from terrascape.world.recipe import Recipe, erosion_halo, recipe_from_dict
 
 FORMAT_VERSION = 1
 
@@ -47,8 +50,15 @@ def array_specs(recipe: Recipe) -> dict[str, tuple[tuple[int, ...], tuple[int, .
     """``name -> (shape, chunks, dtype)`` of every array, in build order."""
     c = recipe.chunk
     specs: dict[str, tuple[tuple[int, ...], tuple[int, ...], Any]] = {}
-    if recipe.thermal is not None:
+    if recipe.thermal is not None or recipe.erosion is not None:
         specs["height_raw"] = (recipe.shape, (c, c), np.float32)
+    if recipe.erosion is not None and recipe.erosion["model"] == "droplets":
+        # Each chunk's float64 window (chunk + halo on every side) after its droplet phase.
+        w = c + 2 * erosion_halo(recipe.erosion)
+        specs["droplet_window"] = ((*chunk_grid(recipe.shape, c), w, w), (1, 1, w, w),
+                                   np.float64)
+    if recipe.thermal is not None and recipe.erosion is not None:
+        specs["height_eroded"] = (recipe.shape, (c, c), np.float32)
     specs["height"] = (recipe.shape, (c, c), np.float32)
     specs["bounds"] = ((*chunk_grid(recipe.shape, c), 2), (1, 1, 2), np.float32)
     if recipe.normals is not None:
@@ -67,7 +77,8 @@ def chunk_grid(shape: tuple[int, ...], chunk: int) -> tuple[int, int]:
 def task_grid(name: str, recipe: Recipe) -> tuple[int, int]:
     """Tasks (one per chunk of the heights) that build array ``name``."""
     shape = array_specs(recipe)[name][0]
-    return chunk_grid(recipe.shape if name == "bounds" else shape, recipe.chunk)
+    per_chunk = name in ("bounds", "droplet_window")
+    return chunk_grid(recipe.shape if per_chunk else shape, recipe.chunk)
 
 
 def is_world(path: str | Path) -> bool:
