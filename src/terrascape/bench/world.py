@@ -139,3 +139,54 @@ def run(quick: bool = False) -> list[BenchTable]:
                        "the load does not inflate: it is the per-core throughput to plan with.")
     table.notes.append(f"run {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
     return [table, check]
+
+
+def build_large(side: int, *, workers: int = 2, chunk: int = 1024, folder: str | Path | None = None
+                ) -> BenchTable:
+    """One build of the benchmark recipe at ``side``² on ``workers`` workers: wall time per
+    stage, peak memory per worker and of this (client) process, store size. No whole-map
+    check (the point is a map that does not fit in memory):
+    ``python -m terrascape.bench.world 16385``."""
+    import resource
+    import shutil
+
+    from terrascape.world import recipe_from_dict
+
+    recipe = recipe_from_dict(bench_recipe(side, chunk))
+    samples = recipe.rows * recipe.cols
+    own = tempfile.mkdtemp(prefix="bench-world-large-", dir=folder)
+    try:
+        result, peak, cpu = _build(recipe, workers, Path(own))
+        store = Path(own) / f"world{workers}.zarr"
+        store_bytes = sum(p.stat().st_size for p in store.rglob("*") if p.is_file())
+    finally:
+        shutil.rmtree(own, ignore_errors=True)
+    client_peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    table = BenchTable(
+        f"world build {side}² (chunk {chunk}; fBm, thermal ×4, normals, shadow, pyramid), "
+        f"{workers} workers",
+        ["stage", "seconds"])
+    for name, sec in result.stage_seconds.items():
+        table.rows.append([name, round(sec, 1)])
+    table.rows.append(["total (wall)", round(result.seconds, 1)])
+    table.notes += [
+        f"{samples / 1e6:.0f} M samples, {samples / result.seconds / workers:,.0f} samples/s "
+        f"per worker, {samples / cpu:,.0f} samples per CPU-second",
+        f"peak RSS per worker {peak / 1e9:.3f} GB; client process {client_peak / 1e9:.3f} GB; "
+        f"the float32 map alone would be {samples * 4 / 1e9:.2f} GB",
+        f"store {store_bytes / 1e9:.2f} GB ({store_bytes / samples:.2f} bytes/sample)",
+        f"run {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}",
+    ]
+    return table
+
+
+if __name__ == "__main__":  # pragma: no cover - manual large runs
+    import sys
+
+    for t in [build_large(int(sys.argv[1]), workers=int(sys.argv[2]) if len(sys.argv) > 2
+                          else 2)]:
+        print(t.title)
+        for row in t.rows:
+            print("  ", *row)
+        for note in t.notes:
+            print("  ", note)
