@@ -134,3 +134,18 @@ def test_render_from_world_equals_whole_map(world, gl_ctx, tmp_path):
     # The picture is the terrain, not the sky or a misplaced window: the lower half holds
     # the terrain's detail (a flat colour would have no variance).
     assert got[60:, :, :].std() > 15.0
+
+
+def test_overview_window_for_the_viewer(world):
+    from terrascape.world.window import overview_window
+
+    h = _heights(world)
+    win = overview_window(world, budget=1 << 30)
+    assert win.level == 0 and np.array_equal(win.heightmap.heights, h)
+    win = overview_window(world, budget=1 << 30, max_side=100)
+    assert win.level == 2 and np.array_equal(win.heightmap.heights, h[::4, ::4])
+    assert win.heightmap.spacing == (8.0, 8.0)
+    win = overview_window(world, budget=129 * 129 * 200)
+    assert win.level == 1
+    with pytest.raises(MemoryLimitError, match="coarsest"):
+        overview_window(world, budget=10)

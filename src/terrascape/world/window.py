@@ -227,5 +227,32 @@ def camera_window(path, camera: Camera, size: tuple[int, int], *, exaggeration: 
         estimate_bytes=estimate)
 
 
-__all__ = ["DEFAULT_DETAIL", "WorldWindow", "camera_window", "level_shape", "read_level",
-           "world_camera"]
+def overview_window(path, *, budget: int | None = None, per_sample: float | None = None,
+                    max_side: int = 4097) -> WorldWindow:
+    """The whole world at the finest pyramid level whose render fits ``budget`` and whose
+    side is at most ``max_side`` samples (the interactive viewer's terrain)."""
+    group, recipe = open_world(path)
+    budget = memory_limit() if budget is None else int(budget)
+    per_sample = PEAK_BYTES_PER_SAMPLE["render"] if per_sample is None else float(per_sample)
+    level = 0
+    while True:
+        lrows, lcols = level_shape(recipe.shape, level)
+        estimate = float(lrows) * float(lcols) * per_sample
+        if estimate <= budget and max(lrows, lcols) <= max_side:
+            break
+        if min(lrows, lcols) <= 2:
+            raise MemoryLimitError(
+                f"even the world's coarsest level needs about {format_bytes(estimate)}, over "
+                f"the limit of {format_bytes(budget)}")
+        level += 1
+    step = 1 << level
+    sp = recipe.spacing * step
+    total = int(np.prod(chunk_grid(recipe.shape, recipe.chunk)))
+    return WorldWindow(
+        heightmap=Heightmap(read_level(group, level, 0, lrows, 0, lcols), (sp, sp)),
+        offset=(0.0, 0.0), level=level, rows=(0, recipe.rows), cols=(0, recipe.cols),
+        visible_chunks=total, total_chunks=total, needed_level=level, estimate_bytes=estimate)
+
+
+__all__ = ["DEFAULT_DETAIL", "WorldWindow", "camera_window", "level_shape", "overview_window",
+           "read_level", "world_camera"]
