@@ -142,3 +142,19 @@ def test_export_errors(world, tmp_path, capsys):
                     "webp"]) == 2
     with pytest.raises(InvalidParameterError, match="longitude"):
         export_terrain_rgb(world, tmp_path / "t", lonlat=(200.0, 0.0))
+
+
+def test_export_command_takes_a_world(world, tmp_path):
+    from typer.testing import CliRunner
+
+    from terrascape.cli import app
+
+    runner = CliRunner()
+    res = runner.invoke(app, ["export", "terrain_rgb", str(world), "-o", str(tmp_path / "t"),
+                              "--lonlat", "15,45", "--min-zoom", "16"])
+    assert res.exit_code == 0, res.output
+    ours = _files(tmp_path / "t")
+    export_terrain_rgb(world, tmp_path / "s", lonlat=LONLAT, min_zoom=16, name="w")
+    assert ours == _files(tmp_path / "s") and any(k.endswith(".png") for k in ours)
+    res = runner.invoke(app, ["export", "unity", str(world), "-o", str(tmp_path / "u")])
+    assert res.exit_code != 0
