@@ -162,7 +162,7 @@ class WorldInfo:
         out = [f"world {self.path}: {r.rows} rows × {r.cols} cols, spacing {r.spacing:g}, "
                f"seed {r.seed}, chunk {r.chunk}, {'complete' if self.complete else 'INCOMPLETE'}"]
         for name, (shape, chunks, dtype, done, total) in self.arrays.items():
-            out.append(f"  {name:<10} {dtype:<8} {' × '.join(map(str, shape)):<20} chunks "
+            out.append(f"  {name:<14} {dtype:<8} {' × '.join(map(str, shape)):<20} chunks "
                        f"{'×'.join(map(str, chunks))}  done {done}/{total}")
         out.append(f"  recipe {self.recipe.canonical_json()}")
         return out
