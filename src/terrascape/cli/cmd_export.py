@@ -21,6 +21,30 @@ def _destinations_help() -> str:
     return "; ".join(get_destination(n).SUMMARY.rstrip(".") for n in destinations()) + "."
 
 
+def _export_world(destination, store, output, name, lonlat, min_zoom, max_zoom, fmt, force,
+                  quiet) -> None:
+    """A world store: tiles made in parallel on a local dask cluster, read window by window
+    (:mod:`terrascape.world.export`)."""
+    from terrascape.cli.parsing import parse_floats
+    from terrascape.errors import InvalidParameterError
+    from terrascape.world import connect
+    from terrascape.world.export import export_terrain_rgb
+
+    if destination != "terrain_rgb":
+        raise InvalidParameterError(
+            f"a world store exports as terrain_rgb here (or `terrascape world export` for a "
+            f"GeoTIFF), not {destination}")
+    if lonlat is None:
+        raise InvalidParameterError("a world has no georeference: give --lonlat LON,LAT")
+    ll = tuple(parse_floats(lonlat, 2, name="--lonlat"))
+    with timed("export terrain_rgb (world, 2 workers)", quiet=quiet), \
+            connect("local", workers=2) as client:
+        written = export_terrain_rgb(store, output, lonlat=ll, fmt=fmt or "mapbox",
+                                     min_zoom=min_zoom, max_zoom=max_zoom,
+                                     name=name or store.stem, client=client, force=force)
+    out.print(f"{output}: {len(written)} files")
+
+
 @app.command("export", help="Export a heightmap for a game engine, GIS or the web. "
              f"Destinations — {_destinations_help()}")
 def export_command(
@@ -76,6 +100,12 @@ def export_command(
     from terrascape.io.geotiff import degree_warning
 
     module = get_destination(destination)
+    from terrascape.world.store import is_world
+
+    if is_world(heightmap):
+        _export_world(destination, heightmap, output, name, lonlat, min_zoom, max_zoom, fmt,
+                      force, quiet)
+        return
     with timed("read", quiet=quiet), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         hm = read_heightmap(heightmap, spacing=_parse_spacing(spacing))

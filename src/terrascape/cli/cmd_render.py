@@ -159,6 +159,8 @@ def _check_time_options(time, latitude, longitude, day_cycle, frames, turntable)
         raise InvalidParameterError(
             f"--frames must be in [1, {MAX_TURNTABLE_FRAMES}], got {frames}")
     return parse_duration(day_cycle)
+
+
 OBJECTS_HELP = (
     "Objects on the terrain: default (the built-in trees, bushes, rocks and buildings by "
     "the default rules), a .glb/.gltf mesh (scattered like trees) or a rules file "
@@ -186,11 +188,48 @@ def check_object_shadows(value: str | None) -> str | None:
     return value
 
 
+def _render_world_cmd(store: Path, output: Path, wh, technique: str, params: dict, *,
+                      camera, target, orbit, camera_height, exaggeration, quality, force,
+                      quiet) -> None:
+    """``render world.zarr``: read only the part of the world the camera sees, at the
+    pyramid level it needs, within --max-memory (:mod:`terrascape.world.window`)."""
+    from PIL import Image
+
+    from terrascape.heightmap import Heightmap
+    from terrascape.io.atomic import atomic_output
+    from terrascape.render.context import headless_context
+    from terrascape.world.render import render_world
+    from terrascape.world.store import open_world
+    from terrascape.world.window import level_shape, read_level
+
+    group, recipe = open_world(store)
+    cam = None
+    if camera is not None or target is not None or orbit is not None:
+        # The camera options read the terrain (extent, height range, ground under the
+        # camera): the coarsest stored level stands in for the world there.
+        k = int(group.attrs.get("levels", 0))
+        lr, lc = level_shape(recipe.shape, k)
+        step = recipe.spacing * (1 << k)
+        proxy = Heightmap(read_level(group, k, 0, lr, 0, lc), (step, step))
+        cam = build_camera(proxy, wh, exaggeration, camera, target, orbit, camera_height)
+    with timed("render world", quiet=quiet), headless_context() as ctx:
+        img, window = render_world(store, cam, size=wh, technique=technique, params=params,
+                                   exaggeration=exaggeration, quality=quality, ctx=ctx)
+    if not quiet:
+        err.print(f"[dim]world window: level {window.level} (spacing × {1 << window.level}), "
+                  f"{window.heightmap.cols}×{window.heightmap.rows} samples, "
+                  f"{window.visible_chunks} of {window.total_chunks} chunks in view[/]")
+    with atomic_output(output, force=force) as tmp:
+        Image.fromarray(img[..., :3]).save(tmp, format="PNG")
+    out.print(str(output))
+
+
 @app.command("render")
 def render_command(
     heightmap: Path = typer.Argument(
         None,
-        help="Heightmap file (any format `terrascape info` reads); omit with --generate.",
+        help="Heightmap file (any format `terrascape info` reads) or a world store (world.zarr: "
+        "only the part in view is read, at the detail it needs); omit with --generate.",
         show_default=False,
     ),
     output: Path = typer.Option(
@@ -402,6 +441,17 @@ def render_command(
         raise InvalidParameterError("--object-shadows needs --objects")
 
     use_max_memory(max_memory)
+    from terrascape.world.store import is_world
+
+    if heightmap is not None and generate is None and is_world(heightmap):
+        if turntable or water_depth is not None:
+            raise InvalidParameterError(
+                "a world renders one frame without --water-depth: drop --turntable/--water-depth")
+        _render_world_cmd(heightmap, output, wh, technique,
+                          {**params, "sun": (sun_az, sun_el)}, camera=camera, target=target,
+                          orbit=orbit, camera_height=camera_height, exaggeration=exaggeration,
+                          quality=quality, force=force, quiet=quiet)
+        return
     if generate is not None:
         from terrascape.memory import PEAK_BYTES_PER_SAMPLE, check_grid, estimate_peak
 

@@ -33,10 +33,17 @@ def generate_terrain(kind: str, size: int, seed: int, *, spacing: float = VIEW_S
     return generate(kind, size, seed=seed, spacing=spacing, **(params or {}))
 
 
+def _is_world(path: Path) -> bool:
+    from terrascape.world.store import is_world
+
+    return is_world(path)
+
+
 @app.command("view")
 def view_cmd(
     heightmap: Path = typer.Argument(
-        None, help="Heightmap file (.png/.bmp/.jpg, .r16/.raw/.r32, .tif, .npy, .ter).",
+        None, help="Heightmap file (.png/.bmp/.jpg, .r16/.raw/.r32, .tif, .npy, .ter) or a "
+        "world store (world.zarr: the whole world at the finest level that fits memory).",
         show_default="none: use --generate"),
     generate: str = typer.Option(
         None, "--generate", help=f"Generate the terrain instead: {names_help()}.",
@@ -158,6 +165,14 @@ def view_cmd(
             hm = generate_terrain(generate, gen_size, seed, params=gen_params,
                                   spacing=VIEW_SPACING if spacing is None else check_positive(
                                       spacing, "--spacing"))
+    elif _is_world(heightmap):
+        from terrascape.world.window import overview_window
+
+        with timed(f"read world {heightmap.name}"):
+            win = overview_window(heightmap)
+        hm = win.heightmap
+        console.print(f"[dim]world at level {win.level} (spacing × {1 << win.level}): "
+                      f"{hm.cols}×{hm.rows}[/]")
     else:
         from terrascape.io import read_heightmap
 

@@ -59,3 +59,63 @@ def world_info_cmd(
 
     for line in world_info(store).lines():
         out.print(line, markup=False, highlight=False)
+
+
+@world_app.command("export")
+def world_export_cmd(
+    store: Path = typer.Argument(..., metavar="WORLD", help="World store (world.zarr)."),
+    output: Path = typer.Argument(..., metavar="OUT",
+                                  help="A .tif file (geotiff), or a folder for tiles."),
+    fmt: str = typer.Option(
+        "geotiff", "--format",
+        help="geotiff (tiled float32, deflate), mapbox (Terrain-RGB tiles) or terrarium."),
+    lonlat: str = typer.Option(None, "--lonlat",
+                               help="mapbox/terrarium: the world's centre LON,LAT (degrees).",
+                               show_default=False),
+    min_zoom: int = typer.Option(None, "--min-zoom", min=0, max=24,
+                                 help="Tiles: first level.", show_default="0"),
+    max_zoom: int = typer.Option(None, "--max-zoom", min=0, max=24, help="Tiles: last level.",
+                                 show_default="as dense as the world"),
+    scheduler: str = typer.Option(
+        "local", "--scheduler",
+        help="local (a new LocalCluster) or the address of a running dask scheduler."),
+    workers: int = typer.Option(2, "--workers", help="Workers of the local cluster."),
+    processes: bool = typer.Option(
+        True, "--processes/--threads",
+        help="Local workers as processes or threads of this one."),
+    force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No summary line."),
+) -> None:
+    """Export a world tile by tile on a dask cluster (the same bytes as one process)."""
+    import time
+
+    from terrascape.errors import InvalidParameterError
+    from terrascape.world import connect, open_world
+    from terrascape.world.export import export_geotiff, export_terrain_rgb
+
+    if fmt not in ("geotiff", "mapbox", "terrarium"):
+        raise InvalidParameterError(f"--format must be geotiff, mapbox or terrarium, got {fmt!r}")
+    open_world(store)  # a clear error before a cluster starts
+    if fmt == "geotiff":
+        if output.suffix.lower() not in (".tif", ".tiff"):
+            raise InvalidParameterError(f"geotiff output must end in .tif, got {output.name!r}")
+        from terrascape.io.atomic import check_output_path
+
+        check_output_path(output, force=force)
+    elif lonlat is None:
+        raise InvalidParameterError("tiles need --lonlat LON,LAT to place the world on the globe")
+    start = time.perf_counter()
+    with connect(scheduler, workers=workers, memory_limit="2GB", processes=processes) as client:
+        if fmt == "geotiff":
+            written = [export_geotiff(store, output, client=client, force=force)]
+        else:
+            from terrascape.cli.parsing import parse_floats
+
+            ll = tuple(parse_floats(lonlat, 2, name="--lonlat"))
+            written = export_terrain_rgb(store, output, lonlat=ll, fmt=fmt, min_zoom=min_zoom,
+                                         max_zoom=max_zoom, name=store.stem, client=client,
+                                         force=force)
+    if not quiet:
+        total = sum(p.stat().st_size for p in written)
+        out.print(f"{output}: {len(written)} files, {total:,} bytes, "
+                  f"{time.perf_counter() - start:.1f} s")

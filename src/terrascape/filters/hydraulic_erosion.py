@@ -125,21 +125,25 @@ def _erode_brush(h, x, z, amount, floor_h, bz, bx, bw):  # pragma: no cover - co
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _droplets(h, starts, inertia, capacity, min_slope, erosion, deposition, evaporation,
-              gravity, max_steps, bz, bx, bw):  # pragma: no cover - compiled
+def _droplets(h, starts, ox, oz, inertia, capacity, min_slope, erosion, deposition,
+              evaporation, gravity, max_steps, bz, bx, bw):  # pragma: no cover - compiled
+    # ``starts`` holds absolute positions; ``h`` is the window whose sample [0, 0] is the
+    # absolute (oz, ox). A droplet moves in absolute coordinates and indexes the window at
+    # x − ox: subtracting a whole number from a float is exact, so a window gives the same
+    # bytes as the whole map wherever the droplet stays inside it.
     rows, cols = h.shape
     xmax = cols - 1.0
     zmax = rows - 1.0
     for d in range(starts.shape[0]):
-        x = starts[d, 0] * xmax
-        z = starts[d, 1] * zmax
+        x = starts[d, 0]
+        z = starts[d, 1]
         dirx = 0.0
         dirz = 0.0
         speed = 1.0
         water = 1.0
         sediment = 0.0
         for _ in range(max_steps):
-            hh, gx, gz = _height_grad(h, x, z)
+            hh, gx, gz = _height_grad(h, x - ox, z - oz)
             dirx = dirx * inertia - gx * (1.0 - inertia)
             dirz = dirz * inertia - gz * (1.0 - inertia)
             norm = math.sqrt(dirx * dirx + dirz * dirz)
@@ -152,27 +156,27 @@ def _droplets(h, starts, inertia, capacity, min_slope, erosion, deposition, evap
                 dirz /= norm
             nx = x + dirx
             nz = z + dirz
-            if nx < 0.0 or nx > xmax or nz < 0.0 or nz > zmax:
+            if nx - ox < 0.0 or nx - ox > xmax or nz - oz < 0.0 or nz - oz > zmax:
                 break
-            nh, _gx, _gz = _height_grad(h, nx, nz)
+            nh, _gx, _gz = _height_grad(h, nx - ox, nz - oz)
             dh = nh - hh
             cap = max(-dh, min_slope) * speed * water * capacity
             if dh > 0.0 or sediment > cap:
                 amount = min(dh, sediment) if dh > 0.0 else (sediment - cap) * deposition
                 sediment -= amount
-                _deposit(h, x, z, amount)
+                _deposit(h, x - ox, z - oz, amount)
             else:
                 amount = min((cap - sediment) * erosion, -dh)
                 if bw.shape[0] > 1:
-                    sediment += _erode_brush(h, x, z, amount, nh, bz, bx, bw)
+                    sediment += _erode_brush(h, x - ox, z - oz, amount, nh, bz, bx, bw)
                 else:
-                    sediment += _erode(h, x, z, amount, nh)
+                    sediment += _erode(h, x - ox, z - oz, amount, nh)
             speed = math.sqrt(max(speed * speed + dh * gravity, 0.0))
             water *= 1.0 - evaporation
             x = nx
             z = nz
         if sediment > 0.0:
-            _deposit(h, x, z, sediment)
+            _deposit(h, x - ox, z - oz, sediment)
 
 
 #: Droplets per compiled call (a few hundredths of a second each at the default 30 steps).
@@ -256,11 +260,60 @@ def hydraulic_erosion(
     # bytes (the generator yields the same start positions chunk by chunk) while a pending
     # signal (Ctrl-C, SIGTERM) is handled between chunks, within a fraction of a second, and
     # the start positions need 24 bytes per chunk droplet instead of per droplet.
+    scale = np.array([heightmap.cols - 1.0, heightmap.rows - 1.0, 1.0])
     for first in range(0, droplets, _CHUNK_DROPLETS):
-        starts = rng.random((min(_CHUNK_DROPLETS, droplets - first), 3))
-        _droplets(h, starts, inertia, capacity, min_slope, erosion, deposition, evaporation,
-                  gravity, max_steps, bz, bx, bw)
+        starts = rng.random((min(_CHUNK_DROPLETS, droplets - first), 3)) * scale
+        _droplets(h, starts, 0.0, 0.0, inertia, capacity, min_slope, erosion, deposition,
+                  evaporation, gravity, max_steps, bz, bx, bw)
     return heightmap.with_heights(h.astype(np.float32))
 
 
-__all__ = ["hydraulic_erosion"]
+def droplets_in_window(
+    heights: np.ndarray,
+    starts: np.ndarray,
+    origin: tuple[int, int] = (0, 0),
+    *,
+    inertia: float = 0.05,
+    capacity: float = 4.0,
+    min_slope: float = 0.01,
+    erosion: float = 0.3,
+    deposition: float = 0.3,
+    evaporation: float = 0.01,
+    gravity: float = 4.0,
+    max_steps: int = 30,
+    radius: float = 3.0,
+) -> None:
+    """Run the droplets ``starts`` in order on the float64 window ``heights``, in place.
+
+    ``starts`` is ``(n, 3)``: absolute column, row and the fraction of a turn a droplet
+    heads to on flat ground; ``origin`` is the absolute ``(row, col)`` of ``heights[0, 0]``.
+    The parameters are :func:`hydraulic_erosion`'s. A droplet that stays inside the window
+    changes it exactly as it would change the whole map (a tiled world relies on it).
+    """
+    if not isinstance(heights, np.ndarray) or heights.dtype != np.float64 \
+            or heights.ndim != 2 or min(heights.shape) < 2 or not heights.flags.c_contiguous:
+        raise InvalidParameterError("heights must be a C-contiguous float64 2-D array, ≥ 2×2")
+    starts = np.ascontiguousarray(starts, dtype=np.float64)
+    if starts.ndim != 2 or starts.shape[1] != 3 or not np.isfinite(starts).all():
+        raise InvalidParameterError("starts must be a finite (n, 3) array")
+    oz, ox = (float(check_int(v, "origin", minimum=0)) for v in origin)
+    rows, cols = heights.shape
+    if len(starts) and (starts[:, 0].min() < ox or starts[:, 0].max() > ox + cols - 1
+                        or starts[:, 1].min() < oz or starts[:, 1].max() > oz + rows - 1):
+        raise InvalidParameterError("every droplet must start inside the window")
+    radius = check_range(radius, "radius", 0.0, 16.0)
+    bz, bx, bw = _brush(radius) if radius >= 1.0 else (np.zeros(1, np.int64),
+                                                       np.zeros(1, np.int64), np.ones(1))
+    for first in range(0, len(starts), _CHUNK_DROPLETS):
+        _droplets(heights, starts[first:first + _CHUNK_DROPLETS], ox, oz,
+                  check_range(inertia, "inertia", 0.0, 1.0),
+                  check_positive(capacity, "capacity", allow_zero=True),
+                  check_positive(min_slope, "min_slope", allow_zero=True),
+                  check_range(erosion, "erosion", 0.0, 1.0),
+                  check_range(deposition, "deposition", 0.0, 1.0),
+                  check_range(evaporation, "evaporation", 0.0, 1.0),
+                  check_positive(gravity, "gravity", allow_zero=True),
+                  check_int(max_steps, "max_steps", minimum=1, maximum=100_000), bz, bx, bw)
+
+
+__all__ = ["droplets_in_window", "hydraulic_erosion"]

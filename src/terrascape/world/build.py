@@ -17,13 +17,13 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import dask.array as da
 import numpy as np
 
 from terrascape.errors import EnvironmentFailure, InvalidParameterError
+from terrascape.world.droplets import PHASES, phase
 from terrascape.world.recipe import Recipe
 from terrascape.world.stages import make_chunk, shadow_halo
-from terrascape.world.store import array_specs, chunk_grid, create_or_resume
+from terrascape.world.store import array_specs, create_or_resume, task_grid
 
 #: Seconds to wait for a scheduler given by address before giving up.
 CONNECT_TIMEOUT = 5.0
@@ -79,10 +79,12 @@ def connect(scheduler: str = "local", *, workers: int = 2, memory_limit: str | N
         yield client
 
 
-def _height_range(client, path: str) -> tuple[float, float]:
-    h = da.from_zarr(path, component="height")
-    lo, hi = client.compute([h.min(), h.max()], sync=True)
-    return float(lo), float(hi)
+def _height_range(path: str) -> tuple[float, float]:
+    """The world's lowest and highest height, from the per-chunk bounds."""
+    import zarr
+
+    bounds = np.asarray(zarr.open_group(path, mode="r")["bounds"][...])
+    return float(bounds[..., 0].min()), float(bounds[..., 1].max())
 
 
 def build_world(
@@ -129,28 +131,35 @@ def build_world(
     start = time.perf_counter()
     budget = max_chunks
     url = str(path)
-    for name, (shape, _, _) in array_specs(recipe).items():
+    for name in array_specs(recipe):
         done = np.asarray(group[f"done/{name}"][...])
-        grid = chunk_grid(shape, recipe.chunk)
+        grid = task_grid(name, recipe)
         pending = [(i, j) for i in range(grid[0]) for j in range(grid[1]) if not done[i, j]]
         result.skipped += len(done.nonzero()[0])
         if not pending:
             continue
         extra: dict = {}
         if name == "shadow":
-            result.height_range = _height_range(client, url)
+            result.height_range = _height_range(url)
             extra["shadow_halo"] = shadow_halo(recipe, *result.height_range)
+        if name == "droplet_window":  # phase order: a stopped build has finished the earlier phases
+            pending.sort(key=lambda c: phase(*c))
         if budget is not None:
             pending = pending[:budget]
         t0 = time.perf_counter()
-        futures = client.map(make_chunk, [url] * len(pending), [recipe] * len(pending),
-                             [name] * len(pending), [i for i, _ in pending],
-                             [j for _, j in pending], [extra] * len(pending), pure=False)
-        if not quiet:
-            print(f"{name}: {len(pending)} chunks")
-            progress(futures)
-            print()
-        result.written += sum(client.gather(futures))
+        # Droplet chunks run in four phases (each needs the earlier ones finished); every
+        # other stage is one batch of independent chunks.
+        batches = ([[c for c in pending if phase(*c) == p] for p in range(PHASES)]
+                   if name == "droplet_window" else [pending])
+        for batch in batches:
+            futures = client.map(make_chunk, [url] * len(batch), [recipe] * len(batch),
+                                 [name] * len(batch), [i for i, _ in batch],
+                                 [j for _, j in batch], [extra] * len(batch), pure=False)
+            if not quiet:
+                print(f"{name}: {len(batch)} chunks")
+                progress(futures)
+                print()
+            result.written += sum(client.gather(futures))
         result.stage_seconds[name] = time.perf_counter() - t0
         if budget is not None:
             budget -= len(pending)

@@ -18,6 +18,10 @@ Example (TOML)::
     scale = 1024        # any generator parameter of the registry
     octaves = 9
 
+    [erosion]           # hydraulic erosion before the thermal step (optional)
+    model = "grid"      # virtual pipes (exact with its halo) or "droplets" (seam measured)
+    iterations = 100
+
     [thermal]
     iterations = 8
     talus = 35.0
@@ -49,7 +53,19 @@ DEFAULT_CHUNK = 1024
 #: A world's side may be up to 2**40 samples (the noise's origin range).
 MAX_SIDE = 1 << 40
 
-_TOP_KEYS = {"size", "spacing", "seed", "chunk", "generator", "thermal", "normals", "shadow"}
+_TOP_KEYS = {"size", "spacing", "seed", "chunk", "generator", "erosion", "thermal", "normals",
+             "shadow"}
+#: Erosion models that tile (``model`` of ``[erosion]``), their keys and defaults (the
+#: in-memory functions' own defaults, except the grid's 300 iterations, whose halo of 900
+#: samples would need chunks of 900 or more).
+EROSION_MODELS: dict[str, dict[str, Any]] = {
+    "grid": {"iterations": 100, "rain": 0.01, "capacity": 0.05, "min_tilt": 0.02,
+             "max_depth": 0.5, "dissolving": 0.3, "deposition": 0.3, "evaporation": 0.01},
+    "droplets": {"density": 1.0, "inertia": 0.05, "capacity": 4.0, "min_slope": 0.01,
+                 "erosion": 0.3, "deposition": 0.3, "evaporation": 0.01, "gravity": 4.0,
+                 "max_steps": 30, "radius": 3.0},
+}
+_INTEGER_EROSION_KEYS = {"iterations", "max_steps"}
 _THERMAL_KEYS = {"iterations", "talus", "rate"}
 _NORMALS_KEYS = {"height_scale"}
 _SHADOW_KEYS = {"azimuth", "elevation"}
@@ -70,6 +86,7 @@ class Recipe:
     thermal: dict[str, Any] | None = None
     normals: dict[str, Any] | None = None
     shadow: dict[str, Any] | None = None
+    erosion: dict[str, Any] | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -81,7 +98,7 @@ class Recipe:
             "chunk": self.chunk,
             "generator": {"name": self.generator, "relief": self.relief, **self.params},
         }
-        for key in ("thermal", "normals", "shadow"):
+        for key in ("erosion", "thermal", "normals", "shadow"):
             value = getattr(self, key)
             if value is not None:
                 out[key] = dict(value)
@@ -187,6 +204,7 @@ def recipe_from_dict(data: dict[str, Any]) -> Recipe:
                 f"recipe key 'thermal.iterations' = {thermal['iterations']} needs a halo of "
                 f"{2 * thermal['iterations']} samples, more than the chunk ({chunk}): use a "
                 "bigger chunk or fewer iterations")
+    erosion = _erosion(_table(data, "erosion"), chunk)
     normals = _table(data, "normals")
     if normals is not None:
         _unknown(normals, _NORMALS_KEYS, "normals.")
@@ -202,7 +220,57 @@ def recipe_from_dict(data: dict[str, Any]) -> Recipe:
         }
     return Recipe(rows, cols, spacing, seed, chunk, name, relief,
                   {k: (list(v) if isinstance(v, tuple) else v) for k, v in params.items()},
-                  thermal, normals, shadow)
+                  thermal, normals, shadow, erosion)
+
+
+def erosion_halo(erosion: dict[str, Any]) -> int:
+    """Samples each side of a chunk its erosion reads (grid: 3 per iteration, exact;
+    droplets: a droplet's longest path, its brush and the bilinear corner)."""
+    if erosion["model"] == "grid":
+        from terrascape.filters.virtual_pipe_erosion import HALO_PER_ITERATION
+
+        return HALO_PER_ITERATION * erosion["iterations"]
+    return erosion["max_steps"] + math.ceil(erosion["radius"]) + 2
+
+
+def _erosion(table: dict | None, chunk: int) -> dict[str, Any] | None:
+    if table is None:
+        return None
+    model = table.get("model")
+    if model in ("stream-power", "stream_power", "river"):
+        raise InvalidParameterError(
+            "recipe key 'erosion.model' = 'stream-power' does not tile: its drainage area and "
+            "base level come from the whole map (a river crosses any number of chunks), so a "
+            "world offers grid and droplets; erode a map that fits in memory with "
+            "`terrascape erode`")
+    if model not in EROSION_MODELS:
+        raise InvalidParameterError(
+            f"recipe key 'erosion.model' must be one of {', '.join(EROSION_MODELS)} (the "
+            f"models that tile), got {model!r}")
+    defaults = EROSION_MODELS[model]
+    _unknown(table, set(defaults) | {"model"}, "erosion.")
+    out: dict[str, Any] = {"model": model}
+    for key, default in defaults.items():
+        value = table.get(key, default)
+        where = f"erosion.{key}"
+        if key in _INTEGER_EROSION_KEYS:
+            out[key] = _integer(value, where, lo=1 if key == "max_steps" else 0, hi=100_000)
+        elif key in ("rain", "capacity", "min_slope", "gravity", "max_depth", "evaporation"):
+            out[key] = _number(value, where, lo=0.0, open_lo=key == "max_depth")
+        elif key == "density":
+            out[key] = _number(value, where, lo=0.0, hi=64.0)
+        elif key == "radius":
+            out[key] = _number(value, where, lo=0.0, hi=16.0)
+        else:  # shares
+            out[key] = _number(value, where, lo=0.0, hi=1.0)
+    halo = erosion_halo(out)
+    # Droplets run in four phases whose windows must not overlap: halo ≤ half a chunk.
+    if (2 * halo if model == "droplets" else halo) > chunk:
+        raise InvalidParameterError(
+            f"recipe [erosion] ({model}) needs a halo of {halo} samples, more than "
+            f"{'half ' if model == 'droplets' else ''}the chunk ({chunk}): use a bigger "
+            f"chunk or fewer {'iterations' if model == 'grid' else 'max_steps'}")
+    return out
 
 
 def load_recipe(path: str | Path) -> Recipe:
@@ -221,4 +289,5 @@ def load_recipe(path: str | Path) -> Recipe:
     return recipe_from_dict(data)
 
 
-__all__ = ["DEFAULT_CHUNK", "TILEABLE_GENERATORS", "Recipe", "load_recipe", "recipe_from_dict"]
+__all__ = ["DEFAULT_CHUNK", "EROSION_MODELS", "TILEABLE_GENERATORS", "Recipe", "erosion_halo",
+           "load_recipe", "recipe_from_dict"]

@@ -5,6 +5,11 @@ stage), runs the ordinary in-memory terrascape function on that window and crops
 The halos make every chunk equal, bit for bit, to the same window of the whole-map result:
 
 * generator — no halo: the tileable noise takes the absolute ``origin`` of the chunk.
+* grid erosion (virtual pipes) — ``3 · iterations``: one step reads three samples each
+  side (flux, water/velocity, transport): exact, as for thermal erosion.
+* droplet erosion — a droplet's reach (steps + brush + 1), with core-only starts, run in
+  four phases of non-overlapping windows: exact against the untiled run of the same
+  droplets in phase order (:mod:`terrascape.world.droplets`).
 * thermal erosion — ``2 · iterations``: one Jacobi iteration reads the neighbours' outflow
   factors, which read *their* neighbours, so information travels two samples per iteration;
   samples beyond that reach cannot change the chunk. At the map border the window ends where
@@ -14,6 +19,7 @@ The halos make every chunk equal, bit for bit, to the same window of the whole-m
 * shadow — toward the sun, the number of ray steps after which a ray starting at the lowest
   sample has climbed above the highest one (``(h_max - h_min) / rise``), plus two samples
   across the ray lines: nothing farther can occlude.
+* bounds — the min and max of the chunk's heights: no halo.
 * pyramid levels — every other sample of the previous level: no halo.
 """
 
@@ -26,6 +32,7 @@ import numpy as np
 import zarr
 
 from terrascape.heightmap import Heightmap
+from terrascape.world.recipe import erosion_halo
 
 #: Samples on every side of a shadow window beyond the sun-side reach (interpolation lines).
 SHADOW_MARGIN = 2
@@ -75,6 +82,26 @@ def _height_window(group, name, shape, bounds, halo):
     return np.asarray(group[name][a0:a1, b0:b1]), (bounds[0] - a0, bounds[2] - b0)
 
 
+def _eroded_chunk(group, recipe, shape, bounds) -> np.ndarray:
+    """Chunk ``bounds`` of the heights after ``[erosion]``."""
+    r0, r1, c0, c1 = bounds
+    e = recipe.erosion
+    halo = erosion_halo(e)
+    if e["model"] == "grid":
+        from terrascape.filters.virtual_pipe_erosion import virtual_pipe_erosion
+
+        win, (oz, ox) = _height_window(group, "height_raw", shape, bounds, (halo,) * 4)
+        out = virtual_pipe_erosion(
+            Heightmap(win, (recipe.spacing, recipe.spacing)), iterations=e["iterations"],
+            rain=e["rain"], capacity=e["capacity"], min_tilt=e["min_tilt"],
+            max_depth=e["max_depth"], dissolving=e["dissolving"], deposition=e["deposition"],
+            evaporation=e["evaporation"])
+        return out.heightmap.heights[oz:oz + r1 - r0, ox:ox + c1 - c0]
+    from terrascape.world.droplets import eroded_chunk
+
+    return eroded_chunk(group, recipe, r0, r1, c0, c1)
+
+
 def make_chunk(path: str, recipe, stage: str, i: int, j: int, extra: dict) -> int:
     """Compute chunk ``(i, j)`` of ``stage``, write it, then mark it done; returns 1.
 
@@ -96,7 +123,22 @@ def make_chunk(path: str, recipe, stage: str, i: int, j: int, extra: dict) -> in
         return 1
     bounds = chunk_bounds(shape, recipe.chunk, i, j)
     r0, r1, c0, c1 = bounds
-    if stage in ("height_raw", "height") and (stage == "height_raw" or recipe.thermal is None):
+    if stage == "bounds":
+        heights = np.asarray(group["height"][r0:r1, c0:c1])
+        group[stage][i, j, :] = np.array([heights.min(), heights.max()], np.float32)
+        group[f"done/{stage}"][i, j] = 1
+        return 1
+    erosion_output = ("height_eroded" if recipe.thermal is not None else "height")
+    if stage == "droplet_window":
+        from terrascape.world.droplets import run_chunk
+
+        run_chunk(group, recipe, i, j)
+        group[f"done/{stage}"][i, j] = 1
+        return 1
+    if stage == erosion_output and recipe.erosion is not None:
+        data = _eroded_chunk(group, recipe, shape, bounds)
+    elif stage in ("height_raw", "height") and (stage == "height_raw" or (
+            recipe.thermal is None and recipe.erosion is None)):
         from terrascape.generate import noise
 
         fn = noise.fbm if recipe.generator == "fbm" else noise.ridged
@@ -109,7 +151,8 @@ def make_chunk(path: str, recipe, stage: str, i: int, j: int, extra: dict) -> in
         from terrascape.filters.thermal_erosion import thermal_erosion
 
         reach = 2 * recipe.thermal["iterations"]
-        win, (oz, ox) = _height_window(group, "height_raw", shape, bounds, (reach,) * 4)
+        source = "height_raw" if recipe.erosion is None else "height_eroded"
+        win, (oz, ox) = _height_window(group, source, shape, bounds, (reach,) * 4)
         out = thermal_erosion(Heightmap(win, sp), iterations=recipe.thermal["iterations"],
                               talus_angle=recipe.thermal["talus"], rate=recipe.thermal["rate"])
         data = out.heights[oz:oz + r1 - r0, ox:ox + c1 - c0]

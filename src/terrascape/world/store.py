@@ -3,7 +3,12 @@
 Layout::
 
     height          float32 (rows, cols), chunk × chunk
-    height_raw      float32, the generator's heights before thermal erosion (with [thermal])
+    bounds          float32 (chunk rows, chunk cols, 2): min and max height of each chunk
+                    (frustum culling and the shadow halo read these, not the heights)
+    height_raw      float32, the generator's heights before erosion (with [erosion]/[thermal])
+    droplet_window  float64 (chunk rows, chunk cols, W, W): each chunk's window of
+                    W = chunk + 2 · halo samples after its droplet phase (droplet [erosion])
+    height_eroded   float32, after [erosion], before [thermal] (with both)
     normals         float32 (rows, cols, 3), world-space unit normals, Y up
     shadow          uint8 (rows, cols), 1 = in shadow
     levels/1 … k    float32, level k + 1 = every other sample of level k (level 0 = height)
@@ -26,7 +31,7 @@ import numpy as np
 import zarr
 
 from terrascape.errors import FileFormatError, OutputExistsError
-from terrascape.world.recipe import Recipe, recipe_from_dict
+from terrascape.world.recipe import Recipe, erosion_halo, recipe_from_dict
 
 FORMAT_VERSION = 1
 
@@ -45,9 +50,17 @@ def array_specs(recipe: Recipe) -> dict[str, tuple[tuple[int, ...], tuple[int, .
     """``name -> (shape, chunks, dtype)`` of every array, in build order."""
     c = recipe.chunk
     specs: dict[str, tuple[tuple[int, ...], tuple[int, ...], Any]] = {}
-    if recipe.thermal is not None:
+    if recipe.thermal is not None or recipe.erosion is not None:
         specs["height_raw"] = (recipe.shape, (c, c), np.float32)
+    if recipe.erosion is not None and recipe.erosion["model"] == "droplets":
+        # Each chunk's float64 window (chunk + halo on every side) after its droplet phase.
+        w = c + 2 * erosion_halo(recipe.erosion)
+        specs["droplet_window"] = ((*chunk_grid(recipe.shape, c), w, w), (1, 1, w, w),
+                                   np.float64)
+    if recipe.thermal is not None and recipe.erosion is not None:
+        specs["height_eroded"] = (recipe.shape, (c, c), np.float32)
     specs["height"] = (recipe.shape, (c, c), np.float32)
+    specs["bounds"] = ((*chunk_grid(recipe.shape, c), 2), (1, 1, 2), np.float32)
     if recipe.normals is not None:
         specs["normals"] = ((*recipe.shape, 3), (c, c, 3), np.float32)
     if recipe.shadow is not None:
@@ -59,6 +72,21 @@ def array_specs(recipe: Recipe) -> dict[str, tuple[tuple[int, ...], tuple[int, .
 
 def chunk_grid(shape: tuple[int, ...], chunk: int) -> tuple[int, int]:
     return (-(-shape[0] // chunk), -(-shape[1] // chunk))
+
+
+def task_grid(name: str, recipe: Recipe) -> tuple[int, int]:
+    """Tasks (one per chunk of the heights) that build array ``name``."""
+    shape = array_specs(recipe)[name][0]
+    per_chunk = name in ("bounds", "droplet_window")
+    return chunk_grid(recipe.shape if per_chunk else shape, recipe.chunk)
+
+
+def is_world(path: str | Path) -> bool:
+    """Whether ``path`` is a terrascape world store (a zarr group with world attributes)."""
+    p = Path(path)
+    if not (p.is_dir() and (p / "zarr.json").is_file()):
+        return False
+    return _is_world(p)
 
 
 def _is_world(path: Path) -> bool:
@@ -80,6 +108,7 @@ def create_or_resume(path: str | Path, recipe: Recipe, *, force: bool = False) -
             group = zarr.open_group(str(p), mode="r+")
             theirs = group.attrs.get("recipe_hash")
             if theirs == recipe.digest():
+                _add_missing_arrays(group, recipe)
                 return group
             if not force:
                 raise OutputExistsError(
@@ -94,11 +123,7 @@ def create_or_resume(path: str | Path, recipe: Recipe, *, force: bool = False) -
         else:
             p.unlink()
     group = zarr.open_group(str(p), mode="w")
-    for name, (shape, chunks, dtype) in array_specs(recipe).items():
-        group.create_array(name, shape=shape, chunks=chunks, dtype=dtype, fill_value=0)
-        grid = chunk_grid(shape, recipe.chunk)
-        group.create_array(f"done/{name}", shape=grid, chunks=(1, 1), dtype=np.uint8,
-                           fill_value=0)
+    _add_missing_arrays(group, recipe)
     group.attrs.update({
         "terrascape_world": FORMAT_VERSION,
         "recipe": recipe.canonical_json(),
@@ -113,6 +138,18 @@ def create_or_resume(path: str | Path, recipe: Recipe, *, force: bool = False) -
     return group
 
 
+def _add_missing_arrays(group: zarr.Group, recipe: Recipe) -> None:
+    """Create every array of the recipe's layout the store lacks (all of them in a new
+    store; in a store of an older layout, the arrays added since, to be built on resume)."""
+    for name, (shape, chunks, dtype) in array_specs(recipe).items():
+        if name in group:
+            continue
+        group.create_array(name, shape=shape, chunks=chunks, dtype=dtype, fill_value=0)
+        group.create_array(f"done/{name}", shape=task_grid(name, recipe), chunks=(1, 1),
+                           dtype=np.uint8, fill_value=0)
+        group.attrs["complete"] = False
+
+
 @dataclass(frozen=True)
 class WorldInfo:
     path: Path
@@ -125,7 +162,7 @@ class WorldInfo:
         out = [f"world {self.path}: {r.rows} rows × {r.cols} cols, spacing {r.spacing:g}, "
                f"seed {r.seed}, chunk {r.chunk}, {'complete' if self.complete else 'INCOMPLETE'}"]
         for name, (shape, chunks, dtype, done, total) in self.arrays.items():
-            out.append(f"  {name:<10} {dtype:<8} {' × '.join(map(str, shape)):<20} chunks "
+            out.append(f"  {name:<14} {dtype:<8} {' × '.join(map(str, shape)):<20} chunks "
                        f"{'×'.join(map(str, chunks))}  done {done}/{total}")
         out.append(f"  recipe {self.recipe.canonical_json()}")
         return out
@@ -151,4 +188,5 @@ def world_info(path: str | Path) -> WorldInfo:
     return WorldInfo(Path(path), recipe, arrays, bool(group.attrs.get("complete", False)))
 
 
-__all__ = ["array_specs", "create_or_resume", "level_shapes", "open_world", "world_info"]
+__all__ = ["array_specs", "chunk_grid", "create_or_resume", "is_world", "level_shapes",
+           "open_world", "task_grid", "world_info"]

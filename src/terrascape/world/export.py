@@ -1,0 +1,211 @@
+"""Export a world in parallel, tile by tile: a tiled GeoTIFF and Terrain-RGB/Terrarium tiles.
+
+Each output tile is one task on the cluster (``client.map``); with no client the same
+function runs in a loop here. A task reads only the window of the store its tile needs, so
+memory stays bounded whatever the world's size, and both ways give the same bytes:
+
+* **GeoTIFF** (tiled, deflate with the floating-point predictor, BigTIFF when needed): the
+  workers read and pack the blocks; this process writes them with rasterio windows *in
+  block order*, so the file's layout does not depend on which worker finished first.
+* **Terrain-RGB / Terrarium** (:mod:`terrascape.export.terrain_rgb`'s encodings and XYZ Web
+  Mercator pyramid, placed with ``lonlat``): every tile is a PNG written by its task. A tile
+  samples the world bilinearly at its pixel centres, on the pyramid level whose samples are
+  at most as large as its pixels (level 0 at the finest zoom, where the tiles equal
+  ``terrascape export terrain_rgb`` of the map loaded whole, byte for byte; coarser zooms
+  read the overviews instead of the full-resolution map).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from terrascape.errors import InvalidParameterError
+from terrascape.world.store import open_world
+from terrascape.world.window import level_shape, read_level
+
+#: Pixels per side of a GeoTIFF block.
+TIFF_BLOCK = 512
+TILE = 256
+
+
+def _run(client, fn, args: list[tuple]) -> list:
+    """``fn(*a)`` for every ``a``, in order: as tasks on ``client`` or here."""
+    if client is None:
+        return [fn(*a) for a in args]
+    if not args:
+        return []
+    return client.gather(client.map(fn, *zip(*args, strict=True), pure=False))
+
+
+def _tiff_block(path: str, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+    group, _ = open_world(path)
+    return np.asarray(group["height"][r0:r1, c0:c1])
+
+
+def export_geotiff(path, out, *, client=None, force: bool = False) -> Path:
+    """The world's heights as a tiled float32 GeoTIFF at ``out`` (written atomically).
+
+    The transform puts sample ``[0, 0]``'s outer corner at (0, 0) with the world's spacing
+    (a local grid: no CRS); readers get the heights in world units.
+    """
+    import rasterio
+    from rasterio.transform import Affine
+    from rasterio.windows import Window
+
+    from terrascape.io.atomic import atomic_output
+
+    group, recipe = open_world(path)
+    if not group.attrs.get("complete", False):
+        raise InvalidParameterError(f"{path} is not finished: run `terrascape world build` "
+                                    "again to complete it before exporting")
+    rows, cols = recipe.shape
+    b = TIFF_BLOCK
+    blocks = [(str(path), r, min(r + b, rows), c, min(c + b, cols))
+              for r in range(0, rows, b) for c in range(0, cols, b)]
+    sp = recipe.spacing
+    profile = {"driver": "GTiff", "width": cols, "height": rows, "count": 1,
+               "dtype": "float32", "tiled": True, "blockxsize": b, "blockysize": b,
+               "compress": "deflate", "predictor": 3, "transform": Affine(sp, 0, 0, 0, -sp, 0),
+               "BIGTIFF": "IF_SAFER"}
+    with atomic_output(Path(out), force=force) as tmp, rasterio.open(tmp, "w", **profile) as dst:
+        dst.update_tags(terrascape_world=group.attrs["recipe_hash"],
+                        spacing=str(sp), seed=str(recipe.seed))
+        for (_, r0, r1, c0, c1), data in zip(blocks, _in_order(client, _tiff_block, blocks),
+                                             strict=True):
+            dst.write(data, 1, window=Window(c0, r0, c1 - c0, r1 - r0))
+    return Path(out)
+
+
+def _in_order(client, fn, args: list[tuple]):
+    """Yield ``fn(*a)`` for every ``a`` in order; on a cluster at most a few blocks per
+    worker are in flight, so the blocks waiting for the writer stay few (bounded memory)."""
+    if client is None:
+        for a in args:
+            yield fn(*a)
+        return
+    ahead = 2 * max(1, len(client.scheduler_info().get("workers", {}))) + 2
+    queue = []
+    for a in args:
+        queue.append(client.submit(fn, *a, pure=False))
+        if len(queue) >= ahead:
+            first = queue.pop(0)
+            yield first.result()
+            first.release()
+    for f in queue:
+        yield f.result()
+        f.release()
+
+
+# --- Terrain-RGB / Terrarium -------------------------------------------------------------
+def _geo(recipe, lonlat) -> tuple[float, float, float, float]:
+    """``(west, north, dlon, dlat)`` of the world placed with its centre at ``lonlat`` (as
+    :func:`terrascape.export._geo.geo_grid` places a map)."""
+    from terrascape.io.tiff import geographic_spacing
+
+    lon, lat = (float(v) for v in lonlat)
+    if not (-180 <= lon <= 180 and -85 <= lat <= 85):
+        raise InvalidParameterError(
+            f"--lonlat must be a longitude in [-180, 180] and latitude in [-85, 85], got "
+            f"{lon}, {lat}")
+    mx, mz = geographic_spacing(1.0, 1.0, lat)
+    dlon, dlat = recipe.spacing / mx, recipe.spacing / mz
+    return lon - recipe.cols * dlon / 2, lat + recipe.rows * dlat / 2, dlon, dlat
+
+
+def _rgb_tile(path: str, geo, z: int, x: int, y: int, fmt: str, out_dir: str,
+              force: bool) -> str:
+    """Encode and write tile ``z/x/y``; returns its path."""
+    from PIL import Image
+
+    from terrascape.export._common import write_bytes
+    from terrascape.export._geo import mercator_tile_lonlat
+    from terrascape.export.terrain_rgb import encode_mapbox, encode_terrarium
+
+    group, recipe = open_world(path)
+    west, north, dlon, dlat = geo
+    rows, cols = recipe.shape
+    t = (np.arange(TILE) + 0.5) / TILE
+    lon, lat = mercator_tile_lonlat(z, x + t[None, :], y + t[:, None])
+    lon, lat = np.broadcast_arrays(lon, lat)
+    # As GeoGrid.sample: sample coordinates of the pixel centres, the inside mask, clamped.
+    col = (np.asarray(lon, np.float64) - west) / dlon - 0.5
+    row = (north - np.asarray(lat, np.float64)) / dlat - 0.5
+    eps = 1e-9
+    inside = (col >= -eps) & (col <= cols - 1 + eps) & (row >= -eps) & (row <= rows - 1 + eps)
+    # Level: the coarsest whose samples are no larger than the tile's pixels.
+    pixel = max(float(np.ptp(col[0])), float(np.ptp(row[:, 0]))) / (TILE - 1)
+    row = np.clip(row, 0, rows - 1)
+    col = np.clip(col, 0, cols - 1)
+    level = max(0, math.floor(math.log2(pixel))) if pixel > 1 else 0
+    step = 1 << level
+    lrows, lcols = level_shape(recipe.shape, level)
+    lr = np.clip(row / step, 0, lrows - 1)
+    lc = np.clip(col / step, 0, lcols - 1)
+    a0, b0 = int(np.floor(lr.min())), int(np.floor(lc.min()))
+    a1, b1 = min(lrows, int(np.floor(lr.max())) + 2), min(lcols, int(np.floor(lc.max())) + 2)
+    window = read_level(group, level, a0, a1, b0, b1)
+    from scipy import ndimage
+
+    # Whole numbers subtracted from the coordinates: exact, so the bilinear weights are
+    # those of the whole map.
+    h = ndimage.map_coordinates(window, np.stack([lr - a0, lc - b0]).reshape(2, -1), order=1,
+                                mode="nearest", output=np.float64).reshape(lr.shape)
+    encoder = encode_mapbox if fmt == "mapbox" else encode_terrarium
+    rgba = np.zeros((TILE, TILE, 4), np.uint8)
+    rgba[..., :3] = encoder(np.where(inside, h, 0.0))
+    rgba[..., 3] = np.where(inside, 255, 0)
+    buf = io.BytesIO()
+    Image.fromarray(rgba, "RGBA").save(buf, format="PNG")
+    target = Path(out_dir) / str(z) / str(x) / f"{y}.png"
+    target.parent.mkdir(parents=True, exist_ok=True)
+    write_bytes(target, buf.getvalue(), force=force)
+    return str(target)
+
+
+def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str = "mapbox",
+                       min_zoom: int | None = None, max_zoom: int | None = None,
+                       name: str = "world", client=None, force: bool = False) -> list[Path]:
+    """Terrain-RGB (``fmt="mapbox"``) or Terrarium PNG tiles of the world, one task each,
+    plus ``tiles.json``; zooms ``min_zoom`` (0) to ``max_zoom`` (as dense as the world)."""
+    from terrascape.export._common import check_out_dir, write_text
+    from terrascape.export._geo import GeoGrid, mercator_tile_range
+    from terrascape.export.terrain_rgb import FORMATS, finest_zoom
+
+    if fmt not in FORMATS:
+        raise InvalidParameterError(f"terrain_rgb --format must be mapbox or terrarium, got "
+                                    f"{fmt!r}")
+    group, recipe = open_world(path)
+    if not group.attrs.get("complete", False):
+        raise InvalidParameterError(f"{path} is not finished: run `terrascape world build` "
+                                    "again to complete it before exporting")
+    out = check_out_dir(out_dir)
+    geo = _geo(recipe, lonlat)
+    # A grid of the world's shape for the pyramid's geometry (no heights are read).
+    grid = GeoGrid(np.broadcast_to(np.float32(0), recipe.shape), geo[0], geo[1], geo[2],
+                   geo[3])
+    top = finest_zoom(grid) if max_zoom is None else max_zoom
+    bottom = min_zoom or 0
+    if bottom > top:
+        raise InvalidParameterError(f"--min-zoom {bottom} is above --max-zoom {top}")
+    args = []
+    for z in range(bottom, top + 1):
+        x0, y0, x1, y1 = mercator_tile_range(z, grid.bounds)
+        args += [(str(path), geo, z, x, y, fmt, str(out), force)
+                 for x in range(x0, x1 + 1) for y in range(y0, y1 + 1)]
+    results = _run(client, _rgb_tile, args)
+    written = [Path(p) for p in results]
+    w, s, e, n = grid.bounds
+    tilejson = {"tilejson": "2.2.0", "name": name, "scheme": "xyz",
+                "tiles": ["{z}/{x}/{y}.png"], "minzoom": bottom, "maxzoom": top,
+                "bounds": [w, s, e, n], "encoding": fmt, "tileSize": TILE}
+    written.append(write_text(out / "tiles.json", json.dumps(tilejson, indent=1) + "\n",
+                              force=force))
+    return written
+
+
+__all__ = ["TIFF_BLOCK", "export_geotiff", "export_terrain_rgb"]

@@ -1,0 +1,160 @@
+"""Exports from a world, one dask task per tile: the same bytes as one process, read back
+by rasterio and by decoding the tiles, equal to the exporters of the map loaded whole."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import zarr
+from PIL import Image
+
+from terrascape.errors import InvalidParameterError
+from terrascape.export import ExportOptions, get_destination
+from terrascape.heightmap import Heightmap
+from terrascape.world import build_world, connect, recipe_from_dict
+from terrascape.world.export import export_geotiff, export_terrain_rgb
+
+LONLAT = (15.0, 45.0)
+
+
+@pytest.fixture(scope="module")
+def client():
+    with connect("local", workers=2, processes=False, memory_limit=None) as c:
+        yield c
+
+
+@pytest.fixture(scope="module")
+def world(tmp_path_factory, client) -> Path:
+    path = tmp_path_factory.mktemp("world") / "w.zarr"
+    recipe = recipe_from_dict({
+        "size": [300, 257], "spacing": 2.0, "seed": 8, "chunk": 64,
+        "generator": {"name": "ridged", "relief": 80.0, "scale": 90.0, "octaves": 5}})
+    assert build_world(recipe, path, client=client).complete
+    return path
+
+
+def _heights(path):
+    return np.asarray(zarr.open_group(str(path), mode="r")["height"][...])
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file()}
+
+
+def _decode_mapbox(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    a = np.asarray(Image.open(path)).astype(np.float64)
+    return -10000.0 + (a[..., 0] * 65536 + a[..., 1] * 256 + a[..., 2]) * 0.1, a[..., 3] > 0
+
+
+def test_geotiff_parallel_equals_serial_and_reads_back(world, client, tmp_path):
+    import rasterio
+
+    serial = export_geotiff(world, tmp_path / "serial.tif")
+    parallel = export_geotiff(world, tmp_path / "parallel.tif", client=client)
+    assert serial.read_bytes() == parallel.read_bytes()
+    with rasterio.open(parallel) as src:
+        assert np.array_equal(src.read(1), _heights(world))
+        assert src.block_shapes == [(512, 512)] or src.block_shapes == [(256, 256)] or \
+            src.profile["tiled"]
+        assert src.compression.name == "deflate"
+        assert src.transform.a == 2.0 and src.transform.e == -2.0
+    with pytest.raises(Exception, match="exists"):
+        export_geotiff(world, tmp_path / "serial.tif")
+
+
+def test_terrain_rgb_parallel_equals_serial_and_whole_map(world, client, tmp_path):
+    serial = export_terrain_rgb(world, tmp_path / "s", lonlat=LONLAT)
+    parallel = export_terrain_rgb(world, tmp_path / "p", lonlat=LONLAT, client=client)
+    assert [p.relative_to(tmp_path / "s") for p in serial] == \
+        [p.relative_to(tmp_path / "p") for p in parallel]
+    assert _files(tmp_path / "s") == _files(tmp_path / "p")
+    # The exporter of the map loaded whole: the same tiles, the finest zooms byte for byte
+    # (read from level 0), coarser ones (read from the pyramid) close in height.
+    h = _heights(world)
+    get_destination("terrain_rgb").export(Heightmap(h, (2.0, 2.0)), tmp_path / "whole",
+                                          ExportOptions(name="w", lonlat=LONLAT))
+    ours = {k: v for k, v in _files(tmp_path / "p").items() if k.endswith(".png")}
+    theirs = {k: v for k, v in _files(tmp_path / "whole").items() if k.endswith(".png")}
+    assert ours.keys() == theirs.keys()
+    zooms = sorted({int(k.split("/")[0]) for k in ours})
+    top = zooms[-1]
+    finest = [k for k in ours if int(k.split("/")[0]) >= top - 1]
+    assert finest and all(ours[k] == theirs[k] for k in finest)
+    relief = float(h.max() - h.min())
+    coarse_diffs = []
+    for k in ours:
+        z = int(k.split("/")[0])
+        if z >= top - 1 or z < top - 5:
+            continue
+        a, ia = _decode_mapbox(tmp_path / "p" / k)
+        b, ib = _decode_mapbox(tmp_path / "whole" / k)
+        assert np.array_equal(ia, ib)
+        if ia.sum() < 16:
+            continue
+        if z >= top - 3:  # pyramid levels 1-2: close to the full-resolution samples
+            coarse_diffs.append(np.abs(a - b)[ia].mean())
+        else:  # coarser: point samples of another grid, the same terrain
+            assert np.corrcoef(a[ia], b[ia])[0, 1] > 0.9
+    assert coarse_diffs and max(coarse_diffs) < 0.05 * relief, coarse_diffs
+    # The finest tiles decode to the world's heights (within Terrain-RGB's 0.1 m steps).
+    a, inside = _decode_mapbox(tmp_path / "p" / finest[0])
+    assert inside.any() and h.min() - 0.1 <= a[inside].min() and a[inside].max() <= h.max() + 0.1
+
+
+def test_cli_world_export(world, tmp_path):
+    import rasterio
+    from typer.testing import CliRunner
+
+    from terrascape.cli import app
+
+    runner = CliRunner()
+    res = runner.invoke(app, ["world", "export", str(world), str(tmp_path / "w.tif"),
+                              "--workers", "2", "--threads"])
+    assert res.exit_code == 0, res.output
+    with rasterio.open(tmp_path / "w.tif") as src:
+        assert np.array_equal(src.read(1), _heights(world))
+    res = runner.invoke(app, ["world", "export", str(world), str(tmp_path / "tiles"),
+                              "--format", "terrarium", "--lonlat", "15,45", "--min-zoom", "15",
+                              "--threads"])
+    assert res.exit_code == 0, res.output
+    tiles = sorted((tmp_path / "tiles").rglob("*.png"))
+    assert tiles and (tmp_path / "tiles" / "tiles.json").exists()
+    a = np.asarray(Image.open(tiles[0])).astype(np.float64)
+    dec = a[..., 0] * 256 + a[..., 1] + a[..., 2] / 256 - 32768
+    inside = a[..., 3] > 0
+    h = _heights(world)
+    assert inside.any() and h.min() - 0.01 <= dec[inside].min() <= dec[inside].max() \
+        <= h.max() + 0.01
+
+
+def test_export_errors(world, tmp_path, capsys):
+    from terrascape.cli.app import run_app
+
+    assert run_app(["world", "export", str(world), str(tmp_path / "t"), "--format",
+                    "mapbox"]) == 2
+    assert "--lonlat" in capsys.readouterr().err
+    assert run_app(["world", "export", str(world), str(tmp_path / "x.png")]) == 2
+    assert ".tif" in capsys.readouterr().err
+    assert run_app(["world", "export", str(world), str(tmp_path / "x.tif"), "--format",
+                    "webp"]) == 2
+    with pytest.raises(InvalidParameterError, match="longitude"):
+        export_terrain_rgb(world, tmp_path / "t", lonlat=(200.0, 0.0))
+
+
+def test_export_command_takes_a_world(world, tmp_path):
+    from typer.testing import CliRunner
+
+    from terrascape.cli import app
+
+    runner = CliRunner()
+    res = runner.invoke(app, ["export", "terrain_rgb", str(world), "-o", str(tmp_path / "t"),
+                              "--lonlat", "15,45", "--min-zoom", "16"])
+    assert res.exit_code == 0, res.output
+    ours = _files(tmp_path / "t")
+    export_terrain_rgb(world, tmp_path / "s", lonlat=LONLAT, min_zoom=16, name="w")
+    assert ours == _files(tmp_path / "s") and any(k.endswith(".png") for k in ours)
+    res = runner.invoke(app, ["export", "unity", str(world), "-o", str(tmp_path / "u")])
+    assert res.exit_code != 0
