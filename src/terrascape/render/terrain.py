@@ -264,6 +264,8 @@ class TerrainRenderer:
             self.exaggeration)
         self._env: dict[str, tuple[Any, Any]] = {}  # daylight textures: name -> (tex, key)
         self._sky_visibility: np.ndarray | None = None
+        # a render.sun_shadows.MovingSunShadows for a sun that moves (the viewer's clock)
+        self.moving_sun_shadows = None
         self._edge_albedo: dict[int, np.ndarray] = {}
         self._water_vao = None
         self._water_buf = None
@@ -916,13 +918,30 @@ class TerrainRenderer:
                               samples=int(params["shadow_samples"]))
         return np.ascontiguousarray(np.stack([sun, self._sky_visibility], axis=-1))
 
+    def _with_sky_view(self, sun: np.ndarray) -> np.ndarray:
+        """(sun, sky-view) texture data for a sun visibility map of any subsampled size."""
+        from terrascape.lighting.daylight import local_sky_visibility
+
+        if self._sky_visibility is None:
+            self._sky_visibility = local_sky_visibility(self.world).astype(np.float32)
+        step = max(1, round((self._sky_visibility.shape[0] - 1) / max(sun.shape[0] - 1, 1)))
+        sky = self._sky_visibility[::step, ::step][: sun.shape[0], : sun.shape[1]]
+        return np.ascontiguousarray(np.stack([sun, sky], axis=-1), dtype=np.float32)
+
     def _bind_environment(self, program, params: Mapping[str, Any]) -> None:
         from terrascape.render.atmosphere import key_light
 
         key = (tuple(round(v, 6) for v in key_light(params)),
                *(repr(params[k]) for k in ("shadows", "sun_radius", "shadow_samples")))
         self._use_sky_lut(program, params)
-        if "u_sun_sky" in program:
+        moving = self.moving_sun_shadows
+        if "u_sun_sky" in program and moving is not None and params["shadows"] and key[0][1] > 0:
+            # the viewer's moving sun: a coarse map at once, the exact one when it is ready
+            vis_key, vis = moving.visibility(*key[0])
+            key = (vis_key, *key[1:])
+            tex = self._env_texture("u_sun_sky", key,
+                                    lambda: TextureData(self._with_sky_view(vis), repeat=False))
+        elif "u_sun_sky" in program:
             tex = self._env_texture(
                 "u_sun_sky", key,
                 lambda: TextureData(self.sun_sky_visibility(params), repeat=False))
