@@ -90,6 +90,7 @@ class MovingSunShadows:
         self.exact_updates = 0
         self.coarse_updates = 0
         self._ready = threading.Event()
+        self._closed = False
         if self.background:
             threading.Thread(target=self._start_pool, daemon=True,
                              name="terrascape-shadow-pool").start()
@@ -104,6 +105,9 @@ class MovingSunShadows:
             pool.submit(_exact_job, 0.0, 45.0, self.radius, 1).result()
         except Exception:  # no worker process: shadows computed here when the sun stops
             self.background = False
+            return
+        if self._closed:  # closed while the process was starting
+            pool.shutdown(wait=False, cancel_futures=True)
             return
         self._pool = pool
         self._ready.set()
@@ -152,6 +156,7 @@ class MovingSunShadows:
         return self._ready.wait(timeout)
 
     def close(self) -> None:
+        self._closed = True
         if self._pool is not None:
             self._pool.shutdown(wait=False, cancel_futures=True)
             self._pool = None
