@@ -31,6 +31,9 @@ def test_moving_sun_gets_coarse_maps_then_the_exact_one_without_waiting():
     hm = _ridge()
     m = MovingSunShadows(hm, coarse_side=33)
     try:
+        first_key, first = m.visibility(79.0, 20.0)  # the first map is exact, at once
+        assert first_key[0] == "exact"
+        assert np.array_equal(first, soft_shadow(hm, 79.0, 20.0, sun_radius_deg=0.5, samples=6))
         assert m.wait_ready(120.0)
         keys = []
         for az in (80.0, 81.0, 82.0):  # moving: a coarse map per position, never blocking
@@ -53,6 +56,7 @@ def test_moving_sun_gets_coarse_maps_then_the_exact_one_without_waiting():
 def test_without_a_worker_the_exact_map_is_computed_when_the_sun_stops():
     hm = _ridge(65)
     m = MovingSunShadows(hm, coarse_side=17, background=False)
+    assert m.visibility(99.0, 30.0)[0][0] == "exact"  # the first frame
     assert m.visibility(100.0, 30.0)[0][0] == "coarse"
     key, vis = m.visibility(100.0, 30.0)
     assert key[0] == "exact"

@@ -11,8 +11,9 @@ time the sun moves. :class:`MovingSunShadows` splits the work:
 * **Once the sun holds still** the exact map is computed in a separate worker process (its
   own numba thread pool, so the frames keep running on the main one) and replaces the
   coarse map as soon as it is ready, if the sun is still there. Starting that process
-  takes seconds (a new interpreter importing numba), so it is started by a thread when the
-  object is made; until it is up, the coarse maps are all there is.
+  takes seconds (a new interpreter importing numba), so a thread starts it when the sun
+  first moves; until it is up, the coarse maps are all there is. The first map (the first
+  frame) is the exact one, computed at once.
 
 Each frame therefore costs at most one coarse sweep; the exact map arrives without a stall.
 """
@@ -91,7 +92,13 @@ class MovingSunShadows:
         self.coarse_updates = 0
         self._ready = threading.Event()
         self._closed = False
-        if self.background:
+        self._starting = False
+
+    def start_worker(self) -> None:
+        """Start the worker process (in a thread; :meth:`visibility` does it when the sun
+        first moves, so a viewer that never moves the sun never starts one)."""
+        if self.background and not self._starting:
+            self._starting = True
             threading.Thread(target=self._start_pool, daemon=True,
                              name="terrascape-shadow-pool").start()
 
@@ -134,8 +141,17 @@ class MovingSunShadows:
                 self.exact_updates += 1
                 if job_key == key:
                     return ("exact", key), vis
+        first = self._last is None
         still = key == self._last
         self._last = key
+        if first:
+            # the first frame waits for the exact map, as a renderer without this would
+            vis = soft_shadow(self.world, *key, sun_radius_deg=self.radius,
+                              samples=self.samples)
+            self._exact = (key, vis)
+            self.exact_updates += 1
+            return ("exact", key), vis
+        self.start_worker()
         if not self.background and still:
             vis = soft_shadow(self.world, *key, sun_radius_deg=self.radius,
                               samples=self.samples)
@@ -152,7 +168,8 @@ class MovingSunShadows:
         return ("coarse", key), self._coarse[1]
 
     def wait_ready(self, timeout: float | None = None) -> bool:
-        """Wait until the worker process is up (tests, benchmarks); False on timeout."""
+        """Start the worker and wait until it is up (tests, benchmarks); False on timeout."""
+        self.start_worker()
         return self._ready.wait(timeout)
 
     def close(self) -> None:
