@@ -1049,9 +1049,13 @@ class TerrainRenderer:
         import moderngl
 
         mode = 0
+        defines = {}
         if uniforms.get("u_lighting") == LIGHTING_MODES["daylight"]:
             mode = 1 + int(uniforms.get("u_surround", 0))  # 1 haze, 2 plane, 3 sea
-        prog = load_program(self.ctx, "sky", {"SKY_MODE": mode})
+            # the moon and the stars only in the frames that have them (sky.glsl)
+            defines = {"SKY_MOON": int(max(uniforms.get("u_moon_radiance", (0.0,))) > 0.0),
+                       "SKY_STARS": int(uniforms.get("u_star_radiance", 0.0) > 0.0)}
+        prog = load_program(self.ctx, "sky", {"SKY_MODE": mode, **defines})
         if self._sky_vao is None or self._sky_vao.program.glo != prog.glo:
             self._sky_vao = self.ctx.vertex_array(prog, [])
         set_uniforms(prog, **uniforms)
