@@ -123,3 +123,14 @@ def test_sea_level_reaches_the_viewer(monkeypatch, capsys):
     assert run_app(["view", "--generate", "hills", "--gen-size", "33", "--sea-level",
                     "5"]) == 0
     assert seen["sea_level"] == 5.0 and seen["shape"] == (33, 33)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--latitude", "45"], "give --time"),
+    (["--time", "06:00"], "has no date"),
+    (["--time", "2026-06-21T06:00", "--latitude", "100"], "latitude must be in [-90, 90]"),
+])
+def test_time_options_fail_before_any_window(monkeypatch, capsys, args, message):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    assert run_app(["view", "--generate", "fbm", "--gen-size", "33", *args]) == 2
+    assert message in " ".join(capsys.readouterr().err.split())

@@ -268,6 +268,8 @@ class TerrainRenderer:
         # False uploads float32 (the exact values, for comparisons: bench terrain_shading).
         self.visibility_8bit = True
         self._sky_visibility: np.ndarray | None = None
+        # a render.sun_shadows.MovingSunShadows for a sun that moves (the viewer's clock)
+        self.moving_sun_shadows = None
         self._edge_albedo: dict[int, np.ndarray] = {}
         self._water_vao = None
         self._water_buf = None
@@ -959,22 +961,41 @@ class TerrainRenderer:
                               samples=int(params["shadow_samples"]))
         return np.ascontiguousarray(np.stack([sun, self._sky_visibility], axis=-1))
 
+    def _with_sky_view(self, sun: np.ndarray) -> np.ndarray:
+        """(sun, sky-view) texture data for a sun visibility map of any subsampled size."""
+        from terrascape.lighting.daylight import local_sky_visibility
+
+        if self._sky_visibility is None:
+            self._sky_visibility = local_sky_visibility(self.world).astype(np.float32)
+        step = max(1, round((self._sky_visibility.shape[0] - 1) / max(sun.shape[0] - 1, 1)))
+        sky = self._sky_visibility[::step, ::step][: sun.shape[0], : sun.shape[1]]
+        return np.ascontiguousarray(np.stack([sun, sky], axis=-1), dtype=np.float32)
+
     def _bind_environment(self, program, params: Mapping[str, Any]) -> None:
         from terrascape.render.atmosphere import key_light
 
         key = (tuple(round(v, 6) for v in key_light(params)),
                *(repr(params[k]) for k in ("shadows", "sun_radius", "shadow_samples")))
         self._use_sky_lut(program, params)
-        if "u_sun_sky" in program:
-            # 8-bit: llvmpipe filters unorm8 on its fast path, float textures on a slow one
-            # (a tenth of a plain daylight frame); visibility needs no more precision.
-            def build():
-                vis = self.sun_sky_visibility(params)
-                if self.visibility_8bit:
-                    vis = np.round(np.clip(vis, 0.0, 1.0) * 255.0).astype(np.uint8)
-                return TextureData(vis, repeat=False)
+        moving = self.moving_sun_shadows
 
-            tex = self._env_texture("u_sun_sky", (*key, self.visibility_8bit), build)
+        # 8-bit: llvmpipe filters unorm8 on its fast path, float textures on a slow one
+        # (a tenth of a plain daylight frame); visibility needs no more precision.
+        def texture_of(vis):
+            if self.visibility_8bit:
+                vis = np.round(np.clip(vis, 0.0, 1.0) * 255.0).astype(np.uint8)
+            return TextureData(vis, repeat=False)
+
+        if "u_sun_sky" in program and moving is not None and params["shadows"] and key[0][1] > 0:
+            # the viewer's moving sun: a coarse map at once, the exact one when it is ready
+            vis_key, vis = moving.visibility(*key[0])
+            key = (vis_key, *key[1:])
+            tex = self._env_texture("u_sun_sky", (*key, self.visibility_8bit),
+                                    lambda: texture_of(self._with_sky_view(vis)))
+        elif "u_sun_sky" in program:
+            tex = self._env_texture("u_sun_sky", (*key, self.visibility_8bit),
+                                    lambda: texture_of(self.sun_sky_visibility(params)))
+        if "u_sun_sky" in program:
             tex.use(location=_SUN_SKY_UNIT)
             program["u_sun_sky"].value = _SUN_SKY_UNIT
         self._env_texture(
@@ -1079,9 +1100,13 @@ class TerrainRenderer:
         import moderngl
 
         mode = 0
+        defines = {}
         if uniforms.get("u_lighting") == LIGHTING_MODES["daylight"]:
             mode = 1 + int(uniforms.get("u_surround", 0))  # 1 haze, 2 plane, 3 sea
-        prog = load_program(self.ctx, "sky", {"SKY_MODE": mode})
+            # the moon and the stars only in the frames that have them (sky.glsl)
+            defines = {"SKY_MOON": int(max(uniforms.get("u_moon_radiance", (0.0,))) > 0.0),
+                       "SKY_STARS": int(uniforms.get("u_star_radiance", 0.0) > 0.0)}
+        prog = load_program(self.ctx, "sky", {"SKY_MODE": mode, **defines})
         if self._sky_vao is None or self._sky_vao.program.glo != prog.glo:
             self._sky_vao = self.ctx.vertex_array(prog, [])
         set_uniforms(prog, **uniforms)

@@ -325,6 +325,10 @@ class ViewerSession:
     sky_clock
         ``(UTC datetime, latitude, longitude or None)``: start the sky clock there, running
         (Space pauses it); None: the sun keys' fixed sun until a time key starts a clock.
+    moving_sun_shadows
+        Shadows of a moved sun without a stall (coarse at once, exact from a worker
+        process: :class:`~terrascape.render.sun_shadows.MovingSunShadows`); False: every sun
+        change waits for the exact sweep.
     """
 
     def __init__(self, ctx, heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
@@ -332,7 +336,8 @@ class ViewerSession:
                  exaggeration: float = 1.0, hud: bool = True, font_size: int | None = None,
                  lod_time_budget_ms: float | None = 12.0,
                  warn: Callable[[str], None] | None = None,
-                 sea_level: float | None = None, sky_clock=None, objects=None) -> None:
+                 sea_level: float | None = None, sky_clock=None, objects=None,
+                 moving_sun_shadows: bool = True) -> None:
         from terrascape.render.techniques import TextureData, technique_names
         from terrascape.render.terrain import TerrainRenderer
 
@@ -350,6 +355,15 @@ class ViewerSession:
         self.exaggeration = check_positive(exaggeration, "exaggeration")
         self.world = heightmap if self.exaggeration == 1.0 else heightmap.scaled(self.exaggeration)
         self.renderer = TerrainRenderer(ctx, heightmap, exaggeration=self.exaggeration)
+        if moving_sun_shadows:
+            from terrascape.render.sun_shadows import MovingSunShadows
+            from terrascape.render.techniques import COMMON_PARAMS
+
+            # a moved sun gets coarse shadows at once and exact ones in the background,
+            # instead of a frame that waits a second for the exact sweep
+            self.renderer.moving_sun_shadows = MovingSunShadows(
+                self.world, sun_radius_deg=COMMON_PARAMS["sun_radius"],
+                samples=COMMON_PARAMS["shadow_samples"])
         self.state = ViewerState(technique=technique, lod=lod, available=names,
                                  parallax_scale=0.05)
         diag = terrain_diagonal(self.world)
@@ -546,6 +560,8 @@ class ViewerSession:
         return path
 
     def release(self) -> None:
+        if self.renderer.moving_sun_shadows is not None:
+            self.renderer.moving_sun_shadows.close()
         if self.hud is not None:
             self.hud.release()
         self.renderer.release()

@@ -108,6 +108,26 @@ vec3 stars(vec3 d) {
     float air = smoothstep(0.0, 0.12, d.y);
     return tint * (u_star_radiance * (0.04 + mag) * g * air);
 }
+
+// SKY_MOON / SKY_STARS (defines of the program, like SKY_MODE): the moon's disc and the
+// stars are compiled in only when the frame has them — a software rasteriser runs every
+// branch for every pixel, and they would cost the whole sky by day.
+#ifndef SKY_MOON
+#define SKY_MOON 0
+#endif
+#ifndef SKY_STARS
+#define SKY_STARS 0
+#endif
+vec3 night_sky(vec3 d) {
+    vec3 c = vec3(0.0);
+#if SKY_MOON
+    c += moon_disc(d);
+#endif
+#if SKY_STARS
+    c += stars(d);
+#endif
+    return c;
+}
 #endif
 
 void main() {
@@ -120,12 +140,10 @@ void main() {
         vec3 p = u_camera_pos + t * d;
         color = aerial_perspective(surround_radiance(p), p, u_camera_pos);
     } else {
-        color = sky_radiance(d) + sun_disc(d, u_true_sun_dir) + moon_disc(d);
-        if (u_star_radiance > 0.0) color += stars(d);
+        color = sky_radiance(d) + sun_disc(d, u_true_sun_dir) + night_sky(d);
     }
 #else
-    color = sky_radiance(d) + sun_disc(d, u_true_sun_dir) + moon_disc(d);
-    if (u_star_radiance > 0.0) color += stars(d);
+    color = sky_radiance(d) + sun_disc(d, u_true_sun_dir) + night_sky(d);
 #endif
     f_color = vec4(display(color), 1.0);
 #else
