@@ -37,7 +37,7 @@ def normalise_into(heights: np.ndarray, out: np.ndarray, lo: float, hi: float) -
     """
     low, high = float(heights.min()), float(heights.max())
     span = high - low
-    step = max(1, (1 << 16) // max(1, heights.shape[1]))
+    step = max(1, min(heights.shape[0] // 16, (1 << 16) // max(1, heights.shape[1])))
     for r0 in range(0, heights.shape[0], step):
         unit = heights[r0:r0 + step].astype(np.float64)
         if span > 0:

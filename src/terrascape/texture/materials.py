@@ -58,7 +58,7 @@ def _make_material(name: str, size: int, rng: np.random.Generator) -> np.ndarray
     else:  # pragma: no cover - guarded by builtin_material
         raise AssertionError(name)
     out = np.empty((size, size, 3), dtype=np.uint8)
-    step = max(1, _BLOCK_PIXELS // size)
+    step = max(1, min(size // 16, _BLOCK_PIXELS // size))  # small textures: small blocks
     for z0 in range(0, size, step):
         z1 = min(size, z0 + step)
         noise = [layer.rows(z0, z1) for layer in layers]
