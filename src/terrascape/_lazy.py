@@ -14,6 +14,7 @@ References
 from __future__ import annotations
 
 import importlib
+import types
 from collections.abc import Callable
 
 
@@ -22,7 +23,16 @@ def lazy_exports(package: str, exports: dict[str, tuple[str, ...]]
     """``__getattr__`` and ``__dir__`` for ``package`` offering ``exports``: module name
     (relative to the package) → the names it provides."""
     where = {name: f"{package}.{module}" for module, names in exports.items() for name in names}
-    namespace = importlib.import_module(package).__dict__
+    face = importlib.import_module(package)
+    namespace = face.__dict__
+    # A name that is also its module's name (generate.hills is the function hills in the
+    # module hills): once the module is imported, the import system sets the package's
+    # attribute to the module. The face keeps offering the function, as an eager
+    # ``from .hills import hills`` would have.
+    shadowed = {name for name, module in where.items() if module == f"{package}.{name}"}
+    if shadowed:
+        face.__class__ = type("LazyPackage", (type(face),), {
+            "__setattr__": _keep_exports(shadowed), "__module__": __name__})
 
     def __getattr__(name: str) -> object:
         module = where.get(name)
@@ -36,3 +46,13 @@ def lazy_exports(package: str, exports: dict[str, tuple[str, ...]]
         return sorted({*namespace, *where})
 
     return __getattr__, __dir__
+
+
+def _keep_exports(names: set[str]) -> Callable[[types.ModuleType, str, object], None]:
+    def __setattr__(self: types.ModuleType, name: str, value: object) -> None:
+        if (name in names and isinstance(value, types.ModuleType)
+                and value.__name__ == f"{self.__name__}.{name}"):
+            value = getattr(value, name)
+        types.ModuleType.__setattr__(self, name, value)
+
+    return __setattr__
