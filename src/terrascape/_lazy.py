@@ -18,38 +18,21 @@ import types
 from collections.abc import Callable
 
 
-class _LazyPackage(types.ModuleType):
-    """A package whose exported names win over its submodules of the same name.
-
-    Importing ``pkg.name`` makes the import system set the attribute ``pkg.name`` to the
-    submodule; when the package exports a function called ``name`` (``generate.fbm`` from
-    ``generate/noise.py``, ``generate.diamond_square`` from ``generate/diamond_square.py``),
-    ``from pkg import name`` would then return the module instead of the function, depending on
-    what happened to be imported first. The eager package this replaces bound the function
-    after its submodule, so that is what the attribute keeps here.
-    """
-
-    def __setattr__(self, name: str, value: object) -> None:
-        exported = self.__dict__.get("_lazy_where", {})
-        if (name in exported and isinstance(value, types.ModuleType)
-                and value.__name__ == f"{self.__name__}.{name}"):
-            if exported[name] == value.__name__:
-                value = getattr(value, name)
-            else:  # the name comes from another module: resolve it on first use
-                self.__dict__.pop(name, None)
-                return
-        super().__setattr__(name, value)
-
-
 def lazy_exports(package: str, exports: dict[str, tuple[str, ...]]
                  ) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
     """``__getattr__`` and ``__dir__`` for ``package`` offering ``exports``: module name
     (relative to the package) → the names it provides."""
     where = {name: f"{package}.{module}" for module, names in exports.items() for name in names}
-    module_object = importlib.import_module(package)
-    namespace = module_object.__dict__
-    namespace["_lazy_where"] = where
-    module_object.__class__ = _LazyPackage
+    face = importlib.import_module(package)
+    namespace = face.__dict__
+    # A name that is also its module's name (generate.hills is the function hills in the
+    # module hills): once the module is imported, the import system sets the package's
+    # attribute to the module. The face keeps offering the function, as an eager
+    # ``from .hills import hills`` would have.
+    shadowed = {name for name, module in where.items() if module == f"{package}.{name}"}
+    if shadowed:
+        face.__class__ = type("LazyPackage", (type(face),), {
+            "__setattr__": _keep_exports(shadowed), "__module__": __name__})
 
     def __getattr__(name: str) -> object:
         module = where.get(name)
@@ -63,3 +46,13 @@ def lazy_exports(package: str, exports: dict[str, tuple[str, ...]]
         return sorted({*namespace, *where})
 
     return __getattr__, __dir__
+
+
+def _keep_exports(names: set[str]) -> Callable[[types.ModuleType, str, object], None]:
+    def __setattr__(self: types.ModuleType, name: str, value: object) -> None:
+        if (name in names and isinstance(value, types.ModuleType)
+                and value.__name__ == f"{self.__name__}.{name}"):
+            value = getattr(value, name)
+        types.ModuleType.__setattr__(self, name, value)
+
+    return __setattr__

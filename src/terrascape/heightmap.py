@@ -37,7 +37,7 @@ def normalise_into(heights: np.ndarray, out: np.ndarray, lo: float, hi: float) -
     """
     low, high = float(heights.min()), float(heights.max())
     span = high - low
-    step = max(1, (1 << 16) // max(1, heights.shape[1]))
+    step = max(1, min(heights.shape[0] // 16, (1 << 16) // max(1, heights.shape[1])))
     for r0 in range(0, heights.shape[0], step):
         unit = heights[r0:r0 + step].astype(np.float64)
         if span > 0:
@@ -210,9 +210,23 @@ class Heightmap:
         return n.astype(np.float32)
 
     def slope(self) -> np.ndarray:
-        """Slope angle in radians (0 = flat), ``(rows, cols)`` float32."""
-        hx, hz = self.gradient()
-        return np.arctan(np.hypot(hx, hz)).astype(np.float32)
+        """Slope angle in radians (0 = flat), ``(rows, cols)`` float32.
+
+        Computed over blocks of rows with a one-row halo (the same central and border
+        differences as :meth:`gradient` on the whole map), so the peak is the result plus
+        one block, not float64 gradients of the whole map.
+        """
+        h = self.heights
+        rows, cols = h.shape
+        out = np.empty(h.shape, dtype=np.float32)
+        step = max(1, min(rows // 16, (1 << 16) // max(1, cols)))
+        for r0 in range(0, rows, step):
+            r1 = min(rows, r0 + step)
+            lo, hi = max(0, r0 - 1), min(rows, r1 + 1)
+            dz, dx = np.gradient(h[lo:hi].astype(np.float64), self.spacing[1], self.spacing[0])
+            block = np.arctan(np.hypot(dx.astype(np.float32), dz.astype(np.float32)))
+            out[r0:r1] = block[r0 - lo:r1 - lo]
+        return out
 
     def _repr_png_(self) -> bytes:
         """A small shaded, height-coloured PNG, so a heightmap shows itself in Jupyter

@@ -37,3 +37,11 @@ def test_ratios_are_within_each_round() -> None:
     base = measured["import numpy"][0]
     assert ratios == pytest.approx([a / b for a, b in zip(times, base, strict=True)])
     assert measured["import numpy"][1] == [1.0, 1.0]
+
+
+def test_a_baseline_tree_gets_its_own_rows(monkeypatch, tmp_path) -> None:
+    monkeypatch.setenv("TERRASCAPE_STARTUP_BASELINE", str(tmp_path))
+    commands, _ = startup_commands()
+    assert commands["import terrascape (baseline)"][-1] == (
+        f"import sys; sys.path.insert(0, {str(tmp_path)!r}); import terrascape")
+    assert "terrascape --help (baseline)" in commands

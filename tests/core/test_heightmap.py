@@ -86,3 +86,14 @@ def test_make_rng_is_deterministic_and_validates():
     assert make_rng(None).random() == make_rng(0).random()
     with pytest.raises(InvalidParameterError):
         make_rng(-1)
+
+
+def test_slope_in_row_blocks_equals_the_whole_map_formula():
+    """Heightmap.slope runs over blocks of rows with a halo: the same bits as the formula on
+    the whole map's gradient, at the borders and at every block edge."""
+    from terrascape.generate.registry import generate
+
+    for shape in [(2, 5), (3, 3), (70, 45), (300, 17)]:
+        hm = generate("fbm", shape, seed=3, spacing=(1.5, 2.0))
+        hx, hz = hm.gradient()
+        assert np.array_equal(hm.slope(), np.arctan(np.hypot(hx, hz)).astype(np.float32))

@@ -126,3 +126,13 @@ def test_lazy_package_keeps_functions_over_same_named_submodules():
     )
     subprocess.run([sys.executable, "-c", code], check=True,
                    env={**os.environ, "PYTHONPATH": SRC}, timeout=120)
+def test_a_name_shared_with_its_module_stays_the_function() -> None:
+    """generate.hills is the function even after the module hills was imported (the import
+    system sets the package attribute to the submodule)."""
+    code = ("import terrascape.generate.hills, terrascape.generate.diamond_square, "
+            "terrascape.generate.square_square\nimport terrascape.generate as g\n"
+            "assert callable(g.hills) and callable(g.diamond_square), (g.hills,)\n"
+            "assert callable(g.square_square)\n"
+            "from terrascape.generate import hills\nassert hills(9, seed=1).shape == (9, 9)")
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=300,
+                   env={**os.environ, "PYTHONPATH": SRC})

@@ -6,7 +6,9 @@ rotated from round to round, so all of them see the same machine load; the table
 command's median time and the median of its within-round ratio to ``import numpy`` (the one
 import every terrascape user pays anyway) with the spread of that ratio. Peers that are not
 installed (rasterio, pyvista) or not on ``PATH`` (``gdalinfo``) are skipped rows with the
-reason. The same table is part of ``terrascape bench peers``.
+reason. The same table is part of ``terrascape bench peers``. With
+``TERRASCAPE_STARTUP_BASELINE=/path/to/old/src`` the same two commands of another source
+tree are timed in the same rounds (before/after a change).
 """
 
 from __future__ import annotations
@@ -20,6 +22,10 @@ import sys
 import time
 
 from terrascape.bench import BenchTable
+
+#: Environment variable naming a second ``src`` folder whose start-up is timed in the same
+#: rounds ("baseline" rows): the before/after comparison of a change.
+BASELINE_VAR = "TERRASCAPE_STARTUP_BASELINE"
 
 #: Targets on this machine kind (two cores), bytecode cached.
 IMPORT_TARGET_S = 0.10
@@ -39,6 +45,14 @@ def startup_commands() -> tuple[dict[str, list[str]], list[str]]:
         "terrascape --help": _python("from terrascape.cli import main; main(['--help'])"),
     }
     skipped = []
+    baseline = os.environ.get(BASELINE_VAR)
+    if baseline:  # another source tree (e.g. `git archive OLD src`) timed in the same rounds
+        for label, code in (("import terrascape", "import terrascape"),
+                            ("terrascape --help",
+                             "from terrascape.cli import main; main(['--help'])")):
+            commands[f"{label} (baseline)"] = [
+                sys.executable, "-c",
+                f"import sys; sys.path.insert(0, {baseline!r}); {code}"]
     if importlib.util.find_spec("rasterio") is not None:
         commands["import rasterio (peer)"] = _python("import rasterio")
     else:

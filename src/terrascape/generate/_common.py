@@ -65,8 +65,8 @@ def accumulate_in_row_blocks(
     ``n_items``."""
     rows, cols = shape
     out = np.empty(shape, dtype=np.float32)
-    # At most an eighth of the map in float64 (a quarter of the result's bytes) on small maps.
-    step = max(1, min(rows // 8, ACCUMULATOR_SAMPLES // max(1, cols)))
+    # At most a sixteenth of the map in float64 (an eighth of the result's bytes).
+    step = max(1, min(rows // 16, ACCUMULATOR_SAMPLES // max(1, cols)))
     starts = range(0, rows, step)
     chunks = range(0, n_items, chunk)
     total = len(starts) * len(chunks)

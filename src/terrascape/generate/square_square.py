@@ -112,7 +112,7 @@ def square_square(
         full = 2 * (grid.shape[0] - 1)
         side = size if k == levels - 1 else full  # the last level is cropped to the map
         child = np.empty((side, side), dtype=np.float32)
-        step = max(1, min(full // 8, _BLOCK_SAMPLES // full))  # ≤ an eighth of the level
+        step = max(1, min(full // 16, _BLOCK_SAMPLES // full))  # ≤ a sixteenth of the level
         for ci0 in range(0, full, step):
             u = rng.random((min(step, full - ci0), full), dtype=np.float32)
             _refine_rows(grid, u, np.float32(rough[k]), ci0, child)

@@ -34,8 +34,9 @@ from terrascape.io.image import luminance
 _BLOCK_PIXELS = 1 << 16
 
 
-def _block_rows(cols: int) -> int:
-    return max(1, _BLOCK_PIXELS // max(1, cols))
+def _block_rows(rows: int, cols: int) -> int:
+    """Rows per block: at most a sixteenth of the image, at most :data:`_BLOCK_PIXELS`."""
+    return max(1, min(rows // 16, _BLOCK_PIXELS // max(1, cols)))
 
 
 def _check_image(img: np.ndarray) -> None:
@@ -60,7 +61,7 @@ def _check_image(img: np.ndarray) -> None:
         return
     if not np.issubdtype(img.dtype, np.floating):
         raise InvalidParameterError(f"expected numeric pixels, got dtype {img.dtype}")
-    step = _block_rows(img.shape[1])
+    step = _block_rows(*img.shape[:2])
     if not all(np.isfinite(img[r:r + step]).all() for r in range(0, img.shape[0], step)):
         raise InvalidParameterError("image contains NaN/infinite pixel values")
     lo, hi = float(img.min()), float(img.max())
@@ -81,7 +82,7 @@ def _brightness(rgb: Any) -> np.ndarray:
     img = np.asarray(rgb)
     _check_image(img)
     y = np.empty(img.shape[:2], dtype=np.float64)
-    step = _block_rows(img.shape[1])
+    step = _block_rows(*img.shape[:2])
     for r0 in range(0, img.shape[0], step):
         block = _to_unit_float(img[r0:r0 + step])
         if block.ndim == 2:
@@ -139,7 +140,7 @@ def height_from_image(
     if hi - lo <= 1e-9 * max(1.0, abs(hi)):
         return np.zeros(y.shape, dtype=np.float32)
     out = np.empty(y.shape, dtype=np.float32)
-    step = _block_rows(y.shape[1])
+    step = _block_rows(*y.shape)
     for r0 in range(0, y.shape[0], step):
         block = y[r0:r0 + step]
         block -= lo

@@ -25,11 +25,23 @@ def periodic_value_noise(
     ``period = (cells_x, cells_z)``: lattice cells across the image; each is clamped to
     ``[1, size]``. Anisotropic periods give stretched features (water ripples).
     """
+    return value_noise_rows(value_noise_lattice(size, period, rng), size, 0, size)
+
+
+def value_noise_lattice(size: int, period: tuple[int, int], rng: np.random.Generator
+                        ) -> np.ndarray:
+    """The random lattice ``(cells_z, cells_x)`` of one octave (the only draw from ``rng``)."""
     px = int(min(max(period[0], 1), size))
     pz = int(min(max(period[1], 1), size))
-    lattice = rng.uniform(-1.0, 1.0, size=(pz, px))
+    return rng.uniform(-1.0, 1.0, size=(pz, px))
+
+
+def value_noise_rows(lattice: np.ndarray, size: int, z0: int, z1: int) -> np.ndarray:
+    """Rows ``z0 … z1 - 1`` of the ``size²`` periodic value noise of ``lattice``: the same
+    values as those rows of the whole image, so textures can be built in blocks of rows."""
+    pz, px = lattice.shape
     x = np.arange(size) * (px / size)
-    z = np.arange(size) * (pz / size)
+    z = np.arange(z0, z1) * (pz / size)
     ix0 = np.floor(x).astype(np.int64)
     iz0 = np.floor(z).astype(np.int64)
     fx = _quintic(x - ix0)[None, :]
@@ -47,6 +59,38 @@ def periodic_value_noise(
     return top + (bottom - top) * fz
 
 
+class PeriodicFbm:
+    """Fractal sum of periodic value-noise octaves (periods doubling), scaled to ``[-1, 1]``,
+    evaluated by blocks of rows. The octaves' lattices are drawn from ``rng`` when it is
+    made, in octave order, so the draws do not depend on how the rows are evaluated.
+
+    ``ridged=True`` uses ``1 - 2|n|`` per octave (sharp creases: cracks in rock).
+    """
+
+    def __init__(self, size: int, base_period: tuple[int, int], rng: np.random.Generator, *,
+                 octaves: int = 4, gain: float = 0.5, ridged: bool = False) -> None:
+        self.size = size
+        self.gain = gain
+        self.ridged = ridged
+        self.lattices = [value_noise_lattice(size, (base_period[0] * 2**k,
+                                                    base_period[1] * 2**k), rng)
+                         for k in range(octaves)]
+
+    def rows(self, z0: int, z1: int) -> np.ndarray:
+        """Rows ``z0 … z1 - 1``, float64 ``(z1 - z0, size)``."""
+        total = np.zeros((z1 - z0, self.size))
+        amp = 1.0
+        norm = 0.0
+        for lattice in self.lattices:
+            n = value_noise_rows(lattice, self.size, z0, z1)
+            if self.ridged:
+                n = 1.0 - 2.0 * np.abs(n)
+            total += amp * n
+            norm += amp
+            amp *= self.gain
+        return total / norm
+
+
 def periodic_fbm(
     size: int,
     base_period: tuple[int, int],
@@ -56,22 +100,13 @@ def periodic_fbm(
     gain: float = 0.5,
     ridged: bool = False,
 ) -> np.ndarray:
-    """Fractal sum of periodic value-noise octaves (periods doubling), scaled to ``[-1, 1]``.
+    """Fractal sum of periodic value-noise octaves (periods doubling), scaled to ``[-1, 1]``
+    (the whole ``(size, size)`` image of :class:`PeriodicFbm`).
 
     ``ridged=True`` uses ``1 - 2|n|`` per octave (sharp creases: cracks in rock).
     """
-    total = np.zeros((size, size))
-    amp = 1.0
-    norm = 0.0
-    for k in range(octaves):
-        period = (base_period[0] * 2**k, base_period[1] * 2**k)
-        n = periodic_value_noise(size, period, rng)
-        if ridged:
-            n = 1.0 - 2.0 * np.abs(n)
-        total += amp * n
-        norm += amp
-        amp *= gain
-    return total / norm
+    return PeriodicFbm(size, base_period, rng, octaves=octaves, gain=gain,
+                       ridged=ridged).rows(0, size)
 
 
 # --- smooth jitter noise evaluated inside numba kernels ----------------------------------------

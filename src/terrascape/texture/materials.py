@@ -17,7 +17,7 @@ import numpy as np
 
 from terrascape._validate import check_int, make_rng
 from terrascape.errors import FileFormatError, InvalidParameterError
-from terrascape.texture._noise import periodic_fbm
+from terrascape.texture._noise import PeriodicFbm
 
 BUILTIN_MATERIALS: tuple[str, ...] = ("water", "sand", "grass", "rock", "snow")
 
@@ -35,39 +35,60 @@ def _unit(n: np.ndarray) -> np.ndarray:
     return np.clip(0.5 + 0.5 * n, 0.0, 1.0)
 
 
-def _make_material(name: str, size: int, rng: np.random.Generator) -> np.ndarray:
-    # White per-pixel grain is trivially periodic (every pixel independent), so it keeps the
-    # wrap-around seam statistically identical to interior neighbours.
-    def grain() -> np.ndarray:
-        return rng.uniform(-1.0, 1.0, size=(size, size))
+#: Pixels of a material computed at a time: its float64 colour block stays a few MB, not
+#: 24 bytes per pixel of the whole texture (plus the temporaries of every step).
+_BLOCK_PIXELS = 1 << 16
 
+
+def _make_material(name: str, size: int, rng: np.random.Generator) -> np.ndarray:
+    # Every lattice is drawn first, in the order the layers are listed, then the rows are
+    # built block by block with the grain drawn last, block after block: the same draws, in
+    # the same order, as building the whole image at once.
     if name == "water":
         # Ripples stretched along X: 4× more lattice cells along Z than along X.
-        swell = periodic_fbm(size, (2, 8), rng, octaves=4)
-        colour = _lerp_colour(_unit(1.4 * swell), (18, 52, 98), (46, 104, 150))
-        colour += 3.0 * grain()[..., None]
+        layers = [PeriodicFbm(size, (2, 8), rng, octaves=4)]
     elif name == "sand":
-        dunes = periodic_fbm(size, (3, 3), rng, octaves=3)
-        colour = _lerp_colour(_unit(1.2 * dunes), (186, 166, 118), (224, 204, 154))
-        colour += 10.0 * grain()[..., None]
+        layers = [PeriodicFbm(size, (3, 3), rng, octaves=3)]
+    elif name in ("grass", "rock"):
+        layers = [PeriodicFbm(size, (4, 4), rng, octaves=5, gain=0.55)]
+        if name == "rock":
+            layers.append(PeriodicFbm(size, (3, 3), rng, octaves=3, ridged=True))
+    elif name == "snow":
+        layers = [PeriodicFbm(size, (3, 3), rng, octaves=4)]
+    else:  # pragma: no cover - guarded by builtin_material
+        raise AssertionError(name)
+    out = np.empty((size, size, 3), dtype=np.uint8)
+    step = max(1, min(size // 16, _BLOCK_PIXELS // size))  # small textures: small blocks
+    for z0 in range(0, size, step):
+        z1 = min(size, z0 + step)
+        noise = [layer.rows(z0, z1) for layer in layers]
+        # White per-pixel grain is trivially periodic (every pixel independent), so it keeps
+        # the wrap-around seam statistically identical to interior neighbours.
+        grain = rng.uniform(-1.0, 1.0, size=(z1 - z0, size))
+        out[z0:z1] = _material_colour(name, noise, grain)
+    return out
+
+
+def _material_colour(name: str, noise: list[np.ndarray], grain: np.ndarray) -> np.ndarray:
+    """The uint8 colours of a block of rows from its noise layers and grain."""
+    if name == "water":
+        colour = _lerp_colour(_unit(1.4 * noise[0]), (18, 52, 98), (46, 104, 150))
+        colour += 3.0 * grain[..., None]
+    elif name == "sand":
+        colour = _lerp_colour(_unit(1.2 * noise[0]), (186, 166, 118), (224, 204, 154))
+        colour += 10.0 * grain[..., None]
     elif name == "grass":
-        patches = periodic_fbm(size, (4, 4), rng, octaves=5, gain=0.55)
-        colour = _lerp_colour(_unit(1.3 * patches), (48, 92, 30), (104, 146, 56))
-        blades = grain()
-        colour += np.stack([6.0 * blades, 12.0 * blades, 4.0 * blades], axis=-1)
+        colour = _lerp_colour(_unit(1.3 * noise[0]), (48, 92, 30), (104, 146, 56))
+        colour += np.stack([6.0 * grain, 12.0 * grain, 4.0 * grain], axis=-1)
     elif name == "rock":
-        body = periodic_fbm(size, (4, 4), rng, octaves=5, gain=0.55)
-        cracks = periodic_fbm(size, (3, 3), rng, octaves=3, ridged=True)
+        body, cracks = noise
         colour = _lerp_colour(_unit(1.2 * body), (92, 88, 82), (156, 150, 142))
         # Ridged noise near 1 marks crease lines: darken them for cracks.
         colour *= (1.0 - 0.35 * np.clip(cracks, 0.0, 1.0) ** 6)[..., None]
-        colour += 6.0 * grain()[..., None]
-    elif name == "snow":
-        drifts = periodic_fbm(size, (3, 3), rng, octaves=4)
-        colour = _lerp_colour(_unit(1.2 * drifts), (218, 226, 240), (252, 252, 255))
-        colour += 2.5 * grain()[..., None]
-    else:  # pragma: no cover - guarded by builtin_material
-        raise AssertionError(name)
+        colour += 6.0 * grain[..., None]
+    else:  # snow
+        colour = _lerp_colour(_unit(1.2 * noise[0]), (218, 226, 240), (252, 252, 255))
+        colour += 2.5 * grain[..., None]
     return np.clip(np.rint(colour), 0, 255).astype(np.uint8)
 
 
