@@ -1,6 +1,7 @@
 """Scattering by rules: Poisson spacing across rules, density on a flat map, slope/height/mask
 and sea-level rules, determinism, the caps, feet on the surface, the default rules' ecology."""
 
+import json
 import math
 
 import numpy as np
@@ -8,7 +9,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from terrascape import Heightmap
-from terrascape.errors import InvalidParameterError
+from terrascape.errors import FileFormatError, InvalidParameterError
 from terrascape.generate import generate
 from terrascape.objects import Band, RuleSet, ScatterRule, scatter, surface_height
 from terrascape.objects.rules import fit_limit_per_hectare, ruleset_from_dict
@@ -191,3 +192,40 @@ def test_rules_file_keys_are_checked():
     with pytest.raises(InvalidParameterError, match="unknown mesh 'palm'"):
         scatter(Heightmap(np.zeros((9, 9), np.float32)),
                 ScatterRule("p", ("palm",), density=1, spacing=1))
+
+
+def test_load_objects_resolves_every_spec(hilly, tmp_path):
+    import trimesh
+
+    from terrascape.objects import load_objects
+
+    a = load_objects("default", hilly, seed=2)
+    b = scatter(hilly, seed=2)
+    assert a.positions.tobytes() == b.positions.tobytes()
+    # the user's model, scattered by the default tree rule
+    cone = trimesh.creation.cone(radius=2.0, height=9.0)
+    cone.apply_transform(trimesh.transformations.rotation_matrix(-np.pi / 2, [1, 0, 0]))
+    (tmp_path / "pine.glb").write_bytes(trimesh.Scene(cone).export(file_type="glb"))
+    mine = load_objects(str(tmp_path / "pine.glb"), hilly, seed=2)
+    assert [m.name for m in mine.meshes] == ["pine"] and len(mine) > 50
+    assert mine.metadata["rules"][0]["name"] == "trees"
+    # a rules file naming the model and a built-in mesh, with a sea level
+    (tmp_path / "r.toml").write_text(
+        'sea_level = 40.0\n[meshes]\npine = "pine.glb"\n'
+        '[[rules]]\nname = "pines"\nmeshes = ["pine", "conifer"]\ndensity = 30\nspacing = 6\n'
+        'slope = {max = 35, ramp = 5}\nscale = [0.9, 1.1]\n')
+    ruled = load_objects(str(tmp_path / "r.toml"), hilly, seed=2)
+    assert {m.name for m in ruled.meshes} == {"pine", "conifer"}
+    assert ruled.positions[:, 1].min() >= 40.0 - 1e-3 and ruled.scale.max() <= 1.1 + 1e-6
+    (tmp_path / "r.json").write_text(json.dumps({"rules": [{"name": "r", "meshes": ["rock"],
+                                                            "density": 10, "spacing": 3}]}))
+    assert len(load_objects(str(tmp_path / "r.json"), hilly, seed=2)) > 10
+    (tmp_path / "bad.toml").write_text('[[rules]]\nname = "x"\nmeshes = ["rock"]\n'
+                                       'density = 5\nspacing = 2\nheigth = [0, 1]\n')
+    with pytest.raises(InvalidParameterError, match=r"bad\.toml: rule 'x': unknown key 'heigth'"):
+        load_objects(str(tmp_path / "bad.toml"), hilly)
+    (tmp_path / "broken.toml").write_text("[[rules]\n")
+    with pytest.raises(FileFormatError, match="not valid TOML"):
+        load_objects(str(tmp_path / "broken.toml"), hilly)
+    with pytest.raises(InvalidParameterError, match="unknown --objects 'trees'"):
+        load_objects("trees", hilly)

@@ -403,3 +403,99 @@ def test_viewer_keys_toggle_objects_and_cycle_their_shadows(gl_ctx, boxes):
     finally:
         fbo.release()
         s.release()
+
+
+@pytest.mark.gl
+def test_cascades_on_hills_agree_with_the_ray_cast_reference(gl_ctx):
+    """Built-in trees and a house on hills: the terrain pixels the cascades darken are those
+    the CPU ray cast (objects.shadow_reference) finds in an object's shadow, ≥ 98 % away
+    from shadow edges and contact points."""
+    from scipy.ndimage import binary_dilation
+
+    from terrascape.generate import hills
+    from terrascape.objects import builtin_meshes, surface_height, surface_normal
+    from terrascape.objects.shadow_reference import boundary_band, shadow_reference
+
+    heights = hills(65, count=40, seed=4)
+    hm = Heightmap(heights.heights * (8.0 / max(float(np.ptp(heights.heights)), 1e-6)),
+                   spacing=(1.0, 1.0))
+    meshes = builtin_meshes()
+    names = ["conifer", "broadleaf", "house", "conifer", "bush"]
+    kinds = list(dict.fromkeys(names))
+    xz = np.array([[20.0, 30.0], [38.0, 24.0], [30.0, 44.0], [46.0, 40.0], [14.0, 48.0]])
+    y = surface_height(hm, xz[:, 0], xz[:, 1])
+    inst = Instances(tuple(meshes[n] for n in kinds), [kinds.index(n) for n in names],
+                     np.c_[xz[:, 0], y, xz[:, 1]], [1.0, 0.9, 0.6, 0.7, 1.0],
+                     [0.0, 1.0, 0.4, 2.0, 0.0])
+    size = (384, 256)
+    cam = Camera.look_at((32, 45, 90), (32, 0, 36), aspect=size[0] / size[1], near=1.0,
+                         far=500.0)
+    sun = (60.0, 30.0)
+    params = {"sun": sun, "impostor_pixels": 0, "haze": 0.0}
+    r = OffscreenRenderer(gl_ctx, hm, size=size)
+    try:
+        bare = r.render(cam, "material", params)
+        r.terrain.set_objects(inst)
+        none = r.render(cam, "material", {**params, "object_shadows": "none"})
+        casc = r.render(cam, "material", {**params, "object_shadows": "cascades"})
+        ref = shadow_reference(cam, r.last_depth(), sun, instances=inst, heightmap=hm)
+    finally:
+        r.release()
+    objects = np.abs(none.astype(int) - bare.astype(int)).max(axis=-1) > 0
+    pts = np.nan_to_num(ref.points)
+    n = surface_normal(hm, pts[..., 0].ravel(), pts[..., 2].ravel()).reshape(*size[::-1], 3)
+    sunlit = n @ sun_direction(*sun) > 0.3  # where a cast shadow visibly darkens
+    keep = (ref.surface & ~binary_dilation(objects, iterations=2) & ~ref.terrain_shadow
+            & ~boundary_band(ref.object_shadow, 1) & sunlit)
+    measured = luma(casc) < 0.8 * luma(none)
+    assert ref.object_shadow[keep].sum() > 300
+    agreement = (measured[keep] == ref.object_shadow[keep]).mean()
+    assert agreement >= 0.98, agreement
+
+
+@pytest.mark.gl
+def test_objects_in_a_ridges_shadow_are_dark_and_the_others_lit(gl_ctx):
+    """The terrain's shadow on objects (ray-cast through the height texture): a box behind
+    a ridge, away from the sun, gets only sky light on its sunward face; one in the open
+    keeps the sun."""
+    n = 97
+    h = np.zeros((n, n), np.float32)
+    h[:, 40:44] = 20.0  # a north-south wall of 20 m at x = 40..43
+    hm = Heightmap(h, spacing=(1.0, 1.0))
+    mesh = box_mesh(size=(4.0, 6.0, 4.0), color=(0.5, 0.5, 0.5))
+    # sun in the west, 30° up: the wall's shadow reaches 34 m east of it
+    sun = (270.0, 30.0)
+    inst = Instances((mesh,), [0, 0], [[52.0, 0.0, 30.0], [85.0, 0.0, 30.0]], [1.0, 1.0],
+                     [0.0, 0.0])
+    size = (160, 120)
+    # east of the wall, south of the boxes: it sees their west faces
+    cam = Camera.look_at((46.0, 8.0, 5.0), (68.0, 3.0, 30.0), fov_y=60.0, near=0.5,
+                         far=400.0, aspect=size[0] / size[1])
+    params = {"sun": sun, "haze": 0.0, "impostor_pixels": 0, "object_shadows": "none"}
+    r = OffscreenRenderer(gl_ctx, hm, size=size)
+    try:
+        r.terrain.set_objects(inst)
+        shaded = r.render(cam, "plain", params)
+        lit = r.render(cam, "plain", {**params, "shadows": False})
+        # the other variant: the terrain drawn into the cascades, its sweep off
+        cascaded = r.render(cam, "plain", {**params, "shadows": False, "cascade_terrain": True,
+                                           "object_shadows": "cascades"})
+    finally:
+        r.release()
+    ground = cam.project([[62.0, 0.0, 45.0], [92.0, 0.0, 45.0]], size)
+    assert ((ground[:, 0] > 2) & (ground[:, 0] < size[0] - 2) & (ground[:, 1] > 2)
+            & (ground[:, 1] < size[1] - 2)).all()
+    g = [luma(cascaded[int(y) - 1:int(y) + 2, int(x) - 1:int(x) + 2]).mean()
+         / luma(lit[int(y) - 1:int(y) + 2, int(x) - 1:int(x) + 2]).mean() for x, y, _ in ground]
+    assert g[0] < 0.7 and g[1] > 0.97, g  # the wall's shadow on the ground, from the cascades
+    # the west (sunward) face of each box, 3 m up
+    faces = cam.project([[50.0 - 0.05, 3.0, 30.0], [83.0 - 0.05, 3.0, 30.0]], size)
+    ratios = []
+    for x, y, _ in faces:
+        row, col = int(y), int(x)
+        patch = (slice(row - 1, row + 2), slice(col - 1, col + 2))
+        ratios.append(luma(shaded[patch]).mean() / luma(lit[patch]).mean())
+    behind, open_ = ratios
+    assert behind < 0.7, ratios  # in the wall's shadow: sky light only
+    assert behind > 0.15, ratios  # not black
+    assert open_ > 0.97, ratios

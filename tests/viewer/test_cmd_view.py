@@ -60,6 +60,9 @@ def test_check_display(monkeypatch):
         (["view", "--generate", "hills", "--size", "12by3"], "--size"),
         (["view", "--generate", "hills", "--exaggeration", "0"], "--exaggeration"),
         (["view", "--generate", "hills", "--sea-level", "nan"], "--sea-level"),
+        (["view", "--generate", "hills", "--object-shadows", "none"], "needs --objects"),
+        (["view", "--generate", "hills", "--objects", "default", "--object-shadows", "soft"],
+         "--object-shadows must be one of"),
     ],
 )
 def test_bad_options_exit_2_before_opening_a_window(argv, message, monkeypatch, capsys):

@@ -55,6 +55,17 @@ def export_command(
                                     show_default="0.5"),
     spacing: str = typer.Option(None, "--spacing", help="Sample spacing DX or DX,DZ in world "
                                 "units (overrides the file).", show_default="from file"),
+    objects: str = typer.Option(
+        None, "--objects", help="Trees, rocks and buildings to export with the terrain: "
+        "'default' (the built-in ones by the built-in rules), your own .glb/.gltf model "
+        "(scattered like trees) or a .toml/.json rules file. glb and web: in the glb, drawn "
+        "instanced; unity, unreal, godot, blender: NAME_objects.glb with the meshes and an "
+        "instance list in the engine's axes.", show_default="no objects"),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the objects' placement: the "
+                             "same seed puts every object in the same place."),
+    sea_level: float = typer.Option(
+        None, "--sea-level", help="No objects on ground below this height (world units).",
+        show_default="glb and web: the shore of the baked texture's water; else none"),
     force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines."),
 ) -> None:
@@ -76,9 +87,32 @@ def export_command(
     from terrascape.cli.parsing import parse_floats
 
     ll = None if lonlat is None else tuple(parse_floats(lonlat, 2, name="--lonlat"))
+    placed = None
+    if objects is not None:
+        from terrascape.errors import InvalidParameterError
+        from terrascape.export.instances import OBJECT_DESTINATIONS
+
+        if destination not in OBJECT_DESTINATIONS:
+            raise InvalidParameterError(
+                f"--objects goes with {', '.join(OBJECT_DESTINATIONS)}; {destination} tiles "
+                "carry the terrain only")
+        from terrascape.objects.load import load_objects
+
+        textured = destination == "web" or (destination == "blender" and fmt == "glb")
+
+        def placed(fitted):  # on the map as the destination fits it (pad, resample, crop)
+            from terrascape.export.instances import texture_shore
+
+            sea = sea_level
+            if sea is None and textured:  # no trees standing in the texture's lakes
+                sea = texture_shore(fitted)
+            with timed("objects", quiet=quiet):
+                return load_objects(objects, fitted, seed=seed, sea_level=sea)
+
     options = ExportOptions(name=name or heightmap.stem, fit=fit, tiles=tiles, flip=flip,
                             format=fmt, plugin=plugin, layers=layers, force=force, lonlat=ll,
-                            min_zoom=min_zoom, max_zoom=max_zoom, max_error=max_error)
+                            min_zoom=min_zoom, max_zoom=max_zoom, max_error=max_error,
+                            objects=placed)
     with timed(f"export {destination}", quiet=quiet):
         written = module.export(hm, output, options)
     for path in written:

@@ -143,19 +143,9 @@ def load_objects_option(spec: str | None, hm, *, seed: int, exaggeration: float)
     """The Instances of ``--objects SPEC`` (None without the option)."""
     if spec is None:
         return None
-    try:
-        from terrascape.objects import load_objects
-    except ImportError:  # a build whose objects package has only the scatterer
-        load_objects = None
-    if load_objects is not None:
-        return load_objects(spec, hm, seed=seed, exaggeration=exaggeration)
-    if spec != "default":
-        raise InvalidParameterError(
-            f"--objects {spec!r}: this build places only the built-in objects (--objects "
-            "default)")
-    from terrascape.objects import scatter
+    from terrascape.objects import load_objects
 
-    return scatter(hm, seed=seed, exaggeration=exaggeration)
+    return load_objects(spec, hm, seed=seed, exaggeration=exaggeration)
 
 
 def check_object_shadows(value: str | None) -> str | None:

@@ -18,7 +18,7 @@ from terrascape.export._common import ExportOptions
 
 __all__ = ["ExportOptions", "destinations", "get_destination"]
 
-_NOT_DESTINATIONS = {"glb", "meshing"}
+_NOT_DESTINATIONS = {"glb", "meshing", "instances"}
 
 
 def destinations() -> list[str]:

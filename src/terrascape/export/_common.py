@@ -51,6 +51,10 @@ class ExportOptions:
         Meshes (blender glb; cesium tiles at the finest level): vertical error, world units.
     workers
         Tile pyramids: worker processes.
+    objects
+        Objects exported with the terrain (:mod:`terrascape.export.instances`): ``None``,
+        :class:`~terrascape.objects.Instances`, or a callable placing them on the heightmap
+        as the destination fits it.
     """
 
     name: str = "terrain"
@@ -66,6 +70,7 @@ class ExportOptions:
     max_zoom: int | None = None
     max_error: float | None = None
     workers: int = 2
+    objects: object = None
 
 
 def _fit_axis(n: int, accepted: Sequence[int], fit: str) -> int:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from terrascape.errors import InvalidParameterError
 from terrascape.export._common import ExportOptions, check_name, check_out_dir, write_text
+from terrascape.export.instances import objects_for, write_engine_instances
 from terrascape.heightmap import Heightmap
 
 NAME = "blender"
@@ -50,7 +51,7 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
 
         max_error = 0.5 if options.max_error is None else options.max_error
         path, mesh = write_terrain_glb(hm, out / f"{name}.glb", max_error=max_error,
-                                       force=options.force)
+                                       force=options.force, objects=objects_for(options, hm))
         lines = [
             f"Blender glTF import for {name} (written by terrascape)",
             "",
@@ -59,4 +60,6 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
             f"Size: {ex:.6g} × {ez:.6g}, heights {hm.min:.6g} … {hm.max:.6g} (metres)",
         ]
     note = write_text(out / f"{name}_import.txt", "\n".join(lines) + "\n", force=options.force)
-    return [path, note]
+    if fmt == "glb":  # the objects are in the glb, instanced
+        return [path, note]
+    return [path, note, *write_engine_instances(NAME, hm, out, name, options)]

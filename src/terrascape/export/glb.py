@@ -258,8 +258,10 @@ def build_glb(
     georeference_node: bool = False,
     sun: tuple[float, float] = (135.0, 35.0),
     texture_size: int = 4096,
+    objects=None,
 ) -> tuple[bytes, TerrainMesh]:
-    """GLB bytes and the mesh they hold, for ``triangles`` (grid indices) of ``heightmap``."""
+    """GLB bytes and the mesh they hold, for ``triangles`` (grid indices) of ``heightmap``;
+    ``objects`` (:class:`~terrascape.objects.Instances`) adds them with GPU instancing."""
     mesh = terrain_mesh(heightmap, triangles, skirt=skirt)
     colour = bake_texture(heightmap, sun=sun, max_size=texture_size) if texture else None
     normals = None
@@ -272,6 +274,10 @@ def build_glb(
     doc = glb_document(mesh, base_colour=colour, normal_texture=normals, quantize=quantize,
                        extras=extras,
                        root_translation=translation if georeference_node else None)
+    if objects is not None:  # terrascape.objects.Instances, one instanced node per mesh
+        from terrascape.export.instances import add_instancing
+
+        add_instancing(doc, objects)
     return b"".join(doc.save_to_bytes()), mesh
 
 

@@ -21,6 +21,7 @@ from terrascape.export._common import (
     write_bytes,
     write_text,
 )
+from terrascape.export.instances import write_engine_instances
 from terrascape.heightmap import Heightmap
 from terrascape.io.exr import write_exr
 
@@ -78,4 +79,5 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
         ]
     lines.append(f"Height range: {lo:.6g} … {hi:.6g} world units")
     note = out / f"{name}_import.txt"
-    return [path, write_text(note, "\n".join(lines) + "\n", force=options.force)]
+    return [path, write_text(note, "\n".join(lines) + "\n", force=options.force),
+            *write_engine_instances(NAME, hm, out, name, options)]

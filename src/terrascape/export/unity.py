@@ -31,6 +31,7 @@ from terrascape.export._common import (
     write_png,
     write_text,
 )
+from terrascape.export.instances import write_engine_instances
 from terrascape.heightmap import Heightmap
 
 NAME = "unity"
@@ -100,4 +101,4 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
         ]
     written.append(write_text(out / f"{name}_import.txt", "\n".join(lines) + "\n",
                               force=options.force))
-    return written
+    return written + write_engine_instances(NAME, hm, out, name, options)

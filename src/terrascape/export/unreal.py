@@ -30,6 +30,7 @@ from terrascape.export._common import (
     write_png,
     write_text,
 )
+from terrascape.export.instances import write_engine_instances
 from terrascape.heightmap import Heightmap
 
 NAME = "unreal"
@@ -92,4 +93,4 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
                      + ", ".join(f"{n} = {name}_layer_{n}.png" for n in layer_names))
     written.append(write_text(out / f"{name}_import.txt", "\n".join(lines) + "\n",
                               force=options.force))
-    return written
+    return written + write_engine_instances(NAME, hm, out, name, options)

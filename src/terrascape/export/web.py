@@ -61,13 +61,15 @@ def page_html(glb: bytes, *, title: str, sky: str = SKY) -> str:
 
 def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     from terrascape.export.glb import build_glb
+    from terrascape.export.instances import objects_for
     from terrascape.export.meshing import rtin_rectangle
 
     out = check_out_dir(out_dir)
     relief = max(heightmap.max - heightmap.min, 1e-6)
     max_error = options.max_error if options.max_error is not None else relief / 500.0
     tri = rtin_rectangle(heightmap, max_error=max_error)
-    glb, mesh = build_glb(heightmap, tri, quantize=True, texture_size=2048)
+    glb, mesh = build_glb(heightmap, tri, quantize=True, texture_size=2048,
+                          objects=objects_for(options, heightmap))
     title = (f"{options.name}: {heightmap.cols}×{heightmap.rows} samples, {len(mesh.faces):,} "
              f"triangles (max error {max_error:.3g})")
     glb_path = write_bytes(out / f"{options.name}.glb", glb, force=options.force)

@@ -1,5 +1,7 @@
 """Objects on the terrain: meshes, their instances, scattering by rules."""
 
+from terrascape.objects.gltf import load_gltf_mesh
+from terrascape.objects.load import load_objects, load_rules
 from terrascape.objects.meshes import BUILTIN_NAMES, builtin_mesh, builtin_meshes
 from terrascape.objects.model import Instances, ObjectMesh
 from terrascape.objects.rules import (
@@ -25,6 +27,9 @@ __all__ = [
     "builtin_meshes",
     "default_rules",
     "default_tree_rule",
+    "load_gltf_mesh",
+    "load_objects",
+    "load_rules",
     "scatter",
     "surface_height",
     "surface_normal",

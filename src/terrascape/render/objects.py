@@ -47,6 +47,8 @@ IMPOSTOR_VIEWS = 8
 IMPOSTOR_CELL = 128
 IMPOSTOR_MAX_ELEVATION = 40.0  # degrees: seen from higher up, objects stay meshes
 CASCADE_COUNT = 3
+# an object shorter than this many texels of a cascade casts into it as an impostor
+SHADOW_IMPOSTOR_TEXELS = 24.0
 # Texture units of the objects' own textures (below the terrain's daylight units 10-14 and
 # the spare units from 16; technique samplers count up from 0).
 _ATLAS_COLOR_UNIT = 8
@@ -185,7 +187,6 @@ class ObjectRenderer:
         self._atlas = self._bake_atlas()
         self._shadow: tuple | None = None  # (resolution, count, texture, fbo)
         self._casters: dict[int, list] = {}  # terrain caster blocks per grid stride
-        self._warned: set[str] = set()
         self.cascades = None  # the last frame's Cascades (tests, benchmarks)
         self.mode = "none"
         self.enabled = True  # False: kept on the GPU but not drawn (the viewer's toggle)
@@ -402,7 +403,7 @@ class ObjectRenderer:
                 if params.get("cascade_terrain"):
                     stats["shadow_terrain_triangles"] += self._draw_terrain_caster(
                         mat, float(cascades.texel_size[k]))
-                sets = self._light_sets(mat)
+                sets = self._light_sets(mat, float(cascades.texel_size[k]))
                 stats["shadow_object_triangles"] += self._draw_sets(
                     sets, (mesh_prog, imp_prog), f"c{k}", {"u_view_proj": mat},
                     (*sun_dir, 0.0))
@@ -422,10 +423,12 @@ class ObjectRenderer:
                 "u_cascade_far": far, "u_cascade_texel": texel, "u_cascade_bias": bias,
                 "u_cascade_eye": camera.eye, "u_cascade_forward": camera.forward}
 
-    def _light_sets(self, matrix: np.ndarray) -> list:
+    def _light_sets(self, matrix: np.ndarray, texel: float) -> list:
         """Per mesh, the instances inside a cascade's box (x, y in light clip space; every
-        depth toward the sun casts) as (meshes, impostors), split by the view's LOD: an
-        object out of view still casts, at the LOD of its distance."""
+        depth toward the sun casts) as (meshes, impostors): an impostor where the view
+        draws one (an object out of view casts at the LOD of its distance), and where the
+        object spans fewer than SHADOW_IMPOSTOR_TEXELS texels of this cascade (its mesh
+        would add triangles, not detail)."""
         s = float(np.linalg.norm(matrix[0, :3]))
         out = []
         for m, far in zip(self.meshes, self._far_flag, strict=True):
@@ -435,7 +438,8 @@ class ObjectRenderer:
             clip = m.centres @ matrix[:2, :3].T + matrix[:2, 3]
             inside = np.all(np.abs(clip) <= 1.0 + (m.radii * s)[:, None], axis=1)
             idx = np.flatnonzero(inside)
-            out.append((idx[~far[idx]], idx[far[idx]]))
+            coarse = far[idx] | (m.heights[idx] < SHADOW_IMPOSTOR_TEXELS * texel)
+            out.append((idx[~coarse], idx[coarse]))
         return out
 
     # --- the frame ----------------------------------------------------------------------

@@ -215,7 +215,7 @@ class OffscreenRenderer:
         if self._stencil and self._last_fbo is self._stencil.fbo:
             return self._stencil.read_depth()
         w, h = self._draw_size
-        raw = self.fbo.read(attachment=-1, dtype="f4")
+        raw = self.fbo.read(attachment=-1, components=1, dtype="f4")
         return np.frombuffer(raw, np.float32).reshape(h, w)[::-1].copy()
 
     def _stencil_fbo(self):

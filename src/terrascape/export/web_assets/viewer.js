@@ -52,6 +52,12 @@ function frame(root) {
 
 const text = document.getElementById('terrain-glb').textContent.trim();
 const bytes = Uint8Array.from(atob(text), (c) => c.charCodeAt(0));
+// Light for the objects (trees, rocks, buildings) the glb may carry; the terrain is unlit.
+scene.add(new THREE.HemisphereLight(0xc8dcff, 0x50463a, 1.4));
+const sun = new THREE.DirectionalLight(0xfff0dc, 2.2);
+sun.position.set(0.64, 0.57, 0.64);  // the baked texture's sun: azimuth 135°, 35° up
+scene.add(sun);
+
 new GLTFLoader().parse(bytes.buffer, '', (gltf) => {
   const root = gltf.scene;
   root.traverse((o) => {
