@@ -135,6 +135,18 @@ def _ray_hits_terrain(o, d, t_min, h, dx, dz, y_top):
     ext_x, ext_z = (cols - 1) * dx, (rows - 1) * dz
     if o[0] < 0.0 or o[2] < 0.0 or o[0] > ext_x or o[2] > ext_z:
         return False
+    # a point from the depth buffer may lie a little under the drawn surface: lift it onto
+    # the surface there, or the ray would leave the ground through its own triangle
+    c0 = min(int(np.floor(o[0] / dx)), cols - 2)
+    r0 = min(int(np.floor(o[2] / dz)), rows - 2)
+    u, v = o[0] / dx - c0, o[2] / dz - r0
+    if u + v <= 1.0:
+        y = h[r0, c0] + u * (h[r0, c0 + 1] - h[r0, c0]) + v * (h[r0 + 1, c0] - h[r0, c0])
+    else:
+        y = (h[r0 + 1, c0 + 1] + (1.0 - u) * (h[r0 + 1, c0] - h[r0 + 1, c0 + 1])
+             + (1.0 - v) * (h[r0, c0 + 1] - h[r0 + 1, c0 + 1]))
+    if o[1] < y:
+        o = np.array([o[0], y, o[2]])
     # cells in x of width dx and in z of depth dz: walk a grid scaled to square cells
     s = dz / dx
     oo = np.array([o[0], o[1], o[2] / s])
