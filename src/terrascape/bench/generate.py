@@ -185,7 +185,7 @@ def run(quick: bool = False) -> list[BenchTable]:
                        at_most=500, unit=" ms")
     erosion_sizes = QUICK_SIZES if quick else (257, 513, 1025)
     ero = BenchTable(
-        title="Erosion time (ms) by grid side (H7, beyond the seeds)",
+        title="Erosion time (ms) by grid side",
         columns=["filter", *[f"{n}²" for n in erosion_sizes]],
     )
     thermal_row: list = ["thermal, 10 iterations, 8 neighbours"]

@@ -8,7 +8,7 @@ Tables:
    error in texels, % pixels off by > 1 texel, % pixels that skipped a feature (hit deeper
    than the reference by > 0.01 of the depth range), texture fetches per pixel (counted in
    the shader), ms per frame and the time ratio to relief 16+8. Pre-warped relief texture
-   mapping (R9, CPU) is in the same table, timed on the CPU.
+   mapping (CPU) is in the same table, timed on the CPU.
 2. **Self-shadowing** vs the exact shadow, and its cost.
 3. **Janković 2010 §2.7 reproduction**: texture vs parallax vs relief mapping on the terrain mesh
    (TerrainRenderer, planar-mapped relief texture) for the thesis's three textures.
@@ -222,7 +222,7 @@ def quality_tables(ctx, *, tex=256, fb=512, depth=0.1, angles=ANGLES, quick=Fals
                     shadow.rows.append([*row, times.best_wall(key), times.best_cpu(key),
                                         times.extra(key, row[2], base)])
                 pw = _prewarp_row(heights, quad, cam, min(fb, 256), tex)
-                quality.rows.append([fname, theta, "pre-warp (R9, CPU, one tile)", pw["mean"],
+                quality.rows.append([fname, theta, "pre-warp (CPU, one tile)", pw["mean"],
                                      pw["p95"], pw["off1"], "", "", pw["ms"], pw["cpu"],
                                      pw["cpu"] / times.best_cpu(base)])
         finally:
@@ -262,7 +262,7 @@ def quality_tables(ctx, *, tex=256, fb=512, depth=0.1, angles=ANGLES, quick=Fals
 
 
 def prewarp_table(*, tex=512, angles=ANGLES):
-    """CPU time of the two-pass pre-warp (R9) of a ``tex``² relief texture (RGB + target)."""
+    """CPU time of the two-pass pre-warp of a ``tex``² relief texture (RGB + target)."""
     from terrascape.relief.fields import city_field
     from terrascape.relief.prewarp import prewarp, prewarp_coefficients
     from terrascape.relief.reference import ReliefQuad
@@ -270,7 +270,7 @@ def prewarp_table(*, tex=512, angles=ANGLES):
     heights = city_field(tex, seed=0)
     colour = np.random.default_rng(0).random((tex, tex, 3))
     quad = ReliefQuad((-0.5, 0, -0.5), (1, 0, 0), (0, 0, 1), 0.1)
-    table = BenchTable(f"Pre-warped relief texture mapping (R9): CPU pre-warp of a {tex}² "
+    table = BenchTable(f"Pre-warped relief texture mapping: CPU pre-warp of a {tex}² "
                        "city relief texture (RGB)",
                        ["angle°", "ms/frame", "k3", "covered %"])
     for theta in angles:

@@ -315,7 +315,7 @@ def render_command(
     lighting: str = typer.Option(
         "daylight", "--lighting",
         help="Lighting: daylight (sun + sky light, soft terrain shadows per pixel, analytic "
-        "sky, haze, filmic tone map), vertex (Phong, no shadows), lightmap (the seed's "
+        "sky, haze, filmic tone map), vertex (Phong, no shadows), lightmap (the thesis's "
         "lightmap with shadows), none.",
     ),
     sea_level: float = typer.Option(

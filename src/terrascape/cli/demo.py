@@ -278,7 +278,7 @@ def render_stage(
 
 def lod_stage(out: Path, result: DemoResult, hm: Heightmap, renderer, camera, *,
               size: tuple[int, int], force: bool) -> None:
-    """ROAM (80,000-triangle target, seed 001 §5.3) and geomipmapping (2 px tolerance) meshes
+    """ROAM (80,000-triangle target, Filipović 2008 §5.3) and geomipmapping (2 px tolerance) meshes
     for the close-up view: wireframe renders plus the ROAM mesh as OBJ."""
     from terrascape.io.mesh import compact_mesh, write_mesh
     from terrascape.lod import Geomipmap, Roam

@@ -1,5 +1,5 @@
-"""Filters on float heightmaps: smoothing without quantisation (MISSION H6) and erosion
-(H7): thermal, droplet and grid (virtual-pipe) hydraulic, and stream-power fluvial erosion,
+"""Filters on float heightmaps: smoothing without quantisation and erosion
+thermal, droplet and grid (virtual-pipe) hydraulic, and stream-power fluvial erosion,
 with :func:`erode` as the one entry point that also returns flow/deposition/wear/water
 masks."""
 

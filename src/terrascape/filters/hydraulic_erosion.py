@@ -1,4 +1,4 @@
-"""Particle (droplet) hydraulic erosion (MISSION H7, beyond the seeds).
+"""Particle (droplet) hydraulic erosion (beyond the theses).
 
 After H. T. Beyer, "Implementation of a method for hydraulic erosion" (TU München, 2015):
 a droplet starts at a random position with water 1, speed 1 and no sediment, and for at most

@@ -1,4 +1,4 @@
-"""Smoothing filters on float heightmaps (MISSION H6, seed 001 §2.3 and §5.2).
+"""Smoothing filters on float heightmaps (Filipović 2008 §2.3 and §5.2).
 
 The seed smooths generated terrain with a blur ("zamagljivanje slike") — in its image-based
 pipeline on 8-bit values, which leaves visible terracing. Here the blur runs on the float32

@@ -1,4 +1,4 @@
-"""Thermal erosion (MISSION H7, beyond the seeds): material slides down slopes steeper than a
+"""Thermal erosion (beyond the theses): material slides down slopes steeper than a
 talus angle.
 
 After Musgrave, Kolb & Mace, "The synthesis and rendering of eroded fractal terrains"

@@ -1,9 +1,9 @@
-"""Diamond-square fractal heightmaps with a selectable roughness decay law (MISSION H3).
+"""Diamond-square fractal heightmaps with a selectable roughness decay law.
 
-Seed 001 §2.2 describes the subdivision family ("generiranje visinske mape dijeljenjem"):
+Filipović 2008 §2.2 describes the subdivision family ("generiranje visinske mape dijeljenjem"):
 random corner heights, then repeatedly the centre of every square (diamond step) and the
 midpoints of every edge (square step) get the mean of their neighbours plus a random offset
-whose amplitude, the *roughness* ``r``, shrinks from level to level. Seed 001 §5.3.1 shows
+whose amplitude, the *roughness* ``r``, shrinks from level to level. Filipović 2008 §5.3.1 shows
 that *how* ``r`` shrinks matters as much as its start value and names three laws, written as
 integer C code::
 
@@ -15,7 +15,7 @@ and analyses them for an 8-bit start of 255: linear reaches 0 at depth 7, halvin
 and the (rounded) square root falls to 1 already at depth 4 — deeper levels add (almost) no
 detail. :func:`roughness_schedule` and :func:`detail_depth` reproduce that analysis; the
 generator has a float mode (heights in world units) and an ``integer=True`` mode that follows
-the seed's integer arithmetic (integer heights, C-style truncating mean, integer offsets in
+the thesis's integer arithmetic (integer heights, C-style truncating mean, integer offsets in
 ``[-r, r]``). A fourth, continuous law ``hurst`` (``r *= 2**-H``) gives fractional-Brownian
 surfaces of Hurst exponent ``H`` (``H = 1`` is the halving law).
 
@@ -57,7 +57,7 @@ def _check_decay(decay: str) -> str:
 
 
 def _next_roughness(r: float, decay: str, step: float, hurst: float, integer: bool) -> float:
-    """One application of the decay law (seed 001 §5.3.1), in integer or float semantics."""
+    """One application of the decay law (Filipović 2008 §5.3.1), in integer or float semantics."""
     if decay == "linear":
         return max(r - step, 0.0)
     if decay == "halve":
@@ -65,7 +65,7 @@ def _next_roughness(r: float, decay: str, step: float, hurst: float, integer: bo
         return float(int(r) >> 1) if integer else r / 2.0
     if decay == "sqrt":
         root = math.sqrt(r)
-        # The seed's analysis ("zbog zaokruživanja brojeva") rounds: 255 -> 16 -> 4 -> 2 -> 1.
+        # The thesis's analysis ("zbog zaokruživanja brojeva") rounds: 255 -> 16 -> 4 -> 2 -> 1.
         return float(math.floor(root + 0.5)) if integer else root
     scaled = r * 2.0 ** (-hurst)
     return float(math.floor(scaled + 0.5)) if integer else scaled
@@ -114,18 +114,18 @@ def roughness_schedule(
     Parameters
     ----------
     start
-        Roughness at depth 0 (the seed's 8-bit set-up uses 255). ``>= 0``.
+        Roughness at depth 0 (the thesis's 8-bit set-up uses 255). ``>= 0``.
     decay
         ``"linear"`` (``r -= step``, floored at 0), ``"halve"`` (``r >>= 1`` in integer mode,
         ``r / 2`` otherwise), ``"sqrt"`` (``r = sqrt(r)``, rounded in integer mode) or
-        ``"hurst"`` (``r *= 2**-hurst``, rounded in integer mode) — seed 001 §5.3.1.
+        ``"hurst"`` (``r *= 2**-hurst``, rounded in integer mode) — Filipović 2008 §5.3.1.
     step
         Linear decrement (seed: 40). Default: ``start / levels`` so the schedule reaches 0 at
         the last depth (rounded up to an integer in integer mode).
     hurst
         Hurst exponent in ``[0, 1]`` for ``decay="hurst"`` (default 0.8).
     integer
-        Follow the seed's integer arithmetic.
+        Follow the thesis's integer arithmetic.
     levels
         Number of depths returned (``>= 1``).
 
@@ -153,12 +153,12 @@ def detail_depth(
     tol: float | None = None,
     max_depth: int = 100_000,
 ) -> int:
-    """Depth at which a decay law stops adding detail (seed 001 §5.3.1 analysis).
+    """Depth at which a decay law stops adding detail (Filipović 2008 §5.3.1 analysis).
 
     That is the first depth ``d`` where ``r_d <= tol`` (the offsets vanish) or where the law
     has reached a fixed point, ``|r_{d+1} - r_d| <= tol`` (every deeper level adds the same
     tiny amplitude — the rounded square root sticks at 1). In integer mode ``tol`` defaults
-    to 0, which gives the seed's figures for ``start=255``: linear (``step=40``) → 7,
+    to 0, which gives the thesis's figures for ``start=255``: linear (``step=40``) → 7,
     halving → 8, rounded square root → 4. In float mode the halving and Hurst laws never reach
     0, so ``tol`` defaults to ``1e-3 * start``.
 
@@ -232,7 +232,7 @@ def _ds_float_kernel(h, u, rough):  # pragma: no cover - compiled
 
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _c_div(a, b):  # pragma: no cover - compiled
-    """C integer division (truncation toward zero), as in the seed's integer implementation."""
+    """C integer division (truncation toward zero), as in the thesis's integer implementation."""
     q = abs(a) // b
     return q if a >= 0 else -q
 
@@ -320,7 +320,7 @@ def diamond_square(
 ) -> Heightmap:
     """Diamond-square heightmap of ``size × size`` samples (``size = 2**n + 1``).
 
-    Seed 001 §2.2 (midpoint subdivision, diamond-square variant) with the roughness decay laws
+    Filipović 2008 §2.2 (midpoint subdivision, diamond-square variant) with the roughness decay laws
     of §5.3.1; see the module docstring for the level/roughness convention.
 
     Parameters
@@ -344,7 +344,7 @@ def diamond_square(
         Fixed corner heights (one number, or top-left, top-right, bottom-left, bottom-right);
         default: random in ``[-r_0, r_0]``.
     integer
-        Follow the seed's integer arithmetic: integer roughness/step, integer heights,
+        Follow the thesis's integer arithmetic: integer roughness/step, integer heights,
         C-truncating means and integer offsets uniform in ``[-r, r]``.
 
     Returns

@@ -1,4 +1,4 @@
-"""Fault-formation heightmaps (MISSION H4, seed 001 §2.3).
+"""Fault-formation heightmaps (Filipović 2008 §2.3).
 
 Each iteration draws a random line (a uniform random point of the grid and a uniform random
 direction) and displaces every sample by ``D_i · f(d)``, where ``d`` is the sample's signed
@@ -8,7 +8,7 @@ that the seed cites as [3]. The falloff ``f`` across the line, for a transition 
 ``w`` (half-width ``hw = w / 2``):
 
 ``"step"``
-    the seed's basic algorithm: ``f = +1`` for ``d >= 0``, ``-1`` otherwise — one side
+    the thesis's basic algorithm: ``f = +1`` for ``d >= 0``, ``-1`` otherwise — one side
     raised, the other lowered (the "step function" the seed criticises).
 ``"sine"``
     Ramires Fernandes' sine interpolation, centred on the line: ``f = sin(π/2 · d / hw)`` for
@@ -190,7 +190,7 @@ def fault_formation(
     spacing: float | Sequence[float] = 1.0,
     progress: Callable[[int, int], None] | None = None,
 ) -> Heightmap:
-    """Fault-formation heightmap (seed 001 §2.3; see the module docstring for the shapes).
+    """Fault-formation heightmap (Filipović 2008 §2.3; see the module docstring for the shapes).
 
     Parameters
     ----------

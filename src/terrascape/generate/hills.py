@@ -1,6 +1,6 @@
-"""Hill ("circles") heightmaps: a sum of raised-cosine bumps (MISSION H5, seed 001 §2.4).
+"""Hill ("circles") heightmaps: a sum of raised-cosine bumps (Filipović 2008 §2.4).
 
-The seed's pseudocode for one iteration (after Ramires Fernandes [3])::
+The thesis's pseudocode for one iteration (after Ramires Fernandes [3])::
 
     for every terrain point (tx, tz)
         pd = distance_to_circle_centre * 2 / circle_diameter
@@ -11,7 +11,7 @@ i.e. a bump of height ``odmak`` (``d``) at the centre falling smoothly to 0 at t
 The seed notes that visiting every point for every hill is slow; here a hill only touches
 the samples of its bounding box — in fact only the chord of each row that lies inside the
 circle — and rows are processed in parallel (numba ``prange``), each row summing its hills
-in draw order, so the result is deterministic. ``π`` is used instead of the seed's 3.14 (which
+in draw order, so the result is deterministic. ``π`` is used instead of the thesis's 3.14 (which
 would leave a 0.0000013·d step at the rim).
 
 Centres are uniform over the grid (sample units), radii uniform in ``radius_range``
@@ -115,7 +115,7 @@ def hills(
     progress: Callable[[int, int], None] | None = None,
     margin: float = 0.0,
 ) -> Heightmap:
-    """Heightmap made of ``count`` cosine hills (seed 001 §2.4).
+    """Heightmap made of ``count`` cosine hills (Filipović 2008 §2.4).
 
     Parameters
     ----------
@@ -127,7 +127,7 @@ def hills(
         Radius in samples, a number or ``(min, max)`` (``> 0``); default
         :func:`default_radius_range` (1/64 to 1/16 of the shorter side).
     height
-        The seed's *odmak*: hill height in world units, a number or ``(min, max)`` (``>= 0``).
+        The thesis's *odmak*: hill height in world units, a number or ``(min, max)`` (``>= 0``).
     seed
         Seed or numpy Generator; the same seed gives the same bytes.
     spacing

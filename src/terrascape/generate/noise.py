@@ -1,4 +1,4 @@
-"""Seeded, tileable gradient noise, fBm and ridged multifractal heightmaps (beyond the seeds).
+"""Seeded, tileable gradient noise, fBm and ridged multifractal heightmaps (beyond the theses).
 
 Gradient noise after Perlin ("Improving Noise", SIGGRAPH 2002): every integer lattice point
 carries a pseudo-random unit gradient, each corner of a cell contributes ``g · (p - corner)``,

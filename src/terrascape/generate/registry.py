@@ -11,7 +11,7 @@ Defaults are chosen to look like landscape at any size:
   (``(side - 1) · spacing``): a 513-sample map on a 2 m grid is 1024 m across and up to
   204.8 m high. ``raw=True`` keeps the generator's own heights instead;
 * diamond-square uses the square-square variant (no spike at the centre, no creases on
-  the coarse lattice lines); ``variant="classic"`` is the seed's exact algorithm;
+  the coarse lattice lines); ``variant="classic"`` is the thesis's exact algorithm;
 * sizes in samples (fault width, hill radii, noise wavelength) scale with the map, so a
   257² and a 2049² map of the same generator look alike.
 
@@ -44,7 +44,7 @@ DEFAULT_RELIEF_FRACTION = 0.2
 #: Mean number of hills over each sample for the default hills (no flat floor): the share
 #: of samples no hill reaches is ``exp(-coverage)`` (Poisson), 4.5e-5 at 10.
 HILL_COVERAGE = 10.0
-#: With ``floor=True``: the seed's sparse hills on a plain (``exp(-1.5)`` ≈ 22 % flat).
+#: With ``floor=True``: the thesis's sparse hills on a plain (``exp(-1.5)`` ≈ 22 % flat).
 HILL_COVERAGE_FLOOR = 1.5
 
 Progress = Callable[[int, int], None]
@@ -149,7 +149,7 @@ def _build_diamond_square(shape, *, seed, spacing, progress, variant, roughness,
                               corners=corners, integer=integer)
     if integer or corners is not None:
         raise InvalidParameterError(
-            "--integer and --corners belong to the seed's algorithm: add --variant classic")
+            "--integer and --corners belong to the thesis's algorithm: add --variant classic")
     return square_square(shape[0], roughness=roughness, decay=decay, decay_step=decay_step,
                          hurst=hurst, seed=seed, spacing=spacing)
 
@@ -255,7 +255,7 @@ GENERATORS: dict[str, Generator] = {
             params=(
                 Param("variant", str, None,
                       "square-square (Miller 1986: no centre spike, no creases on the coarse "
-                      "lattice) or classic (the seed's diamond-square, exactly).",
+                      "lattice) or classic (the thesis's diamond-square, exactly).",
                       choices=("square-square", "classic"),
                       auto="square-square; classic with --integer"),
                 Param("roughness", float, 1.0,
@@ -269,7 +269,7 @@ GENERATORS: dict[str, Generator] = {
                       "Fixed corner heights TL,TR,BL,BR (world units; classic only).",
                       auto="random", count=4),
                 Param("integer", bool, False,
-                      "The seed's integer arithmetic (classic; integer roughness/step)."),
+                      "The thesis's integer arithmetic (classic; integer roughness/step)."),
             ),
         ),
         Generator(
@@ -287,7 +287,7 @@ GENERATORS: dict[str, Generator] = {
                 Param("end_displacement", float, 0.1,
                       "Displacement of the last fault (linear in between)."),
                 Param("falloff", str, "cosine",
-                      "Profile across the line: step (the seed's cliff), sine (a smooth "
+                      "Profile across the line: step (the thesis's cliff), sine (a smooth "
                       "step), cosine (a ridge or trench).", choices=("step", "sine", "cosine")),
                 Param("width", float, None,
                       "Transition width across the line (samples; sine/cosine).",
@@ -308,9 +308,9 @@ GENERATORS: dict[str, Generator] = {
                 Param("radius_max", float, None, "Largest hill radius (samples).",
                       auto="side/8"),
                 Param("height", float, 1.0,
-                      "Hill height, the seed's 'odmak' (world units; with --raw)."),
+                      "Hill height, the thesis's 'odmak' (world units; with --raw)."),
                 Param("floor", bool, False,
-                      "Sparse hills on a flat plain (the seed's look); default: hills "
+                      "Sparse hills on a flat plain (the thesis's look); default: hills "
                       "everywhere, no flat floor."),
             ),
         ),

@@ -17,7 +17,7 @@ result is stationary.
 Starting from a ``3 × 3`` grid of offsets of amplitude ``r_0`` (spacing ``2**n``), ``n``
 levels give ``2**n + 2`` points per side, cropped to the requested ``2**n + 1``. Level
 ``k ≥ 1`` produces spacing ``2**(n-k)`` and uses ``r_{k-1}`` of the same roughness schedule
-(:func:`~terrascape.generate.diamond_square.roughness_schedule`, seed 001 §5.3.1) that
+(:func:`~terrascape.generate.diamond_square.roughness_schedule`, Filipović 2008 §5.3.1) that
 diamond-square uses for the same spacing.
 
 References

@@ -1,4 +1,4 @@
-"""Mesh export (MISSION P5): OBJ, binary PLY and glTF 2.0 binary (GLB), written atomically.
+"""Mesh export: OBJ, binary PLY and glTF 2.0 binary (GLB), written atomically.
 
 LOD code produces triangles as grid vertex indices (``row·cols + col``); :func:`compact_mesh`
 turns them into a compact vertex array in world units (``x = col·dx``, ``y = h``,

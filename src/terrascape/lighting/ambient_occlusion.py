@@ -1,4 +1,4 @@
-"""Sky-view factor — ambient occlusion of a heightfield (beyond the seeds).
+"""Sky-view factor — ambient occlusion of a heightfield (beyond the theses).
 
 For each sample and each of ``D`` azimuths the horizon angle ``φ_d`` (elevation of the
 highest terrain seen in that direction, clamped at 0) is found by marching over the

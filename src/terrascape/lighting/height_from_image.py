@@ -1,6 +1,6 @@
-"""Approximate a heightmap from a colour photo (MISSION T6; seed 000 §2.7).
+"""Approximate a heightmap from a colour photo (Janković 2010 §2.7).
 
-Seed 000 §2.7: height maps of cities are generally unavailable, so the author used "a rough
+Janković 2010 §2.7: height maps of cities are generally unavailable, so the author used "a rough
 approximation of the height map by a specular (mirror) lighting filter" (Figures 42–43):
 brightness stands in for height — lit roofs and ridges are bright, streets and gullies
 dark. This module implements that approximation on the photo's luminance:
@@ -102,7 +102,7 @@ def height_from_image(
     contrast: float = 1.0,
     invert: bool = False,
 ) -> np.ndarray:
-    """Heightmap approximated from a photo's brightness (seed 000 §2.7).
+    """Heightmap approximated from a photo's brightness (Janković 2010 §2.7).
 
     Parameters
     ----------

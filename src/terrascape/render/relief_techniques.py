@@ -6,16 +6,16 @@ terrain (``uv_scale`` repeats: tiled; ``uv_scale = 1``: stretched) and the terra
 texture. Parameters (uniforms ``u_<name>``) can change every frame: ``depth`` (UV units),
 ``linear_steps``, ``binary_steps``, ``adaptive``/``step_texels``/``max_steps``,
 ``shadow_steps``, ``self_shadow``, ``parallax_scale``/``parallax_bias``, the distance
-bands of ``relief_by_distance`` (R10) and the screen-space level of detail of ``relief``
+bands of ``relief_by_distance`` and the screen-space level of detail of ``relief``
 and ``parallax`` (``relief_lod``, on by default, with ``lod_step``, ``lod_precision``,
 ``lod_min_span``, ``lod_nearest_from``): where the relief texture is minified the march
 takes as many steps as the ray is long in texels of the sampled mip level, with
 ``linear_steps``/``binary_steps`` as the upper bounds; where it is magnified it is the
 fixed relief 16+8. Their march reads ``u_relief_height``, the height channel alone.
 
-Registered: ``parallax`` (R3), ``parallax_limited`` (R4), ``steep_parallax`` and ``pom``
-(R5), ``relief`` (R6, with R7 self-shadowing), ``interval`` (R8), ``relief_by_distance``
-(R10), ``cone`` (cone step mapping; its cone map is sampled NEAREST) and ``minmax`` (the
+Registered: ``parallax``, ``parallax_limited``, ``steep_parallax`` and ``pom``,
+``relief`` (with self-shadowing), ``interval``, ``relief_by_distance``, ``cone`` (cone step
+mapping; its cone map is sampled NEAREST) and ``minmax`` (the
 exact min/max-mip tracer, whose depth pyramid is uploaded as an explicit mip chain).
 """
 
@@ -178,13 +178,13 @@ _CONE_SLOTS = (
 )
 
 _TERRAIN_NAMES = {
-    "parallax": ("parallax", "Janković 2010 R3: Tn = Tv + h'·V.xy/V.z"),
-    "parallax_limited": ("offset_limiting", "Janković 2010 R4: offset limiting Tn = Tv + h'·V.xy"),
-    "steep_parallax": ("steep", "R5: steep parallax (linear search)"),
-    "pom": ("pom", "R5: parallax occlusion mapping"),
-    "relief": ("relief", "R6/R7: relief mapping, linear + binary search, self-shadowing"),
-    "interval": ("interval", "R8: interval mapping, linear + secant search"),
-    "relief_by_distance": ("by_distance", "R10: relief near, parallax farther, plain far"),
+    "parallax": ("parallax", "Janković 2010: Tn = Tv + h'·V.xy/V.z"),
+    "parallax_limited": ("offset_limiting", "Janković 2010: offset limiting Tn = Tv + h'·V.xy"),
+    "steep_parallax": ("steep", "steep parallax (linear search)"),
+    "pom": ("pom", "parallax occlusion mapping"),
+    "relief": ("relief", "relief mapping, linear + binary search, self-shadowing"),
+    "interval": ("interval", "interval mapping, linear + secant search"),
+    "relief_by_distance": ("by_distance", "relief near, parallax farther, plain far"),
     "cone": ("cone", "cone step mapping (Dummer 2006) with a CPU-built cone map"),
     "minmax": ("minmax", "exact hierarchical min/max-mip tracer (maximum mipmaps)"),
 }

@@ -179,7 +179,7 @@ def _builtin_name(name: str) -> str:
 
 
 def build_region_texture(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
-    """Seed 001 §3.1.1 procedural colour texture, one texel per vertex (clamped)."""
+    """Filipović 2008 §3.1.1 procedural colour texture, one texel per vertex (clamped)."""
     from terrascape.texture import region_texture
 
     tex = region_texture(hm, params.get("regions"), seed=int(params["seed"]))
@@ -187,7 +187,7 @@ def build_region_texture(hm: Heightmap, params: Mapping[str, Any]) -> TextureDat
 
 
 def build_lightmap(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
-    """Seed 001 §3.2.2 lightmap (slope shading × cast shadows) for the current sun."""
+    """Filipović 2008 §3.2.2 lightmap (slope shading × cast shadows) for the current sun."""
     from terrascape.lighting.shadows import lightmap
 
     az, el = params["sun"]
@@ -198,7 +198,7 @@ def build_lightmap(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
 
 
 def build_detail(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
-    """Grey detail texture (seed 001 §3.1.1: a second texture unit with tiled noise), centred
+    """Grey detail texture (Filipović 2008 §3.1.1: a second texture unit with tiled noise), centred
     on 0.5 so that ``2·detail`` modulates the colour around 1."""
     rgb = _material("sand", params).astype(np.float32)
     lum = rgb @ np.array([0.299, 0.587, 0.114], dtype=np.float32)
@@ -211,7 +211,7 @@ def build_material_array(hm: Heightmap, params: Mapping[str, Any]) -> TextureDat
 
 
 def build_layer_volume(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
-    """Seed 001 §3.1.2: layer textures stacked along r (``layer_stack``) as a 3D texture."""
+    """Filipović 2008 §3.1.2: layer textures stacked along r (``layer_stack``) as a 3D texture."""
     from terrascape.texture import layer_stack
 
     stack = layer_stack(list(_region_materials(hm, params)))
@@ -237,7 +237,7 @@ def _splat_maps(hm: Heightmap, params: Mapping[str, Any]) -> list[np.ndarray]:
 
 
 def build_splat0(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
-    """Seed 001 §3.1.3: RGBA alpha map of layers 0–3 (vertex resolution)."""
+    """Filipović 2008 §3.1.3: RGBA alpha map of layers 0–3 (vertex resolution)."""
     return TextureData(_splat_maps(hm, params)[0], repeat=False)
 
 
@@ -249,9 +249,9 @@ def build_splat1(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
 
 
 def build_normal_height(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
-    """Tiled RGBA normal+height texture (seed 000 §2.3.1) of a rock photo's relief.
+    """Tiled RGBA normal+height texture (Janković 2010 §2.3.1) of a rock photo's relief.
 
-    The detail height is the photo's luminance (``height_from_image`` idea of seed 000:
+    The detail height is the photo's luminance (``height_from_image`` idea of Janković 2010:
     bright = high; :func:`terrascape.texture.photo_materials.detail_normal_height`), its
     normals in RGB and the height in A. ``bump_height`` scales the relief. bump.glsl
     hex-tiles it, so the tiling leaves no grid of seams.
@@ -450,7 +450,7 @@ register_technique(
             LIGHTMAP_SLOT,
         ),
         defaults={"detail_size": None, "detail_strength": 0.6, "slope_rule": True},
-        description="seed 001 T1 region blending on the GPU: (range − |h − max|)/range",
+        description="Filipović 2008 T1 region blending on the GPU: (range − |h − max|)/range",
     )
 )
 # Layers sampled through hex-tiling (Mikkelsen 2022) so their tile period does not show;
@@ -482,7 +482,7 @@ register_technique(
             LIGHTMAP_SLOT,
         ),
         defaults=_HEX_TILING_DEFAULTS,
-        description="seed 001 T2: 3D texture addressed by height, hex-tiled",
+        description="Filipović 2008 T2: 3D texture addressed by height, hex-tiled",
     )
 )
 register_technique(
@@ -512,7 +512,7 @@ register_technique(
             LIGHTMAP_SLOT,
         ),
         defaults=_HEX_TILING_DEFAULTS,
-        description="seed 001 T3: texture splatting, all layers in one pass, hex-tiled",
+        description="Filipović 2008 T3: texture splatting, all layers in one pass, hex-tiled",
     )
 )
 register_technique(
@@ -534,7 +534,7 @@ register_technique(
             ),
         ),
         defaults={"ks": 0.2, "bump_height": 1.0, "bump_strength": 1.0},
-        description="seed 000 R2: normal mapping in tangent space with Phong lighting",
+        description="Janković 2010: normal mapping in tangent space with Phong lighting",
     )
 )
 

@@ -1,6 +1,6 @@
 """GPU terrain renderer: owns the vertex/index buffers and textures of one heightmap and draws
-it with a registered technique (seed 000 §2.6.4: mesh with tangents, shader constants set per
-frame, sky box; seed 001 §4.2: terrain drawn as tiles).
+it with a registered technique (Janković 2010 §2.6.4: mesh with tangents, shader constants set per
+frame, sky box; Filipović 2008 §4.2: terrain drawn as tiles).
 
 * The full-resolution mesh is drawn as chunks of ``chunk_size`` vertices per side, each with
   its own bounding box culled against the view frustum. Their vertices (position, normal,
@@ -68,7 +68,7 @@ _SOFTWARE_RASTERISERS = ("llvmpipe", "softpipe", "swrast", "swiftshader")
 
 
 class TechniqueFallbackWarning(UserWarning):
-    """A technique could not run on this GL; plain texturing was rendered instead (R11)."""
+    """A technique could not run on this GL; plain texturing was rendered instead."""
 
 
 def _vec(value: Any, n: int, name: str) -> tuple[float, ...]:
@@ -292,7 +292,7 @@ class TerrainRenderer:
         self._default_regions = None
         self._fallen_back: set[str] = set()
         self._mip_levels: dict[str, int] = {}  # sampler -> levels, for "<sampler>_levels"
-        self.last_technique: str | None = None  # what the last frame really drew (R11)
+        self.last_technique: str | None = None  # what the last frame really drew
         self._objects = None  # terrascape.render.objects.ObjectRenderer, set_objects()
 
     # --- geometry ------------------------------------------------------------------------
@@ -436,7 +436,7 @@ class TerrainRenderer:
         return check_positive(value, "tile size")
 
     def frame_uniforms(self, camera: Camera, params: Mapping[str, Any]) -> dict[str, Any]:
-        """Every uniform value of one frame (the seed's per-frame shader constant callback)."""
+        """Every uniform value of one frame (the thesis's per-frame shader constant callback)."""
         az, el = _vec(params["sun"], 2, "sun (azimuth, elevation)")
         ex, ez = self.mesh.extent
         lo, hi = self.heightmap.min, self.heightmap.max
@@ -600,7 +600,7 @@ class TerrainRenderer:
         try:
             samplers, program = self._prepare(tech, p)
         except GLUnavailableError as exc:
-            # MISSION R11 / seed 000 §2.6.4.3: a technique this GL cannot run (compile or
+            # / Janković 2010 §2.6.4.3: a technique this GL cannot run (compile or
             # link failure, missing feature) degrades to plain texturing with one warning
             # per technique instead of taking the viewer down.
             if tech.name == _FALLBACK:

@@ -1,4 +1,4 @@
-"""Terrain texture synthesis (seed 001 §3.1): height regions, 3D-texture layer stacks, splat
+"""Terrain texture synthesis (Filipović 2008 §3.1): height regions, 3D-texture layer stacks, splat
 maps, procedural built-in materials, photo material layers, hex-tiling and the default
 terrain material blend. Pure numpy/numba, no OpenGL."""
 

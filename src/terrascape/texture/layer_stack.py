@@ -1,11 +1,11 @@
-""""3D texture" blending: a stack of layer textures addressed by height (MISSION T2,
-seed 001 §3.1.2, after Doug Sheets' OpenGL 3D texturing tutorial).
+""""3D texture" blending: a stack of layer textures addressed by height
+(Filipović 2008 §3.1.2, after Doug Sheets' OpenGL 3D texturing tutorial).
 
 The layers are stored one after another (``r = 0`` first), and the hardware's linear
 filtering along the depth coordinate ``r`` blends two adjacent layers. With ``L`` layers and
 GL's texel-centre convention, layer ``i`` is sampled unblended at ``r = (i + 0.5)/L``;
 between two centres the blend is linear. :func:`layer_coordinate` maps heights to ``r`` so
-that this blend equals the seed's region weights: between the peaks ``max_i`` and
+that this blend equals the thesis's region weights: between the peaks ``max_i`` and
 ``max_{i+1}`` of consecutive regions, ``r`` moves linearly from layer ``i``'s centre to layer
 ``i+1``'s. Below the lowest / above the highest peak ``r`` is clamped to the first / last
 centre (use ``CLAMP_TO_EDGE`` for ``r`` so the top layer never wraps onto the bottom one).
@@ -47,7 +47,7 @@ def layer_stack(layers: list[Any], size: int | tuple[int, int] | None = None) ->
     size
         Output ``(H, W)`` (or a single int for square); default the first layer's size. Other
         layers are resized (Lanczos; exact 2×2 box means for power-of-two reductions). Old GL
-        needs powers of two here (seed 001 §3.1.2); current GL does not.
+        needs powers of two here (Filipović 2008 §3.1.2); current GL does not.
 
     Returns
     -------
@@ -77,7 +77,7 @@ def layer_stack(layers: list[Any], size: int | tuple[int, int] | None = None) ->
 def layer_coordinate(
     heightmap: Heightmap | Any, regions: list[Region] | None = None
 ) -> np.ndarray:
-    """Height → 3D-texture depth coordinate ``r`` (seed 001 §3.1.2).
+    """Height → 3D-texture depth coordinate ``r`` (Filipović 2008 §3.1.2).
 
     Layer ``i`` is ``regions[i]`` (default :func:`default_regions`); their ``max`` values must
     increase strictly. ``r`` is piecewise linear in height: ``(i + 0.5 + t)/L`` with

@@ -1,6 +1,6 @@
-"""Procedural terrain texture from height regions (MISSION T1, seed 001 §3.1.1).
+"""Procedural terrain texture from height regions (Filipović 2008 §3.1.1).
 
-The seed's pseudocode blends, for every heightmap sample, the colours of all region
+The thesis's pseudocode blends, for every heightmap sample, the colours of all region
 textures with the weight
 
     tezina(h, r) = max(0, (r.domet - |h - r.max|) / r.domet)
@@ -56,14 +56,14 @@ from terrascape.texture.materials import TextureSpec, load_texture, resize_rgb
 
 @dataclass(frozen=True)
 class Region:
-    """One height band of the seed's ``region`` structure.
+    """One height band of the thesis's ``region`` structure.
 
     Parameters
     ----------
     name
         Band name; also the default built-in material (``water``, ``sand``, ...).
     max
-        Height (world units) where the band's weight peaks (the seed's ``max``).
+        Height (world units) where the band's weight peaks (the thesis's ``max``).
     range
         Band half-width ``domet`` (world units, > 0): the weight falls linearly to 0 at
         ``max ± range``.
@@ -103,7 +103,7 @@ class SlopeRule:
 
     With ramp value ``t``, every non-water weight is scaled by ``1 - t`` and the freed mass
     ``t·(1 - w_water)`` goes to the rule's region; a ``water`` band keeps its weight (no rock
-    under the water plane, matching the seed's "no water on hillsides" in reverse).
+    under the water plane, matching the thesis's "no water on hillsides" in reverse).
     """
 
     region: str = "rock"
@@ -120,9 +120,9 @@ class SlopeRule:
 
 
 def default_regions(heightmap: Heightmap | Any) -> list[Region]:
-    """Water/sand/grass/rock/snow bands spread over the height range (seed 001 Table 1).
+    """Water/sand/grass/rock/snow bands spread over the height range (Filipović 2008 Table 1).
 
-    The seed's table splits 0–255 into five equal bands (water 0–50, sand 51–101, …). Here
+    The thesis's table splits 0–255 into five equal bands (water 0–50, sand 51–101, …). Here
     band ``i`` of the span ``[lo, hi]`` peaks at its upper limit ``lo + (i+1)·s/5`` with
     ``range = s/5``, so adjacent weights are complementary hats: water is pure up to
     ``lo + s/5`` and blends into sand up to ``lo + 2s/5``, …, snow is pure at the top.
@@ -290,7 +290,7 @@ def region_weights(
     slope_rule: SlopeRule | bool | None = None,
     water_level: float | None = None,
 ) -> np.ndarray:
-    """Per-sample region weights, seed 001 §3.1.1 ``tezina``, normalised to sum to 1.
+    """Per-sample region weights, Filipović 2008 §3.1.1 ``tezina``, normalised to sum to 1.
 
     ``w_k = max(0, (range_k - |h - max_k|)/range_k)``, then divided by ``Σ w``. Where every
     band's weight is 0 the nearest band (smallest ``|h - max_k| - range_k``; unjittered for
@@ -488,7 +488,8 @@ def region_texture(
     tile_size: float | None = None,
     water_level: float | None = None,
 ) -> np.ndarray:
-    """Procedural terrain colour texture from height regions (seed 001 §3.1.1 ``stvori_teksturu``).
+    """Procedural terrain colour texture from height regions (``stvori_teksturu`` of
+    Filipović 2008 §3.1.1).
 
     Parameters
     ----------
@@ -507,7 +508,7 @@ def region_texture(
         exists). Slopes come from :meth:`Heightmap.slope` (world units, spacing included).
     lightmap
         Optional float ``(r, c)`` array in ``[0, 1]`` of any size ≥ 2×2, resampled bilinearly to
-        the output and multiplied in (e.g. slope shading / shadows, MISSION T4).
+        the output and multiplied in (e.g. slope shading / shadows,).
     texture_size
         Side of built-in textures; user images are resized to it.
     tile_size

@@ -1,11 +1,11 @@
-"""Texture splatting alpha maps (MISSION T3, seed 001 §3.1.3, after Charles Bloom).
+"""Texture splatting alpha maps (Filipović 2008 §3.1.3, after Charles Bloom).
 
 Input is a per-*cell* material map ``ids (rows-1, cols-1)`` (cell ``(a, b)`` is the quad
 between vertices ``(a, b)`` and ``(a+1, b+1)``). Output alpha maps are per-*vertex*
 ``(L, rows, cols)``, the resolution of the heightmap, so a renderer can upload them as a
 texture aligned with the mesh vertices.
 
-The weight (seed 001, formula 1) of a neighbouring cell at distance ``d`` (in cells, between
+The weight (Filipović 2008, formula 1) of a neighbouring cell at distance ``d`` (in cells, between
 cell centres) is ``1 - d²/1.75²``: 1 for the cell itself, ``1 - 1/1.75² ≈ 0.673`` for the
 4 edge neighbours, ``1 - 2/1.75² ≈ 0.347`` for the 4 diagonal ones, 0 from ``d = 1.75`` on.
 
@@ -13,7 +13,7 @@ Exact definition used here (the sample grid):
 
 1. **cell alpha** — for every cell ``c`` and layer ``m``:
    ``A_m(c) = Σ_{n ∈ 3×3(c), n inside the map, id(n) = m} w(d(c, n)) / Σ_{n ∈ 3×3(c) inside} w``
-   (the seed's "accumulate, then normalise"; the sum over layers is 1).
+   (the thesis's "accumulate, then normalise"; the sum over layers is 1).
 2. **vertex alpha** — vertex ``(i, j)`` takes the mean of ``A_m`` over the 1, 2 or 4 cells
    that share it (cells ``(i-1..i, j-1..j)`` inside the map), i.e. the value bilinear
    filtering of the cell-centred map gives at the vertex. Sums stay 1.
@@ -46,12 +46,12 @@ from terrascape.texture.regions import (
     default_regions,
 )
 
-#: Falloff radius of the seed's formula 1.
+#: Falloff radius of the thesis's formula 1.
 SPLAT_RADIUS = 1.75
 
 
 def splat_neighbour_weight(d2: float) -> float:
-    """Seed 001 formula 1: ``max(0, 1 - d²/1.75²)`` for squared distance ``d2`` (cells²)."""
+    """Filipović 2008 formula 1: ``max(0, 1 - d²/1.75²)`` for squared distance ``d2`` (cells²)."""
     return max(0.0, 1.0 - d2 / SPLAT_RADIUS**2)
 
 
@@ -202,7 +202,7 @@ def splat_weights(
     block: int = 32,
     grid: Heightmap | tuple[int, int] | None = None,
 ) -> np.ndarray:
-    """Per-vertex splat alpha maps from a per-cell material map (seed 001 §3.1.3).
+    """Per-vertex splat alpha maps from a per-cell material map (Filipović 2008 §3.1.3).
 
     Parameters
     ----------
@@ -211,7 +211,7 @@ def splat_weights(
     n_materials
         Number of layers ``L`` (default ``max(id) + 1``); ids must be ``< L``.
     block
-        Block side in cells for the seed's block-wise computation (32 in the seed). The values
+        Block side in cells for the thesis's block-wise computation (32 in the seed). The values
         do not depend on it (see the module docstring).
     grid
         Optional heightmap (or its ``(rows, cols)``) the maps must align with: the ids must
@@ -250,7 +250,7 @@ def check_material_map(grid: Heightmap | tuple[int, int], material_ids: Any) -> 
 def block_layers(weights: Any, *, block: int = 32) -> np.ndarray:
     """Which layers touch each block: ``bool (n_blocks_z, n_blocks_x, L)``.
 
-    The seed's renderer draws, per 32×32-cell block, one pass per texture that affects the
+    The thesis's renderer draws, per 32×32-cell block, one pass per texture that affects the
     block; a layer affects a block when any of its 33×33 vertices has a weight > 0.
     """
     w = _check_weights(weights)
@@ -308,7 +308,7 @@ def _pack_kernel(w, out):
 
 
 def pack_splat_maps(weights: Any) -> list[np.ndarray]:
-    """Pack layer weights into RGBA8 images, 4 layers per image (seed 001 §3.1.3, Slika 15).
+    """Pack layer weights into RGBA8 images, 4 layers per image (Filipović 2008 §3.1.3, Slika 15).
 
     Layer ``k`` goes to image ``k // 4``, channel ``k % 4`` (R, G, B, A); unused channels of
     the last image are 0. Values are quantised with largest-remainder rounding so each

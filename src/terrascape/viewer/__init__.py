@@ -1,4 +1,4 @@
-"""The interactive viewer (MISSION P1/P2; seed 000 §2.6.4, seed 001 §5.2): a free-flying
+"""The interactive viewer (Janković 2010 §2.6.4, Filipović 2008 §5.2): a free-flying
 camera over the terrain with run-time technique, LOD and lighting switches, a sky and a HUD.
 
 Only this package and :mod:`terrascape.render` import OpenGL. The window itself

@@ -1,6 +1,6 @@
 """The interactive window (moderngl-window 3, pyglet backend): events → :class:`ViewerSession`.
 
-Seed 000 §2.6.4: an event receiver records which keys are down, the main loop moves the
+Janković 2010 §2.6.4: an event receiver records which keys are down, the main loop moves the
 FPS camera and changes the shader parameters from them, draws the scene with its sky box and
 the GUI text, until the window closes. Here the event receiver is :class:`ViewerWindow`
 (a ``WindowConfig``), the parameters live in :class:`~terrascape.viewer.controls.ViewerState`

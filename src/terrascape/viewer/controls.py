@@ -1,8 +1,8 @@
 """The viewer's state machine: keys → parameter changes → uniforms. No window, no GL.
 
-Key bindings follow seed 000 §2.6.4 (the parameter keys of the original program: parallax
+Key bindings follow Janković 2010 §2.6.4 (the parameter keys of the original program: parallax
 scale in ±0.001 steps from 0.01, linear search steps ±1 from 11), moved off W/A/S/D because
-those fly the camera here (seed 001 §5.2's free camera). Keys are plain names ("W", "TAB",
+those fly the camera here (Filipović 2008 §5.2's free camera). Keys are plain names ("W", "TAB",
 "F1", "PAGE_UP", "EQUAL", …) so this module does not depend on the window library; the app
 translates its key codes to these names.
 """
@@ -40,7 +40,7 @@ TECHNIQUES: tuple[str, ...] = (
 )
 LOD_MODES: tuple[str, ...] = ("none", *SCHEMES)  # L cycles these (lod/schemes.py)
 
-PARALLAX_SCALE_STEP = 0.001  # seed 000 §2.6.4.3: parametar ± 0.001
+PARALLAX_SCALE_STEP = 0.001  # Janković 2010 §2.6.4.3: parametar ± 0.001
 SUN_AZIMUTH_STEP = 10.0
 SUN_ELEVATION_STEP = 5.0
 #: Speeds of the sky clock (simulated seconds per second), C / V step through them.
@@ -325,7 +325,7 @@ class ViewerState:
         return float(np.clip((self.sun_elevation + 6.0) / 12.0, 0.0, 1.0))
 
     def uniforms(self) -> dict[str, float | int | bool]:
-        """Renderer parameters (the seed's "shader constant callback" values)."""
+        """Renderer parameters (the thesis's "shader constant callback" values)."""
         return {
             "parallax_scale": self.parallax_scale,
             "linear_steps": self.linear_steps,

@@ -1,6 +1,6 @@
 """A bitmap font for the viewer's HUD, generated at start from Pillow's default font.
 
-Seed 000 §2.6.4.3 puts GUI text on screen with a font texture (Irrlicht's ``fontlucida.png``);
+Janković 2010 §2.6.4.3 puts GUI text on screen with a font texture (Irrlicht's ``fontlucida.png``);
 this module makes the equivalent texture at run time so that no font file ships with the
 package: every glyph of :data:`CHARSET` is drawn once with ``ImageFont.load_default`` into a
 grid of equal cells (an *atlas*), and text becomes one textured quad per glyph

@@ -3,9 +3,9 @@
 :class:`ViewerSession` owns a :class:`~terrascape.render.terrain.TerrainRenderer`, a
 :class:`~terrascape.viewer.controls.ViewerState` and the camera, and draws one frame into
 any moderngl framebuffer — the window's (``terrascape view``), or an off-screen one (tests,
-benchmarks without a display). It is the seed's main loop body (seed 000 §2.6.4.3: read the
+benchmarks without a display). It is the thesis's main loop body (Janković 2010 §2.6.4.3: read the
 held keys, update the parameters the shader constant callback sends, draw the scene, draw the
-GUI text) with the free camera of seed 001 §5.2 and the LOD algorithms of seed 001 §4–5.
+GUI text) with the free camera of Filipović 2008 §5.2 and the LOD algorithms of Filipović 2008 §4–5.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from terrascape.heightmap import Heightmap
 from terrascape.lod.schemes import SCHEMES
 from terrascape.viewer.controls import HELP, LOD_MODES, ViewerState, fly, look
 
-# Technique cycling order (Tab): the seed 001 texturing methods, then seed 000's relief
+# Technique cycling order (Tab): the Filipović 2008 texturing methods, then Janković 2010's relief
 # family from cheapest to most expensive; techniques registered later are appended sorted.
 PREFERRED_ORDER: tuple[str, ...] = (
     "material", "plain", "regions", "texture3d", "splat", "bump", "parallax", "parallax_limited",
@@ -86,7 +86,7 @@ def sky_colors(daylight: float) -> dict[str, tuple[float, float, float]]:
 def technique_params(state: ViewerState, accepted: Mapping[str, Any], *,
                      has_lightmap: bool, fog_density: float | None = None,
                      time_s: float = 0.0, sea_level: float | None = None) -> dict[str, Any]:
-    """Renderer parameters of one frame from the viewer state (the seed's constant callback).
+    """Renderer parameters of one frame from the viewer state (the thesis's constant callback).
 
     Parameters
     ----------
@@ -106,7 +106,7 @@ def technique_params(state: ViewerState, accepted: Mapping[str, Any], *,
 
     Notes
     -----
-    The viewer's "parallax scale" (seed 000 §2.6.4: ``parametar``) is the relief depth
+    The viewer's "parallax scale" (Janković 2010 §2.6.4: ``parametar``) is the relief depth
     ``depth`` of every relief technique, and ``parallax_scale`` with the bias ``-scale`` of
     the parallax ones (``h' = scale·h + bias``), so one key changes every technique alike.
     With the sun above the horizon the daylight model lights every technique (sky, haze,
@@ -203,7 +203,7 @@ class Smoothed:
 
 class KeyRepeat:
     """Auto-repeat for parameter keys held down: first repeat after ``delay`` s, then every
-    ``interval`` s (seed 000 changes its parameters every frame while the key is down)."""
+    ``interval`` s (Janković 2010 changes its parameters every frame while the key is down)."""
 
     def __init__(self, delay: float = 0.35, interval: float = 1 / 15,
                  keys: frozenset[str] = REPEAT_KEYS) -> None:
@@ -416,7 +416,8 @@ class ViewerSession:
         return ground_height(self.world.heights, self.world.spacing, x, z)
 
     def advance(self, dt: float, keys_down: set[str], *, fast: bool = False) -> None:
-        """Fly the camera for ``dt`` seconds with the held keys (seed 001 §5.2 free camera)."""
+        """Fly the camera for ``dt`` seconds with the held keys (the free camera of
+        Filipović 2008 §5.2)."""
         dt = float(min(max(dt, 0.0), 0.25))  # a stalled frame must not teleport the camera
         self.camera = fly(self.camera, keys_down, dt, self.state.speed, fast=fast,
                           ground=self.ground, clearance=self.clearance,
@@ -459,7 +460,7 @@ class ViewerSession:
 
         ``dt`` is the time since the previous frame (seconds), for the smoothed frame rate.
         A technique whose program or textures fail is reported once and replaced by
-        ``plain`` (MISSION R11, seed 000 §2.6.4.3's "shaders disabled" fallback).
+        ``plain`` (Janković 2010 §2.6.4.3's "shaders disabled" fallback).
         """
         from terrascape.render.terrain import TechniqueFallbackWarning
 
@@ -483,7 +484,7 @@ class ViewerSession:
                 self._fall_back(tech, exc)
                 continue
             if self.renderer.last_technique not in (None, tech):
-                # The renderer already drew plain texturing (R11); stop asking for tech.
+                # The renderer already drew plain texturing; stop asking for tech.
                 reason = next((str(w.message) for w in caught
                                if issubclass(w.category, TechniqueFallbackWarning)),
                               "not available")

@@ -1,6 +1,6 @@
 // HUD: text glyph quads from the bitmap font atlas (terrascape.viewer.font) and solid
-// background panels, in window pixels (origin top-left, y down) — the seed's GUI text
-// (seed 000 §2.6.4.3: static text over the 3D scene).
+// background panels, in window pixels (origin top-left, y down) — the thesis's GUI text
+// (Janković 2010 §2.6.4.3: static text over the 3D scene).
 #if defined VERTEX_SHADER
 in vec2 in_pos;     // pixels, y down
 in vec2 in_uv;      // atlas coordinates, v down

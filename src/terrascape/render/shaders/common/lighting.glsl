@@ -1,6 +1,6 @@
 // Lighting models of the terrain techniques.
 //
-// Phong illumination (seed 000 §2.5, R2):
+// Phong illumination (Janković 2010 §2.5):
 //   I = ka*ia + kd*(L.N)*id + ks*(R.V)^alpha*is
 // L points toward the sun, V toward the eye, R = reflect(-L, N). The albedo modulates the
 // ambient and diffuse terms; the specular highlight keeps the light's colour.

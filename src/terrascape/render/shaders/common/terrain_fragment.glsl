@@ -53,7 +53,7 @@ in vec4 v_tangent;
 #endif
 
 uniform vec2 u_extent;     // world size (x, z) of the terrain
-uniform float u_uv_scale;  // planar mapping repeats (seed 000 §2.6.4 makePlanarTextureMapping)
+uniform float u_uv_scale;  // planar mapping repeats (Janković 2010 §2.6.4 makePlanarTextureMapping)
 
 // Planar texture coordinates from the interpolated world position: the same values as
 // interpolating them (they are linear in position) without two more varyings.

@@ -8,7 +8,7 @@ void main() {
 }
 #else
 // Attributes come from terrascape.mesh.terrain_mesh: world position, unit normal and the
-// tangent frame (seed 000 §2.5) as tangent.xyz + handedness w, so B = w * cross(N, T).
+// tangent frame (Janković 2010 §2.5) as tangent.xyz + handedness w, so B = w * cross(N, T).
 // Only techniques that define TERRAIN_TANGENTS (bump, relief family) read the tangent:
 // on llvmpipe vertex fetch and every varying cost triangle-setup time on 2M triangles.
 in vec3 in_position;

@@ -28,7 +28,7 @@ uniform mat3 u_world_to_uvd;   // world direction -> (du, dv, d depth); see Reli
 uniform mat3 u_world_to_ts;    // world direction -> orthonormal tangent frame (T, B, N)
 uniform vec3 u_light_dir;      // world, toward the light
 uniform int u_output;
-uniform int u_shadows;         // R7 on/off
+uniform int u_shadows;         // self-shadowing on/off
 uniform int u_has_colour;
 uniform sampler2D u_colour;
 uniform vec3 u_ambient;        // ka * ia

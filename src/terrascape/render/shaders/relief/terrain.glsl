@@ -13,7 +13,7 @@
 #include "relief/common/heightfield.glsl"
 
 uniform sampler2D u_color_tex;   // colour texture, one texel per vertex (region_texture)
-uniform int u_self_shadow;       // R7 on/off
+uniform int u_self_shadow;       // self-shadowing on/off
 uniform float u_relief_tint;     // how much the relief height darkens the albedo (0..1)
 // The A channel of u_relief alone (R32F: the same values and mip chain, so the same
 // surface): the march reads only heights, and a one-channel texel is a quarter of the

@@ -1,4 +1,4 @@
-// "bump": normal mapping (seed 000 §2.5 tangent space, R2 Phong). The tiled RGBA texture
+// "bump": normal mapping (Janković 2010 §2.5 tangent space, Phong). The tiled RGBA texture
 // holds a tangent-space normal in RGB (x along +u, y along +v, z out of the surface;
 // pack_normal_height); it is taken to world space with the per-vertex frame
 //   n_world = T * n.x + B * n.y + N * n.z,   B = w * cross(N, T)

@@ -1,5 +1,5 @@
 // "plain": one colour texture over the whole terrain (default: the procedural region
-// texture of seed 001 §3.1.1, one texel per vertex), lit per the `lighting` parameter.
+// texture of Filipović 2008 §3.1.1, one texel per vertex), lit per the `lighting` parameter.
 #if defined VERTEX_SHADER
 #include "common/terrain_vertex.glsl"
 #elif defined FRAGMENT_SHADER

@@ -1,4 +1,4 @@
-// "regions": seed 001 §3.1.1 procedural blending evaluated per fragment on the GPU.
+// "regions": Filipović 2008 §3.1.1 procedural blending evaluated per fragment on the GPU.
 //   tezina(h, r) = max(0, (r.range - |h - r.max|) / r.range), normalised over the regions;
 // outside every band the nearest band takes weight 1; then the slope rule moves weight
 // to rock on steep slopes (as terrascape.texture.region_weights, without jitter). Water is

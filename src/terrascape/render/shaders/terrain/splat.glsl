@@ -1,4 +1,4 @@
-// "splat": seed 001 §3.1.3 texture splatting in one pass. Alpha maps of up to 8 layers are
+// "splat": Filipović 2008 §3.1.3 texture splatting in one pass. Alpha maps of up to 8 layers are
 // packed 4 per RGBA texture (pack_splat_maps: channel k of map m = layer 4m + k, one texel
 // per vertex); the colour is sum_k alpha_k * layer_k(tiled uv). Each layer is hex-tiled
 // (common/hextile.glsl, Mikkelsen 2022; the hexagons' blend weighted by the lookups'

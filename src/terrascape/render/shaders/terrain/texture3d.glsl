@@ -1,6 +1,6 @@
-// "texture3d": seed 001 §3.1.2. The layer textures are stacked along the depth coordinate r
+// "texture3d": Filipović 2008 §3.1.2. The layer textures are stacked along the depth coordinate r
 // of a 3D texture; linear filtering along r blends two neighbouring layers. r comes from
-// terrascape.texture.layer_coordinate (one value per vertex, interpolated like the seed's
+// terrascape.texture.layer_coordinate (one value per vertex, interpolated like the thesis's
 // per-vertex glTexCoord3f), the s/t coordinates tile over the terrain. The s/t lookups are
 // hex-tiled (common/hextile.glsl, Mikkelsen 2022), so the tile period does not show;
 // hex_tiling = false tiles them by wrapping as the seed does.

@@ -1,5 +1,5 @@
 // Height-field tracing shared by every relief technique (Janković 2010 §2.3–2.4,,
-// R10). Include from a fragment shader; select the tracer with `#define TECHNIQUE n`.
+//. Include from a fragment shader; select the tracer with `#define TECHNIQUE n`.
 //
 // Geometry (the same as terrascape.relief.reference, so GPU and CPU agree pixel by pixel):
 //   the relief hangs below the polygon; a point is (uv, s) with s = normalised depth in [0, 1]
@@ -23,18 +23,18 @@
 
 uniform sampler2D u_relief;        // RGB tangent-space normal (n*0.5+0.5), A height in [0, 1]
 uniform float u_depth;             // relief depth in UV units (seed: the parallax "scale")
-uniform float u_parallax_scale;    // h' = scale * h + bias (R3, R4)
+uniform float u_parallax_scale;    // h' = scale * h + bias
 uniform float u_parallax_bias;
-uniform int u_linear_steps;        // relief / interval / steep / POM linear search (R6)
+uniform int u_linear_steps;        // relief / interval / steep / POM linear search
 uniform int u_binary_steps;        // relief binary steps (~8, §2.4.7) / interval secant steps
-uniform int u_adaptive;            // 1: linear step count follows the ray's texel length (R5);
+uniform int u_adaptive;            // 1: linear step count follows the ray's texel length;
                                    // 2: relief only, clearance-scaled steps (trace_relief)
 uniform float u_step_texels;       // adaptive: target linear step length in texels
 uniform int u_max_steps;           // adaptive: upper bound of the linear step count
 uniform float u_clearance_slope;   // clearance steps: assumed surface slope (depth / texel)
 uniform float u_min_step_texels;   // clearance steps: shortest step, in texels
 uniform int u_cone_steps;          // cone step mapping iterations
-uniform int u_shadow_steps;        // self-shadowing: most linear steps toward the light (R7)
+uniform int u_shadow_steps;        // self-shadowing: most linear steps toward the light
 uniform float u_shadow_step_texels; // self-shadowing: step length in texels (0: u_shadow_steps)
 
 #if TECHNIQUE == TECH_CONE
@@ -80,7 +80,7 @@ float relief_depth(vec2 uv) {
     return 1.0 - relief_texel(uv).a;
 }
 
-// --- parallax (R3, R4) -------------------------------------------------------------------
+// --- parallax -------------------------------------------------------------------
 
 // Tn = Tv + h' * V.xy / V.z  (Janković 2010 §2.3, Kaneko et al. 2001)
 vec3 trace_parallax(vec2 uv0, vec3 V) {
@@ -98,7 +98,7 @@ vec3 trace_offset_limiting(vec2 uv0, vec3 V) {
     return vec3(uv, -hs / max(u_depth, 1e-6));
 }
 
-// --- ray-marched family (R5, R6, R8) -------------------------------------------------------
+// --- ray-marched family -------------------------------------------------------
 
 int relief_linear_count(vec2 ds) {
     if (u_adaptive != 1) {
@@ -407,7 +407,7 @@ vec3 trace_minmax(vec2 uv0, vec2 ds) {
 }
 #endif
 
-// --- self-shadowing toward the light (R7, §2.4.8) ------------------------------------------
+// --- self-shadowing toward the light (§2.4.8) ------------------------------------------
 
 // lds = UV offset per unit of depth *decrease* toward the light. Returns 1 in shadow.
 float relief_shadow(vec3 hit, vec2 lds) {
@@ -481,7 +481,7 @@ vec3 relief_trace(vec2 uv0, vec2 ds) {
 #endif
 }
 
-// Technique by distance (R10, the thesis's conclusion): relief near, parallax farther, plain
+// Technique by distance (the thesis's conclusion): relief near, parallax farther, plain
 // far, each transition blended over u_dist_band world units.
 uniform float u_dist_relief;     // relief up to this distance
 uniform float u_dist_parallax;   // parallax up to this distance, plain beyond
