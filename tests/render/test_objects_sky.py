@@ -47,19 +47,24 @@ def sky_params(time: str) -> dict:
 
 
 def render_pair(ctx, hm, cam, inst, params, size):
-    """(without objects, with them) of one frame."""
+    """(without objects, with them) of one frame, and the frame's drawing statistics."""
     r = OffscreenRenderer(ctx, hm, size=size)
     try:
         empty = r.render(cam, "plain", params)[..., :3].astype(np.float64)
         r.terrain.set_objects(inst)
         full = r.render(cam, "plain", params)[..., :3].astype(np.float64)
+        stats = dict(r.terrain.last_stats)
     finally:
         r.release()
-    return empty, full
+    return empty, full, stats
 
 
+@pytest.mark.parametrize(("shadows", "impostor_pixels"),
+                         [("cascades", 0), ("cascades", 1e6), ("volumes", 0)],
+                         ids=["meshes", "impostors", "volumes"])
 @pytest.mark.parametrize("time", ["12:00", "19:45"])
-def test_far_objects_take_the_haze_colour_of_the_terrain_behind_them(gl_ctx, time):
+def test_far_objects_take_the_haze_colour_of_the_terrain_behind_them(gl_ctx, time, shadows,
+                                                                     impostor_pixels):
     """A row of dark red boxes 3 km away in thick haze: their pixels are the colour of the
     terrain at the same distance beside them (both the sky's horizon colour, within a few
     levels) — not the box's own red, not black. Without haze the same boxes stand out."""
@@ -74,9 +79,11 @@ def test_far_objects_take_the_haze_colour_of_the_terrain_behind_them(gl_ctx, tim
                          far=10000.0, aspect=size[0] / size[1])
     sky = sky_params(time)
     # transmittance to the boxes about exp(-4)
-    thick = {**sky, "haze": 1.6e-3, "impostor_pixels": 0}
-    empty, hazed = render_pair(gl_ctx, hm, cam, inst, thick, size)
-    clear_empty, clear = render_pair(gl_ctx, hm, cam, inst, {**thick, "haze": 0.0}, size)
+    thick = {**sky, "haze": 1.6e-3, "impostor_pixels": impostor_pixels,
+             "object_shadows": shadows}
+    empty, hazed, stats = render_pair(gl_ctx, hm, cam, inst, thick, size)
+    assert stats["objects_impostors" if impostor_pixels else "objects_meshes"] == 7
+    clear_empty, clear, _ = render_pair(gl_ctx, hm, cam, inst, {**thick, "haze": 0.0}, size)
 
     box = np.abs(clear - clear_empty).max(axis=-1) > 30  # the boxes, seen without haze
     assert box.sum() > 40
@@ -98,7 +105,8 @@ def test_far_objects_take_the_haze_colour_of_the_terrain_behind_them(gl_ctx, tim
                                err_msg=f"objects {object_colour} vs terrain {terrain_colour}")
 
 
-def test_objects_at_night_are_moonlit_like_the_terrain(gl_ctx):
+@pytest.mark.parametrize("shadows", ["cascades", "volumes"])
+def test_objects_at_night_are_moonlit_like_the_terrain(gl_ctx, shadows):
     """Seen from above, the top of a flat dark box and the ground around it keep their ratio
     of brightness from noon to night (23:30, moon and night sky): lit by the same light, not
     black and not glowing."""
@@ -112,7 +120,8 @@ def test_objects_at_night_are_moonlit_like_the_terrain(gl_ctx):
     top = (slice(40, 56), slice(40, 56))  # inside the box's top, seen from above
     ratio = {}
     for time in ("12:00", "23:30"):
-        empty, full = render_pair(gl_ctx, hm, cam, inst, sky_params(time), size)
+        params = {**sky_params(time), "object_shadows": shadows}
+        empty, full, _ = render_pair(gl_ctx, hm, cam, inst, params, size)
         ratio[time] = luma(full[top]).mean() / luma(empty[top]).mean()
         if time == "23:30":
             night_object = full[top].reshape(-1, 3).mean(axis=0)
