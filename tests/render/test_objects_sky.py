@@ -129,3 +129,30 @@ def test_objects_at_night_are_moonlit_like_the_terrain(gl_ctx, shadows):
     assert ratio["23:30"] == pytest.approx(ratio["12:00"], rel=0.3), ratio
     # and night-dark, like the ground: not the day's brightness
     assert luma(night_object) < 1.6 * luma(night_ground), (night_object, night_ground)
+
+
+@pytest.mark.parametrize("shadows", ["cascades", "volumes"])
+def test_render_cli_objects_at_night_neither_glow_nor_vanish(tmp_path, shadows):
+    """``render --time 2026-06-21T23:30 --latitude 45.8 --objects default``: the built-in
+    trees and rocks are no brighter than the moonlit ground (they glowed white while their
+    programs read no sky table) and not black either."""
+    from PIL import Image
+
+    from terrascape.cli.app import run_app
+
+    args = ["render", "--generate", "hills", "--gen-size", "65", "--seed", "1", "--size",
+            "160x96", "--orbit", "200,25,70", "--latitude", "45.8", "-q"]
+    imgs = {}
+    for time in ("12:00", "23:30"):
+        for objects in ((), ("--objects", "default", "--object-shadows", shadows)):
+            out = tmp_path / f"{time[:2]}{len(objects)}.png"
+            assert run_app([*args, "--time", f"2026-06-21T{time}", *objects,
+                            "-o", str(out)]) == 0
+            imgs[time, bool(objects)] = luma(np.asarray(Image.open(out)).astype(np.float64))
+    # the objects: where they change the noon frame (and, far less, their shadows)
+    drawn = np.abs(imgs["12:00", True] - imgs["12:00", False]) > 12
+    assert drawn.mean() > 0.02
+    night, ground = imgs["23:30", True][drawn], imgs["23:30", False]
+    assert np.percentile(night, 95) <= np.percentile(ground, 99) + 4, (
+        np.percentile(night, 95), np.percentile(ground, 99))
+    assert night.mean() > 0.25 * ground.mean(), (night.mean(), ground.mean())
