@@ -156,3 +156,51 @@ def test_render_cli_objects_at_night_neither_glow_nor_vanish(tmp_path, shadows):
     assert np.percentile(night, 95) <= np.percentile(ground, 99) + 4, (
         np.percentile(night, 95), np.percentile(ground, 99))
     assert night.mean() > 0.25 * ground.mean(), (night.mean(), ground.mean())
+
+
+@pytest.mark.parametrize(("technique", "shadows"),
+                         [("plain", "cascades"), ("plain", "volumes"),
+                          ("material", "volumes")])
+def test_every_program_that_reads_the_sky_table_has_it_bound(gl_ctx, monkeypatch, technique,
+                                                             shadows):
+    """Each program a daylight frame with objects, water and sky draws with, that declares
+    ``u_sky_lut`` (it includes common/atmosphere.glsl), samples the unit the table is on."""
+    import importlib
+    import sys
+
+    from terrascape.render import shaders
+    from terrascape.render.terrain import _SKY_LUT_UNIT
+
+    # imported before the patch: a module first imported under it would keep the wrapper
+    for name in ("objects", "shadow_volumes", "terrain", "offscreen"):
+        importlib.import_module(f"terrascape.render.{name}")
+
+    used = []
+    original = shaders.load_program
+
+    def recording(*args, **kwargs):
+        program = original(*args, **kwargs)
+        used.append((args[1], program))
+        return program
+
+    for name, module in list(sys.modules.items()):
+        if name.startswith("terrascape.render.") and module is not shaders and \
+                getattr(module, "load_program", None) is original:
+            monkeypatch.setattr(module, "load_program", recording)
+    hm = Heightmap(np.linspace(0, 8, 33 * 33, dtype=np.float32).reshape(33, 33), (2.0, 2.0))
+    mesh = box_mesh((3.0, 6.0, 3.0), (0.3, 0.3, 0.3))
+    pos = np.array([[20.0, 3.0, 20.0], [44.0, 6.0, 40.0]])
+    inst = Instances((mesh,), np.zeros(2, int), pos, np.ones(2), np.zeros(2))
+    cam = Camera.look_at((32.0, 30.0, 90.0), (32.0, 0.0, 30.0), fov_y=50.0, near=1.0,
+                         far=500.0, aspect=1.5)
+    r = OffscreenRenderer(gl_ctx, hm, size=(96, 64))
+    try:
+        r.terrain.set_objects(inst)
+        r.render(cam, technique, {**sky_params("17:00"), "object_shadows": shadows,
+                                  "sea_level": 2.0, "impostor_pixels": 20.0})
+    finally:
+        r.release()
+    readers = {name: p for name, p in used if "u_sky_lut" in p}
+    assert {"objects/mesh", "objects/impostor", "water", "sky"} <= set(readers), sorted(readers)
+    for name, program in readers.items():
+        assert program["u_sky_lut"].value == _SKY_LUT_UNIT, name
