@@ -307,9 +307,13 @@ def test_impostors_switch_in_without_a_jump_in_colour(gl_ctx):
         assert r.terrain.last_stats["objects_impostors"] > 40
     finally:
         r.release()
-    lum_e, lum_m, lum_i = luma(empty), luma(meshes), luma(impostors)
-    cover_m = np.abs(lum_m - lum_e) > 6
-    cover_i = np.abs(lum_i - lum_e) > 6
+    # covered = any channel moved, not the luma: the sunlit faces of these green boxes have
+    # the luma of the grey haze behind them (the fade surround), and a luma test loses
+    # a third of the mesh's pixels there (fewer of the impostor's, shaded a little darker)
+    def covered(img):
+        return np.abs(img[..., :3].astype(int) - empty[..., :3].astype(int)).max(axis=-1) > 6
+
+    cover_m, cover_i = covered(meshes), covered(impostors)
     assert cover_m.sum() > 300
     # same footprint on screen (within a tenth) and close in mean colour
     assert abs(int(cover_i.sum()) - int(cover_m.sum())) < 0.1 * cover_m.sum()

@@ -191,6 +191,7 @@ class ObjectRenderer:
         self.mode = "none"
         self.enabled = True  # False: kept on the GPU but not drawn (the viewer's toggle)
         self._terrain_shadows = True
+        self._params: Mapping[str, Any] | None = None
         self.last_stats: dict[str, int] = {}
         self._view_sets: list[tuple[int, int]] = []
 
@@ -453,6 +454,7 @@ class ObjectRenderer:
         # "volumes" reaches here only on a target with a stencil buffer (the renderer
         # falls back to cascades otherwise); terrascape.render.shadow_volumes draws them.
         self.mode = mode
+        self._params = params  # draw() binds the frame's sky table from them
         self._terrain_shadows = bool(params.get("shadows", True))
         impostor_pixels = float(params.get("impostor_pixels", 48.0))
         if not math.isfinite(impostor_pixels) or impostor_pixels < 0:
@@ -501,6 +503,10 @@ class ObjectRenderer:
             height[0].use(location=_HEIGHT_UNIT)
         for prog in (mesh_prog, imp_prog):
             set_uniforms(prog, **extra)
+            # common/atmosphere.glsl reads the frame's sky table: without it the haze and
+            # sky light of every object sample whatever sits on texture unit 0
+            if self._params is not None:
+                self.terrain._use_sky_lut(prog, self._params)
             self.bind_receiver(prog)
             if self.mode != "cascades":
                 set_uniforms(prog, u_cascade_count=0)
