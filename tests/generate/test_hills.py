@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from itertools import pairwise
+
 import numpy as np
 import pytest
 
@@ -53,7 +55,7 @@ def test_determinism_defaults_and_progress() -> None:
     assert a.heights.tobytes() != c.heights.tobytes()
     # progress in hills done (row blocks × chunks of hills): rising, ending at the total
     assert calls[-1] == (250, 250) and 2 <= len(calls) <= 250
-    assert all(p[0] <= q[0] for p, q in zip(calls, calls[1:])) and {t for _, t in calls} == {250}
+    assert all(p[0] <= q[0] for p, q in pairwise(calls)) and {t for _, t in calls} == {250}
     assert default_radius_range(64, 128) == (1.0, 4.0)
     assert a.metadata["radius_range"] == (1.0, 4.0)
 
