@@ -76,10 +76,15 @@ def test_demo_render_stage(tmp_path, gl_ctx):
         if name != "render_plain_closeup.png" and "texture3d" not in name:
             assert np.abs(img - plain).mean() > 0.5, name
     # the showcase: real pictures, with water where the sea is, no black shadows
-    for name in ("showcase_golden_hour.png", "showcase_coast.png", "showcase_map.png"):
+    for name in ("showcase_golden_hour.png", "showcase_coast.png", "showcase_map.png",
+                 "showcase_forest.png"):
         img = np.asarray(Image.open(tmp_path / name)).astype(int)
         assert img.shape == (90, 160, 3) and img.std() > 5, name
         assert (img.max(axis=-1) < 8).mean() < 0.001, name
+    # the forest is the coast with objects on it: they show
+    coast = np.asarray(Image.open(tmp_path / "showcase_coast.png")).astype(int)
+    forest = np.asarray(Image.open(tmp_path / "showcase_forest.png")).astype(int)
+    assert (np.abs(forest - coast).max(axis=-1) > 12).mean() > 0.002
     top = np.asarray(Image.open(tmp_path / "showcase_map.png")).astype(int)
     bluish = (top[..., 2] > top[..., 0] + 15).mean()
     assert bluish > 0.05  # the sea around and on the terrain

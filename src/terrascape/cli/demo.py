@@ -18,6 +18,7 @@ import numpy as np
 from terrascape.camera import Camera
 from terrascape.errors import GLUnavailableError, InvalidParameterError, TerrascapeError
 from terrascape.heightmap import Heightmap
+from terrascape.objects import load_objects
 
 
 @dataclass
@@ -185,7 +186,8 @@ def _shore_camera(hm: Heightmap, sea_level: float, aspect: float) -> Camera:
 def showcase_stage(out: Path, result: DemoResult, hm: Heightmap, masks: dict[str, np.ndarray],
                    *, size: tuple[int, int], force: bool) -> None:
     """The beauty renders: the eroded terrain at golden hour (landscape view), a low coast
-    with water and shadows at midday, and a top-down map — high quality (2×2 samples)."""
+    with water and shadows at midday, a top-down map, and the coast with trees, rocks and
+    houses — high quality (2×2 samples)."""
     from terrascape.render.context import create_headless_context
     from terrascape.render.offscreen import OffscreenRenderer
 
@@ -212,6 +214,17 @@ def showcase_stage(out: Path, result: DemoResult, hm: Heightmap, masks: dict[str
                                     {**material, "sun": sun, "sea_level": sea})
             _save_png(image[..., :3], out / name, force=force)
             result.add(out / name, what, time.perf_counter() - t0)
+        # The coast again with what stands on it: the built-in trees, bushes, rocks and
+        # houses by the default rules, with the sun's cascaded shadow maps.
+        t0 = time.perf_counter()
+        objects = load_objects("default", hm, seed=1, masks=masks, sea_level=sea)
+        renderer.terrain.set_objects(objects)
+        image = renderer.render(_shore_camera(hm, sea, size[0] / size[1]), "material",
+                                {**material, "sun": (150.0, 35.0), "sea_level": sea})
+        _save_png(image[..., :3], out / "showcase_forest.png", force=force)
+        result.add(out / "showcase_forest.png",
+                   f"the coast with {len(objects):,} trees, bushes, rocks and houses and "
+                   "their shadows", time.perf_counter() - t0)
     finally:
         renderer.release()
         ctx.release()
