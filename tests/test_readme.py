@@ -33,6 +33,7 @@ SMALLER: tuple[tuple[str, str], ...] = (
     (r"--size \d+x\d+", "--size 160x90"),
     (r"--hydraulic \d+", "--hydraulic 2000"),
     (r"--turntable \d+", "--turntable 3"),
+    (r"--frames \d+", "--frames 3"),
     (r"diamond_square\(513\b", "diamond_square(129"),
     (r"\(1280, 720\)", "(160, 90)"),
 )
@@ -157,8 +158,21 @@ def check_output(path: Path, argv: list[str]) -> None:
         import imageio.v3 as iio
 
         frames = iio.imread(path, plugin="pyav" if _has_pyav() else None, index=None)
-        assert len(frames) == int(argv[argv.index("--turntable") + 1])
+        count = argv[argv.index("--turntable" if "--turntable" in argv else "--frames") + 1]
+        assert len(frames) == int(count)
         assert frames.std() > 1.0
+    elif suffix == ".glb" and "--compress" in argv:
+        import pygltflib  # trimesh has no meshopt decoder; tests/export decodes these files
+
+        doc = pygltflib.GLTF2.load(path)
+        assert "EXT_meshopt_compression" in (doc.extensionsRequired or [])
+        assert doc.accessors[doc.meshes[0].primitives[0].indices].count > 300
+    elif suffix == ".json":
+        import json
+
+        listing = json.loads(path.read_text())
+        assert listing["count"] == len(listing["instances"]) > 10
+        assert all(r["mesh"] in listing["meshes"] for r in listing["instances"])
     elif suffix == ".glb":
         import trimesh
 
