@@ -193,6 +193,23 @@ def _brush(radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return oz[keep].astype(np.int64), ox[keep].astype(np.int64), w.astype(np.float64)
 
 
+def _droplet_params(inertia, capacity, min_slope, erosion, deposition, evaporation, gravity,
+                    max_steps, radius) -> tuple:
+    """The droplet kernel's parameters, validated, with the erosion brush: shared by the whole
+    map and by a world's windows so both run exactly the same droplets."""
+    radius = check_range(radius, "radius", 0.0, 16.0)
+    bz, bx, bw = _brush(radius) if radius >= 1.0 else (np.zeros(1, np.int64),
+                                                       np.zeros(1, np.int64), np.ones(1))
+    return (check_range(inertia, "inertia", 0.0, 1.0),
+            check_positive(capacity, "capacity", allow_zero=True),
+            check_positive(min_slope, "min_slope", allow_zero=True),
+            check_range(erosion, "erosion", 0.0, 1.0),
+            check_range(deposition, "deposition", 0.0, 1.0),
+            check_range(evaporation, "evaporation", 0.0, 1.0),
+            check_positive(gravity, "gravity", allow_zero=True),
+            check_int(max_steps, "max_steps", minimum=1, maximum=100_000), bz, bx, bw)
+
+
 def hydraulic_erosion(
     heightmap: Heightmap,
     *,
@@ -243,17 +260,8 @@ def hydraulic_erosion(
     if droplets is None:
         droplets = heightmap.rows * heightmap.cols
     droplets = check_int(droplets, "droplets", minimum=0, maximum=100_000_000)
-    radius = check_range(radius, "radius", 0.0, 16.0)
-    bz, bx, bw = _brush(radius) if radius >= 1.0 else (np.zeros(1, np.int64),
-                                                       np.zeros(1, np.int64), np.ones(1))
-    max_steps = check_int(max_steps, "max_steps", minimum=1, maximum=100_000)
-    inertia = check_range(inertia, "inertia", 0.0, 1.0)
-    erosion = check_range(erosion, "erosion", 0.0, 1.0)
-    deposition = check_range(deposition, "deposition", 0.0, 1.0)
-    evaporation = check_range(evaporation, "evaporation", 0.0, 1.0)
-    capacity = check_positive(capacity, "capacity", allow_zero=True)
-    min_slope = check_positive(min_slope, "min_slope", allow_zero=True)
-    gravity = check_positive(gravity, "gravity", allow_zero=True)
+    params = _droplet_params(inertia, capacity, min_slope, erosion, deposition, evaporation,
+                             gravity, max_steps, radius)
     rng = make_rng(seed)
     h = heightmap.heights.astype(np.float64)
     # Droplets run one after another, so running them in chunks from Python gives the same
@@ -263,8 +271,7 @@ def hydraulic_erosion(
     scale = np.array([heightmap.cols - 1.0, heightmap.rows - 1.0, 1.0])
     for first in range(0, droplets, _CHUNK_DROPLETS):
         starts = rng.random((min(_CHUNK_DROPLETS, droplets - first), 3)) * scale
-        _droplets(h, starts, 0.0, 0.0, inertia, capacity, min_slope, erosion, deposition,
-                  evaporation, gravity, max_steps, bz, bx, bw)
+        _droplets(h, starts, 0.0, 0.0, *params)
     return heightmap.with_heights(h.astype(np.float32))
 
 
@@ -301,19 +308,9 @@ def droplets_in_window(
     if len(starts) and (starts[:, 0].min() < ox or starts[:, 0].max() > ox + cols - 1
                         or starts[:, 1].min() < oz or starts[:, 1].max() > oz + rows - 1):
         raise InvalidParameterError("every droplet must start inside the window")
-    radius = check_range(radius, "radius", 0.0, 16.0)
-    bz, bx, bw = _brush(radius) if radius >= 1.0 else (np.zeros(1, np.int64),
-                                                       np.zeros(1, np.int64), np.ones(1))
+    params = _droplet_params(inertia, capacity, min_slope, erosion, deposition, evaporation,
+                             gravity, max_steps, radius)
     for first in range(0, len(starts), _CHUNK_DROPLETS):
-        _droplets(heights, starts[first:first + _CHUNK_DROPLETS], ox, oz,
-                  check_range(inertia, "inertia", 0.0, 1.0),
-                  check_positive(capacity, "capacity", allow_zero=True),
-                  check_positive(min_slope, "min_slope", allow_zero=True),
-                  check_range(erosion, "erosion", 0.0, 1.0),
-                  check_range(deposition, "deposition", 0.0, 1.0),
-                  check_range(evaporation, "evaporation", 0.0, 1.0),
-                  check_positive(gravity, "gravity", allow_zero=True),
-                  check_int(max_steps, "max_steps", minimum=1, maximum=100_000), bz, bx, bw)
-
+        _droplets(heights, starts[first:first + _CHUNK_DROPLETS], ox, oz, *params)
 
 __all__ = ["droplets_in_window", "hydraulic_erosion"]
