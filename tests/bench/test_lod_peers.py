@@ -126,6 +126,32 @@ def test_comparison_counts_and_errors_are_measured(core):
     assert r["roam_direct_error"] <= r["panda_error"]
 
 
+@pytest.mark.parametrize("cull", [False, True])
+def test_like_for_like_comparison_is_measured(core, cull):
+    from terrascape.bench.lod_roam import _terrain
+    from terrascape.lod import Roam
+    from terrascape.lod.mesh_checks import frustum_mask, screen_errors
+
+    hm = _terrain(129)
+    setting = lp.settings_for(129)[1]
+    r = lp.fair_compare(core, hm, setting, 90.0, cull=cull)
+    cam = lp.fair_camera(hm, 90.0)
+    # the eye is above the centre, at the stated height over the ground
+    assert cam.position[0] == pytest.approx(hm.extent[0] / 2)
+    assert cam.position[1] == pytest.approx(float(hm.heights[64, 64]) + lp.FAIR_EYE_HEIGHT_M)
+    # rebuild ROAM at the bisected τ and re-measure: everywhere without culling, in view
+    # with it; its count is the whole mesh, or the triangles with a corner in view
+    roam = Roam(hm)
+    roam.update(cam, lp.VIEWPORT, tolerance_px=r["roam_tau"], cull=cull)
+    tris = roam.triangles()
+    mask = frustum_mask(hm, cam) if cull else np.ones(hm.shape, bool)
+    err = screen_errors(hm, tris, cam, lp.VIEWPORT)[mask].max()
+    assert err == pytest.approx(r["roam_error"]) and err <= r["panda_error"]
+    assert r["roam_triangles"] == (lp.in_view_count(tris, mask) if cull else len(tris))
+    assert r["roam_ratio"] == r["roam_triangles"] / r["panda_triangles"]
+    assert r["gm_error"] <= r["panda_error"] and r["panda_error"] > 0
+
+
 def test_bisect_tau_finds_the_largest_tolerance():
     # error(τ) = floor(τ)/2, a monotone step: the largest τ with error ≤ 3 is just below 7
     def mesh_for(tau):
@@ -169,8 +195,14 @@ def test_skip_table_without_panda(monkeypatch):
 
 def test_quick_run_tables(core):
     tables = lp.run(quick=True)
-    assert len(tables) == 2
-    tri, timing = tables
+    assert len(tables) == 3
+    fair, tri, timing = tables
+    fcol = fair.columns.index
+    assert len(fair.rows) == len(lp.SETTINGS) * (1 + len(lp.FAIR_YAWS))
+    for row in fair.rows:
+        assert row[fcol("ROAM px")] <= row[fcol("Panda worst px")]
+        assert row[fcol("geomipmap px")] <= row[fcol("Panda worst px")]
+    assert sorted(t.what.endswith("no culling") for t in fair.targets) == [False, True]
     assert len(tri.rows) == len(lp.SETTINGS) and all(len(r) == len(tri.columns) for r in tri.rows)
     col = tri.columns.index
     for row in tri.rows:

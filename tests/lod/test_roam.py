@@ -66,6 +66,34 @@ def test_tolerance_met_on_every_visible_sample(rng, n):
         assert err_px[vis].max() <= tau * (1 + 1e-9)
 
 
+def _mesh_without_culling(hm, cam, tau):
+    roam = Roam(hm)
+    roam.update(cam, VIEWPORT, tolerance_px=tau, cull=False)
+    return roam.triangles()
+
+
+@pytest.mark.parametrize("n", [33, 65])
+def test_without_culling_the_tolerance_holds_on_every_sample(rng, n):
+    # cull=False is the like-for-like mode against LOD schemes that refine all around the
+    # eye: the bound must hold behind the camera too
+    hm = _terrain(rng, n)
+    roam = Roam(hm)
+    for _ in range(3):
+        cam = _random_camera(rng, hm)
+        tau = float(rng.uniform(0.5, 4.0))
+        stats = roam.update(cam, VIEWPORT, tolerance_px=tau, cull=False)
+        tri = roam.triangles()
+        rep = conformity_report(tri, hm.shape)
+        assert rep.ok, str(rep)
+        assert stats.stopped_by == "tolerance" and stats.max_screen_error <= tau
+        assert screen_errors(hm, tri, cam, VIEWPORT).max() <= tau * (1 + 1e-9)
+        # without a frustum the mesh depends on the eye alone, not on where it looks
+        turned = Camera(position=cam.position, yaw=cam.yaw + 137.0, pitch=-cam.pitch,
+                        fov_y=cam.fov_y, aspect=cam.aspect, near=cam.near, far=cam.far)
+        assert _tri_set(_mesh_without_culling(hm, turned, tau)) == _tri_set(
+            _mesh_without_culling(hm, cam, tau))
+
+
 def test_refinement_follows_the_view(rng):
     hm = _terrain(rng, 65)
     roam = Roam(hm)

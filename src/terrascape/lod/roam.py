@@ -110,7 +110,7 @@ ABSENT, LEAF, SPLIT = 0, 1, 2
 VIEW = np.dtype([
     ("eye", np.float64, 3), ("forward", np.float64, 3), ("planes", np.float64, (6, 4)),
     ("near", np.float64), ("k", np.float64), ("static", np.float64), ("dx", np.float64),
-    ("dz", np.float64), ("theta", np.float64),
+    ("dz", np.float64), ("theta", np.float64), ("omni", np.float64),
 ])  # fmt: skip
 
 # the per-frame split queue holds the leaves with priority >= a fraction of the previous
@@ -168,6 +168,8 @@ def _wedgie_priority(v, e, pts):
     the exact minimum over the six wedgie corners.
     """
     xa, ya, za, x0, y0, z0, x1, y1, z1 = pts
+    if v.omni > 0.0:
+        return e * v.k / _box_distance(v, e, pts)
     cx, cy, cz, rad = _wedgie_sphere(e, pts)
     planes = v.planes
     for k in range(6):
@@ -189,6 +191,20 @@ def _wedgie_priority(v, e, pts):
     if zmin < v.near:
         zmin = v.near
     return e * v.k / zmin
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _box_distance(v, e, pts):
+    """Distance from the eye to the axis-aligned box around the wedgie of thickness ``e``
+    (at least ``near``): the no-culling priority's distance. Nested wedgies have nested
+    boxes, so the priority stays monotonic, and every point of the wedgie is at least this
+    far from the eye."""
+    xa, ya, za, x0, y0, z0, x1, y1, z1 = pts
+    ex, ey, ez = v.eye[0], v.eye[1], v.eye[2]
+    gx = max(min(xa, x0, x1) - ex, 0.0, ex - max(xa, x0, x1))
+    gy = max(min(ya, y0, y1) - e - ey, 0.0, ey - max(ya, y0, y1) - e)
+    gz = max(min(za, z0, z1) - ez, 0.0, ez - max(za, z0, z1))
+    return max(math.sqrt(gx * gx + gy * gy + gz * gz), v.near)
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -660,7 +676,9 @@ def _fill_split(view, recs, split_q):
         if static:
             p = e
         else:
-            if theta > 0.0:
+            # the sphere bound holds for the view-depth priority only (a box can reach
+            # outside the sphere), so without culling every leaf gets its exact priority
+            if theta > 0.0 and v.omni == 0.0:
                 zb = (
                     (np.float64(lfl[i, 4]) - ex) * fx
                     + (np.float64(lfl[i, 5]) - ey) * fy
@@ -916,10 +934,14 @@ def _static_view(spacing) -> np.ndarray:
     return view
 
 
-def camera_params(camera, viewport, spacing) -> np.ndarray:
+def camera_params(camera, viewport, spacing, *, cull: bool = True) -> np.ndarray:
     """Pack a camera for the kernels: a :data:`VIEW` record with eye, forward, frustum
     planes, near, ``K`` (see the module docstring) and spacing. Raises
-    :class:`InvalidParameterError` for NaN cameras."""
+    :class:`InvalidParameterError` for NaN cameras.
+
+    ``cull=False`` packs a view without a frustum: priorities use the distance from the eye
+    to each wedgie's bounding box instead of the view depth, so the mesh meets the tolerance
+    in every direction (``K`` is then ``k_px``: a distance needs no off-axis factor)."""
     camera = _check_camera(camera)
     width, height = _check_viewport(viewport)
     view = np.zeros(1, VIEW)
@@ -933,6 +955,9 @@ def camera_params(camera, viewport, spacing) -> np.ndarray:
     tan_y = math.tan(math.radians(camera.fov_y) / 2.0)
     k_px = max(height / (2.0 * tan_y), width / (2.0 * tan_y * camera.aspect))
     view["k"] = k_px * math.sqrt(1.0 + tan_y * tan_y * (1.0 + camera.aspect**2))
+    if not cull:
+        view["k"] = k_px
+        view["omni"] = 1.0
     view["dx"], view["dz"] = spacing
     return view
 
@@ -1130,6 +1155,7 @@ class Roam:
         tolerance_px: float | None = None,
         max_triangles: int | None = None,
         time_budget_ms: float | None = None,
+        cull: bool = True,
     ) -> RoamStats:
         """Adapt the mesh to a new view, starting from the previous frame's mesh.
 
@@ -1150,6 +1176,10 @@ class Roam:
         time_budget_ms
             Stop splitting/merging after this much wall time (> 0, milliseconds; checked
             every 64 operations). The mesh is always valid when the update returns.
+        cull
+            Leave what is outside the view frustum coarse (default). ``False`` meets the
+            tolerance in every direction, as a mesh built for all views around the eye
+            (the like-for-like comparison with LOD schemes that do not cull).
 
         Returns
         -------
@@ -1164,7 +1194,7 @@ class Roam:
         budget = None
         if time_budget_ms is not None:
             budget = check_positive(time_budget_ms, "time_budget_ms (milliseconds)") / 1000.0
-        cam = camera_params(camera, viewport, self.heightmap.spacing)
+        cam = camera_params(camera, viewport, self.heightmap.spacing, cull=bool(cull))
         self._planes = cam[0]["planes"].copy()
         splits, merges, stop = self._run(cam, tau, nmax, budget, t0)
         self.frame += 1
