@@ -399,10 +399,12 @@ def run(quick: bool = False) -> list[BenchTable]:
     _mesh_rows(grid, rounds, mesh)
     mesh.notes.append("ours: terrain_mesh (also tangents) and its triangle indices; pyvista: "
                       "StructuredGrid → extract_surface → triangulate → compute_normals")
+    from terrascape.bench._render_peer import frame_rate_table
     from terrascape.bench.startup import startup_table
 
     startup = startup_table(5 if quick else 15)
-    return [shadows, tin, noise, hillshade, mesh, startup]
+    frames = frame_rate_table(257 if quick else 1025, 1 if quick else 3)
+    return [shadows, tin, noise, hillshade, mesh, frames, startup]
 
 
 __all__ = ["exact_shadow_at", "insolation_shadow", "paired_ratio", "real_dem", "run"]
