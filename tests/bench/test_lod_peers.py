@@ -133,7 +133,7 @@ def test_like_for_like_comparison_is_measured(core, cull):
     from terrascape.lod.mesh_checks import frustum_mask, screen_errors
 
     hm = _terrain(129)
-    setting = lp.settings_for(129)[1]
+    setting = lp.settings_for_map(hm)[1]
     r = lp.fair_compare(core, hm, setting, 90.0, cull=cull)
     cam = lp.fair_camera(hm, 90.0)
     # the eye is above the centre, at the stated height over the ground

@@ -75,6 +75,22 @@ def settings_for(n: int):
     return tuple(out)
 
 
+def settings_for_map(heightmap):
+    """:data:`SETTINGS` with distances scaled by the map's side over the 1025² fBm map's
+    10,240 m (a real DEM on a 90 m grid gets proportionally longer ones, so GeoMipTerrain
+    still has several levels on it)."""
+    k = max(heightmap.extent) / ((REFERENCE_SIDE - 1) * 10.0)
+    out = []
+    for label, block, near_m, far_m, factor_m in SETTINGS:
+        if factor_m is not None:
+            label = f"block {block}, factor {factor_m * k:.0f} m"
+            out.append((label, block, None, None, factor_m * k))
+        else:
+            label = f"block {block}, near {near_m * k:.0f} m / far {far_m * k:.0f} m"
+            out.append((label, block, near_m * k, far_m * k, None))
+    return tuple(out)
+
+
 TAU_MIN = 1e-9  # px: far below float32 height noise; every method is exact there
 
 
@@ -522,7 +538,7 @@ def _fair_table(core, version, quick: bool) -> BenchTable:
     rows, ratios = [], {}
     for map_label, hm in fair_maps(quick):
         roam = Roam(hm)
-        for setting in settings_for(hm.rows):
+        for setting in settings_for_map(hm):
             for cull, yaws in ((False, FAIR_YAWS[:1]), (True, FAIR_YAWS)):
                 mode = "in view, all culled" if cull else "whole map, no culling"
                 for yaw in yaws:
