@@ -385,10 +385,13 @@ def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0):
 def _sweep_blocks(n_cols: int) -> int:
     """How many blocks of ray lines the sweep splits into.
 
-    A few per thread, so a thread that finishes early takes another; each block carries one
-    extra ray line and a ring buffer of ``_NEAR`` lines, so blocks stay at least 64 lines wide.
+    Several per thread, handed out one at a time (chunk size 1), so a thread that finishes
+    early takes another: for light off the axes the ray lines near the map's corners cross
+    few samples, and equal static shares of blocks left one thread idle. Each block carries
+    one extra ray line and a ring buffer of ``_NEAR`` lines, so blocks stay at least 64
+    lines wide.
     """
-    return max(1, min(4 * numba.get_num_threads(), n_cols // 64))
+    return max(1, min(8 * numba.get_num_threads(), n_cols // 64))
 
 
 def _fast_mask_for_light(hm: Heightmap, light: np.ndarray,
@@ -404,7 +407,9 @@ def _fast_mask_for_light(hm: Heightmap, light: np.ndarray,
     # than reading a column-major view one cache line per sample.
     h = _transposed(hm.heights) if transpose else hm.heights
     out = np.zeros(h.shape, dtype=np.bool_)
-    _line_sweep_kernel(h, da, db, rise, _NEAR, out, _sweep_blocks(h.shape[1]), a_org, b_org)
+    with numba.parallel_chunksize(1):  # blocks differ in work: hand them out one by one
+        _line_sweep_kernel(h, da, db, rise, _NEAR, out, _sweep_blocks(h.shape[1]), a_org,
+                           b_org)
     return _transposed(out) if transpose else out
 
 
