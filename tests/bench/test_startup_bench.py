@@ -45,3 +45,23 @@ def test_a_baseline_tree_gets_its_own_rows(monkeypatch, tmp_path) -> None:
     assert commands["import terrascape (baseline)"][-1] == (
         f"import sys; sys.path.insert(0, {str(tmp_path)!r}); import terrascape")
     assert "terrascape --help (baseline)" in commands
+
+
+def test_first_run_table_compiles_into_an_empty_cache_then_loads_it(tmp_path) -> None:
+    """The compile table's first run writes numba's cache files into its own empty
+    ``NUMBA_CACHE_DIR``; the second run finds them (it adds none)."""
+    from terrascape.bench.startup import FIRST_COMMANDS, compile_table
+
+    (tmp_path / "tiny_kernel.py").write_text(
+        "import numba\n\n@numba.njit(cache=True)\ndef plus_one(x):\n    return x + 1\n\n"
+        "assert plus_one(1) == 2\n")
+    probe = (f"import sys; sys.path.insert(0, {str(tmp_path)!r}); import tiny_kernel; "
+             "open(sys.argv[1] + '/ran', 'w').write('yes')")
+    table = compile_table(1, {"tiny kernel": [sys.executable, "-c", probe, "{dir}"]})
+    [(name, first, cached, compile_s, files, kib)] = table.rows
+    assert name == "tiny kernel" and first > 0 and cached > 0
+    assert compile_s == pytest.approx(first - cached)
+    assert files == 2 and kib > 0  # the kernel's .nbi index and .nbc code
+    assert not list(tmp_path.rglob("*.nbc"))  # nothing went to the module's __pycache__
+    assert [argv[:2] for _, argv in FIRST_COMMANDS] == [
+        ("generate", "fbm"), ("shade", "{dir}/height.npy")]

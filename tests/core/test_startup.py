@@ -50,6 +50,8 @@ def test_help_loads_no_heavy_library_and_no_command_module() -> None:
         "from terrascape.cli import run_app\nrc = run_app(['--help'])\nassert rc == 0, rc",
         "--help")
     assert _heavy(modules) == []
+    # the top-level help is drawn from the command table: typer and rich are not loaded
+    assert sorted(m for m in modules if m.split(".")[0] in ("typer", "rich", "click")) == []
     assert not [m for m in modules if m.startswith("terrascape.cli.cmd_")]
     from terrascape.cli.commands import COMMANDS
 
@@ -136,3 +138,68 @@ def test_a_name_shared_with_its_module_stays_the_function() -> None:
             "from terrascape.generate import hills\nassert hills(9, seed=1).shape == (9, 9)")
     subprocess.run([sys.executable, "-c", code], check=True, timeout=300,
                    env={**os.environ, "PYTHONPATH": SRC})
+
+
+def _typer_help(width: int) -> str:
+    """typer's own top-level help at ``width`` columns (the reference the quick help copies)."""
+    code = "from terrascape.cli.app import run_app\nrun_app(['--help'])"
+    env = {**os.environ, "PYTHONPATH": SRC, "COLUMNS": str(width)}
+    for variable in ("FORCE_COLOR", "NO_COLOR", "TERMINAL_WIDTH", "PY_COLORS"):
+        env.pop(variable, None)
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=120, check=True).stdout
+
+
+@pytest.mark.parametrize("width", [50, 80, 100, 200])
+def test_quick_help_is_typers_help_line_for_line(width: int) -> None:
+    from terrascape.cli.quick_help import top_level_help
+
+    assert top_level_help(width) == _typer_help(width)
+
+
+def test_quick_help_in_colour_is_the_same_text() -> None:
+    import re
+
+    from terrascape.cli.quick_help import top_level_help
+
+    styled = top_level_help(100, styled=True)
+    assert "\x1b[1;36mrender" in styled and "\x1b[2m╭─" in styled
+    assert re.sub("\x1b\\[[0-9;]*m", "", styled) == top_level_help(100)
+
+
+def test_python_m_terrascape_help_loads_only_the_standard_library() -> None:
+    """``python -X importtime -m terrascape --help``: every module it imports, by name."""
+    env = {**os.environ, "PYTHONPATH": SRC, "COLUMNS": "120"}
+    env.pop("FORCE_COLOR", None)
+    result = subprocess.run([sys.executable, "-X", "importtime", "-m", "terrascape", "--help"],
+                            capture_output=True, text=True, env=env, timeout=120, check=True)
+    imported = {line.split("|")[-1].strip() for line in result.stderr.splitlines()
+                if line.startswith("import time:") and "|" in line}
+    assert "terrascape.cli.quick_help" in imported  # the probe sees our own modules
+    top = {name.split(".")[0] for name in imported}
+    assert not top & {"typer", "rich", "click", "numpy", "numba", "scipy", "markdown_it"}
+    from terrascape.cli.commands import COMMANDS
+
+    assert all(f"│ {name} " in result.stdout for name in COMMANDS)
+
+
+def test_no_arguments_prints_the_help_once_and_exits_with_the_usage_code() -> None:
+    env = {**os.environ, "PYTHONPATH": SRC, "COLUMNS": "100"}
+    result = subprocess.run([sys.executable, "-m", "terrascape"], capture_output=True,
+                            text=True, env=env, timeout=120, check=False)
+    assert result.returncode == 2
+    assert result.stdout.count("Usage: terrascape") == 1
+    assert "│ world " in result.stdout
+
+
+def test_narrow_or_forced_colour_terminals_get_typers_help() -> None:
+    from terrascape.cli.quick_help import MIN_WIDTH, print_quick_help
+
+    code = ("import sys\nfrom terrascape.cli import run_app\nrc = run_app(['--help'])\n"
+            "sys.stderr.write('TYPER ' + str('typer' in sys.modules))")
+    for extra in ({"COLUMNS": str(MIN_WIDTH - 1)}, {"COLUMNS": "100", "FORCE_COLOR": "1"}):
+        env = {**os.environ, "PYTHONPATH": SRC, **extra}
+        result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                env=env, timeout=120, check=True)
+        assert "TYPER True" in result.stderr and "Usage:" in result.stdout
+    assert print_quick_help(["info", "--help"]) is None  # a command's help is typer's

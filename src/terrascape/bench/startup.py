@@ -9,6 +9,14 @@ installed (rasterio, pyvista) or not on ``PATH`` (``gdalinfo``) are skipped rows
 reason. The same table is part of ``terrascape bench peers``. With
 ``TERRASCAPE_STARTUP_BASELINE=/path/to/old/src`` the same two commands of another source
 tree are timed in the same rounds (before/after a change).
+
+A second table times a new user's first commands (``generate``, ``shade``) twice each in
+fresh processes: first with an empty numba cache, so every kernel they use compiles, then
+again with the cache those runs wrote. The difference is the one-time compile cost. The
+kernels are declared ``cache=True``: numba writes the machine code to ``__pycache__`` next to
+each module (``.nbi`` index, ``.nbc`` code) and later processes load it instead of compiling.
+``NUMBA_CACHE_DIR=DIR`` moves that cache to ``DIR`` — for an installation whose package
+folder is read-only, or, as here, to start from an empty cache without touching the real one.
 """
 
 from __future__ import annotations
@@ -19,7 +27,9 @@ import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 from terrascape.bench import BenchTable
 
@@ -115,8 +125,72 @@ def startup_table(rounds: int) -> BenchTable:
     return table
 
 
+#: A new user's first commands, run in a work folder (``{dir}``); each compiles the numba
+#: kernels it needs on its very first run.
+FIRST_COMMANDS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("terrascape generate fbm --size 129",
+     ("generate", "fbm", "--size", "129", "-o", "{dir}/height.npy")),
+    ("terrascape shade (daylight) 129²",
+     ("shade", "{dir}/height.npy", "-o", "{dir}/light.png")),
+)
+
+
+def _cache_bytes(folder: Path) -> tuple[int, int]:
+    files = [p for p in folder.rglob("*") if p.suffix in (".nbi", ".nbc")]
+    return len(files), sum(p.stat().st_size for p in files)
+
+
+def _first_command_argv() -> dict[str, list[str]]:
+    cli = "import sys; from terrascape.cli import main; main(sys.argv[1:])"
+    return {name: [sys.executable, "-c", cli, *argv] for name, argv in FIRST_COMMANDS}
+
+
+def compile_table(rounds: int, commands: dict[str, list[str]] | None = None) -> BenchTable:
+    """The first-ever run of ``commands`` (label → argv, ``{dir}`` standing for a fresh work
+    folder; default :data:`FIRST_COMMANDS`) with an empty numba cache against a run with the
+    cache it wrote, ``rounds`` times each in fresh processes."""
+    commands = _first_command_argv() if commands is None else commands
+    table = BenchTable(
+        "First run: numba compiling the kernels (empty cache) vs loading them (cache written)",
+        ["command", "first run s", "cached run s", "compile s", "cache files", "cache KiB"],
+    )
+    cold: dict[str, list[float]] = {name: [] for name in commands}
+    warm: dict[str, list[float]] = {name: [] for name in commands}
+    cache_files = {name: (0, 0) for name in commands}
+    for _ in range(rounds):
+        with tempfile.TemporaryDirectory(prefix="terrascape-numba-") as tmp:
+            cache = Path(tmp) / "numba-cache"
+            env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "COLUMNS": "100"}
+            for times in (cold, warm):  # the same commands again, now with the cache filled
+                work = Path(tempfile.mkdtemp(dir=tmp))
+                for name, argv in commands.items():
+                    args = [a.replace("{dir}", str(work)) for a in argv]
+                    before = _cache_bytes(cache) if cache.exists() else (0, 0)
+                    t0 = time.perf_counter()
+                    subprocess.run(args, check=True, capture_output=True, env=env)
+                    times[name].append(time.perf_counter() - t0)
+                    if times is cold:
+                        after = _cache_bytes(cache)
+                        cache_files[name] = (after[0] - before[0], after[1] - before[1])
+    for name in commands:
+        first = statistics.median(cold[name])
+        cached = statistics.median(warm[name])
+        files, size = cache_files[name]
+        table.rows.append([name, first, cached, first - cached, files, size / 1024])
+    table.notes += [
+        f"medians of {rounds} rounds; each round: the commands with an empty "
+        "NUMBA_CACHE_DIR (everything compiles), then again with the cache they wrote",
+        "compile s = first run − cached run: what a new installation pays once; the cache "
+        "is written to __pycache__ next to each module (or to $NUMBA_CACHE_DIR)",
+        "cache files: .nbi/.nbc files the command added (kernels shared with an earlier "
+        "command are already there)",
+    ]
+    return table
+
+
 def run(quick: bool = False) -> list[BenchTable]:
-    return [startup_table(5 if quick else 15)]
+    return [startup_table(5 if quick else 15), compile_table(1 if quick else 3)]
 
 
-__all__ = ["run", "startup_commands", "startup_table", "time_interleaved"]
+__all__ = ["FIRST_COMMANDS", "compile_table", "run", "startup_commands", "startup_table",
+           "time_interleaved"]

@@ -29,6 +29,7 @@ from typer.core import TyperCommand, TyperGroup, TyperOption
 from terrascape import __version__
 from terrascape._output import LineProgress, make_console
 from terrascape.cli.commands import COMMANDS
+from terrascape.cli.quick_help import DESCRIPTION
 from terrascape.errors import Interrupted, TerrascapeError
 
 if TYPE_CHECKING:
@@ -117,7 +118,7 @@ class LazyCommandGroup(TyperGroup):
 app = typer.Typer(
     cls=LazyCommandGroup,
     name="terrascape",
-    help="Generate, texture, shade and render terrain — with or without a GPU.",
+    help=DESCRIPTION,
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,

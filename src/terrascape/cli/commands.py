@@ -7,20 +7,32 @@ scipy, the registries and their kernels (most of a second) for a screen of text.
 ``tests/core/test_registries.py`` imports every ``cmd_*.py`` module and checks that the
 commands they register are exactly this table, so a command missing here fails a test.
 
-This module imports nothing: the documentation and the tests read it cheaply.
+This module imports nothing (not even ``dataclasses``, which loads ``inspect``: a tenth of
+the top-level help's time): the help, the documentation and the tests read it cheaply.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 
-
-@dataclass(frozen=True)
 class Command:
     """One top-level command: its ``cli`` modules (imported in this order) and its summary."""
 
-    modules: tuple[str, ...]
-    summary: str
+    __slots__ = ("modules", "summary")
+
+    def __init__(self, modules: tuple[str, ...], summary: str) -> None:
+        self.modules = modules
+        self.summary = summary
+
+    def __repr__(self) -> str:
+        return f"Command(modules={self.modules!r}, summary={self.summary!r})"
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Command):
+            return NotImplemented
+        return (self.modules, self.summary) == (other.modules, other.summary)
+
+    def __hash__(self) -> int:
+        return hash((self.modules, self.summary))
 
 
 #: Command name → where it is defined; the order is the order of ``terrascape --help``.

@@ -214,6 +214,43 @@ def _line_offset(a, a_org, b_org, e):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
+def _near_part(h, a, da, db, rise, near, b_first, b_last, hit):
+    """The first ``near`` steps of the rays of samples ``b_first … b_last`` on grid line
+    ``a``, walked exactly as the reference does: ``hit[b]`` = 1 when one of them meets
+    terrain above the ray.
+
+    All samples of one grid line step alike: the k-th crossing of sample b's ray is at
+    ``b + k·db``, the same fraction ``f`` of a sample past ``b + s`` for every b. So the walk
+    runs step by step over the whole line — contiguous loads, no floor per sample, a loop
+    LLVM vectorises — instead of sample by sample; a step that has left the grid (the
+    reference stops there) is skipped for the samples it left.
+    """
+    n0, n1 = h.shape
+    here = h[a]
+    for b in range(b_first, b_last + 1):
+        hit[b] = 0
+    for k in range(1, near + 1):
+        pa = a + k * da
+        if pa < 0 or pa > n0 - 1:
+            break
+        x = k * db
+        s = math.floor(x)
+        f = x - s
+        # samples whose k-th crossing lies on the grid: 0 <= b + x <= n1 - 1
+        lo = max(b_first, math.ceil(-x))
+        hi = min(b_last, math.floor(n1 - 1 - x))
+        above = k * rise
+        there = h[pa]
+        if f == 0.0:
+            for b in range(lo, hi + 1):
+                hit[b] |= float(there[b + s]) > float(here[b]) + above
+        else:
+            for b in range(lo, hi + 1):
+                v0 = float(there[b + s])
+                hit[b] |= v0 + f * (float(there[b + s + 1]) - v0) > float(here[b]) + above
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
 def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, a_org=0, b_org=0):
     """Sweep the ray lines ``lo … hi`` (indices from ``j_lo``) and shade their samples.
 
@@ -240,6 +277,7 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, a_org=0, b_org=0):
     width = hi - lo + 2  # lines lo … hi + 1
     sl = np.full(width, neg_inf, dtype=np.float64)
     ring = np.full((near, width), neg_inf, dtype=np.float64)
+    near_hit = np.zeros(n1, dtype=np.uint8)
     a = n0 - 1 if da > 0 else 0
     for t in range(n0):
         fl, fr = _line_offset(a, a_org, b_org, e)
@@ -250,70 +288,78 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, a_org=0, b_org=0):
         shift = fl + j_lo + (1 if fr != 0.0 else 0)
         b_first = max(0, lo + shift)
         b_last = min(n1 - 1, hi + shift)
-        for b in range(b_first, b_last + 1):
-            hv = float(h[a, b])
-            # The decision is h < max(near part, far part): test the cheap far part first and
-            # stop the near walk at the first occluder.
-            shadowed = False
-            # --- the far part of the ray: interpolate between the two ray lines around it
-            if have_far and 0.0 <= b + near * db <= n1 - 1:
-                if fr == 0.0:
-                    sf = far[b - fl - j_lo - lo]
-                else:
-                    i0 = b - fl - 1 - j_lo - lo
-                    s0 = far[i0]
-                    s1 = far[i0 + 1]
-                    # A ray line that has just entered the map has no occluder yet (-inf);
-                    # use the other one rather than interpolate with infinity.
-                    if s0 == neg_inf:
-                        sf = s1
-                    elif s1 == neg_inf:
-                        sf = s0
-                    else:
-                        sf = s0 + (1.0 - fr) * (s1 - s0)
-                shadowed = hv < sf - near * rise
-            # --- the first `near` steps of this sample's own ray, exactly as the reference
-            if not shadowed:
-                for k in range(1, near + 1):
-                    pa = a + k * da
-                    if pa < 0 or pa > n0 - 1:
-                        break
-                    pb = b + k * db
-                    if pb < 0.0 or pb > n1 - 1:
-                        break
-                    b0 = math.floor(pb)
-                    f = pb - b0
-                    if b0 >= n1 - 1:
-                        tv = float(h[pa, n1 - 1])
-                    else:
-                        v0 = float(h[pa, b0])
-                        tv = v0 + f * (float(h[pa, b0 + 1]) - v0)
-                    if tv > hv + k * rise:
-                        shadowed = True
-                        break
-            out[a, b] = shadowed
+        if b_first <= b_last:
+            _near_part(h, a, da, db, rise, near, b_first, b_last, near_hit)
+        # --- the far part of the rays: between the two ray lines around each, their shadow
+        # heights `near` lines upstream interpolated (samples whose ray is still on the
+        # grid `near` steps on: 0 <= b + near·db <= n1 - 1)
+        x = near * db
+        f_lo = max(b_first, math.ceil(-x)) if have_far else b_last + 1
+        f_hi = min(b_last, math.floor(n1 - 1 - x))
+        drop = near * rise
+        here = h[a]
+        for b in range(b_first, min(f_lo - 1, b_last) + 1):
+            out[a, b] = near_hit[b] != 0
+        if fr == 0.0:
+            for b in range(f_lo, f_hi + 1):
+                far_hit = float(here[b]) < far[b - fl - j_lo - lo] - drop
+                out[a, b] = (near_hit[b] != 0) | far_hit
+        else:
+            for b in range(f_lo, f_hi + 1):
+                i0 = b - fl - 1 - j_lo - lo
+                s0 = far[i0]
+                s1 = far[i0 + 1]
+                # A ray line that has just entered the map has no occluder yet (-inf): use
+                # the other one rather than interpolate with infinity.
+                sf = s0 + (1.0 - fr) * (s1 - s0)
+                sf = s1 if s0 == neg_inf else (s0 if s1 == neg_inf else sf)
+                out[a, b] = (near_hit[b] != 0) | (float(here[b]) < sf - drop)
+        for b in range(max(f_hi + 1, f_lo, b_first), b_last + 1):
+            out[a, b] = near_hit[b] != 0
         # Remember this line's ray-line state for the samples `near` lines downstream.
-        for jj in range(width):
-            far[jj] = sl[jj]
+        far[:] = sl
         # Advance every ray line one step away from the light: take in this grid line's
-        # terrain crossing, then let the ray climb `rise`.
-        for jj in range(width):
-            p0 = jj + lo + j_lo + fl  # left sample of ray line jj on grid line a
-            tv = neg_inf
-            if fr == 0.0:
-                if 0 <= p0 <= n1 - 1:
-                    tv = float(h[a, p0])
-            elif p0 >= 0 and p0 + 1 <= n1 - 1:
-                v0 = float(h[a, p0])
-                tv = v0 + fr * (float(h[a, p0 + 1]) - v0)
-            if tv == neg_inf:
-                sl[jj] = neg_inf  # outside the map: the ray has left it, nothing occludes
-            else:
+        # terrain crossing, then let the ray climb `rise`. Ray line jj's left sample on grid
+        # line a is p0 = jj + base; a line off the grid has left the map: nothing occludes.
+        base = lo + j_lo + fl
+        j_first = max(0, -base)
+        j_last = min(width - 1, n1 - 1 - base - (0 if fr == 0.0 else 1))
+        sl[:max(0, min(j_first, width))] = neg_inf
+        sl[max(0, j_last + 1):] = neg_inf
+        if fr == 0.0:
+            for jj in range(j_first, j_last + 1):
+                tv = float(here[jj + base])
                 cur = sl[jj]
-                if tv > cur:
-                    cur = tv
-                sl[jj] = cur - rise
+                sl[jj] = (tv if tv > cur else cur) - rise
+        else:
+            for jj in range(j_first, j_last + 1):
+                v0 = float(here[jj + base])
+                tv = v0 + fr * (float(here[jj + base + 1]) - v0)
+                cur = sl[jj]
+                sl[jj] = (tv if tv > cur else cur) - rise
         a -= da
+
+
+@njit(cache=CACHE, parallel=True)
+def _transpose_tiles(src, dst):
+    """``dst = src.T`` in 64×64 tiles (both stay in cache), tile rows in parallel."""
+    n0, n1 = src.shape
+    tile = 64
+    for ti in prange((n1 + tile - 1) // tile):
+        j0 = ti * tile
+        j1 = min(n1, j0 + tile)
+        for i0 in range(0, n0, tile):
+            i1 = min(n0, i0 + tile)
+            for j in range(j0, j1):
+                for i in range(i0, i1):
+                    dst[j, i] = src[i, j]
+
+
+def _transposed(a: np.ndarray) -> np.ndarray:
+    """A C-contiguous copy of ``a.T``."""
+    out = np.empty((a.shape[1], a.shape[0]), dtype=a.dtype)
+    _transpose_tiles(a, out)
+    return out
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
@@ -339,10 +385,13 @@ def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0):
 def _sweep_blocks(n_cols: int) -> int:
     """How many blocks of ray lines the sweep splits into.
 
-    A few per thread, so a thread that finishes early takes another; each block carries one
-    extra ray line and a ring buffer of ``_NEAR`` lines, so blocks stay at least 64 lines wide.
+    Several per thread, handed out one at a time (chunk size 1), so a thread that finishes
+    early takes another: for light off the axes the ray lines near the map's corners cross
+    few samples, and equal static shares of blocks left one thread idle. Each block carries
+    one extra ray line and a ring buffer of ``_NEAR`` lines, so blocks stay at least 64
+    lines wide.
     """
-    return max(1, min(4 * numba.get_num_threads(), n_cols // 64))
+    return max(1, min(8 * numba.get_num_threads(), n_cols // 64))
 
 
 def _fast_mask_for_light(hm: Heightmap, light: np.ndarray,
@@ -351,11 +400,17 @@ def _fast_mask_for_light(hm: Heightmap, light: np.ndarray,
     if geo is None:
         return np.zeros(hm.shape, dtype=np.bool_)
     transpose, da, db, rise = geo
-    h, full, out = _oriented(hm, transpose)
     x0, z0 = origin
     a_org, b_org = (x0, z0) if transpose else (z0, x0)
-    _line_sweep_kernel(h, da, db, rise, _NEAR, out, _sweep_blocks(h.shape[1]), a_org, b_org)
-    return full
+    # The sweep reads grid lines as contiguous rows (its near walk is vectorised along
+    # them): for light closer to the x axis it sweeps a transposed copy, which costs less
+    # than reading a column-major view one cache line per sample.
+    h = _transposed(hm.heights) if transpose else hm.heights
+    out = np.zeros(h.shape, dtype=np.bool_)
+    with numba.parallel_chunksize(1):  # blocks differ in work: hand them out one by one
+        _line_sweep_kernel(h, da, db, rise, _NEAR, out, _sweep_blocks(h.shape[1]), a_org,
+                           b_org)
+    return _transposed(out) if transpose else out
 
 
 def shadow_mask(heightmap: Any, sun_azimuth: float, sun_elevation: float, *,

@@ -44,7 +44,7 @@ def _orient(ax, ay, bx, by, cx, cy):
     return (bx - cx) * (ay - cy) - (by - cy) * (ax - cx)
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _in_circle(ax, ay, bx, by, cx, cy, px, py):
     dx = ax - px
     dy = ay - py
@@ -59,7 +59,7 @@ def _in_circle(ax, ay, bx, by, cx, cy, px, py):
 
 
 # --- priority queue of triangles by error (max-heap) ---------------------------------------
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _q_swap(queue, qerr, qidx, i, j):
     ti = queue[i]
     tj = queue[j]
@@ -72,7 +72,7 @@ def _q_swap(queue, qerr, qidx, i, j):
     qerr[j] = e
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _q_up(queue, qerr, qidx, j):
     while j > 0:
         i = (j - 1) >> 1
@@ -82,7 +82,7 @@ def _q_up(queue, qerr, qidx, j):
         j = i
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _q_down(queue, qerr, qidx, i0, n):
     i = i0
     while True:
@@ -100,7 +100,7 @@ def _q_down(queue, qerr, qidx, i0, n):
     return i > i0
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _q_push(queue, qerr, qidx, state, t, error):
     i = state[_Q_LEN]
     qidx[t] = i
@@ -110,7 +110,7 @@ def _q_push(queue, qerr, qidx, state, t, error):
     _q_up(queue, qerr, qidx, i)
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _q_pop_back(queue, qidx, state):
     n = state[_Q_LEN] - 1
     t = queue[n]
@@ -119,7 +119,7 @@ def _q_pop_back(queue, qidx, state):
     return t
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _q_pop(queue, qerr, qidx, state):
     n = state[_Q_LEN] - 1
     _q_swap(queue, qerr, qidx, 0, n)
@@ -127,7 +127,7 @@ def _q_pop(queue, qerr, qidx, state):
     return _q_pop_back(queue, qidx, state)
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _q_remove(queue, qerr, qidx, pending, state, t):
     i = qidx[t]
     if i < 0:
@@ -147,7 +147,7 @@ def _q_remove(queue, qerr, qidx, pending, state, t):
 
 
 # --- the triangulation ---------------------------------------------------------------------
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _add_triangle(tris, half, qidx, pending, state, a, b, c, ab, bc, ca, e):
     """Write triangle (a, b, c) at halfedge slot ``e`` (-1: append) and queue it for
     rasterisation; returns its first halfedge."""
@@ -394,7 +394,7 @@ def _flush(h, tmin, tmax, coords, tris, cand, cerr, queue, qerr, qidx, pending, 
     state[_N_PENDING] = 0
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _add_point(coords, state, x, y):
     i = state[_N_POINTS]
     coords[i, 0] = x
