@@ -49,6 +49,10 @@ IMPOSTOR_MAX_ELEVATION = 40.0  # degrees: seen from higher up, objects stay mesh
 CASCADE_COUNT = 3
 # an object shorter than this many texels of a cascade casts into it as an impostor
 SHADOW_IMPOSTOR_TEXELS = 24.0
+# normal offset (texels, × 1 + 2 sin θ) of terrain receivers when the terrain casts into the
+# cascades too (cascade_terrain): its coarse caster grid lies up to a texel off the drawn
+# surface
+TERRAIN_CASCADE_OFFSET = 0.75
 # Texture units of the objects' own textures (below the terrain's daylight units 10-14 and
 # the spare units from 16; technique samplers count up from 0).
 _ATLAS_COLOR_UNIT = 8
@@ -397,11 +401,12 @@ class ObjectRenderer:
         mesh_prog = load_program(ctx, "objects/mesh", {"DEPTH_ONLY": 1})
         imp_prog = load_program(ctx, "objects/impostor", {"DEPTH_ONLY": 1})
         stats = {"shadow_terrain_triangles": 0, "shadow_object_triangles": 0}
+        terrain_casts = bool(params.get("cascade_terrain"))
         try:
             for k in range(count):
                 ctx.viewport = (k * res, 0, res, res)
                 mat = cascades.matrices[k]
-                if params.get("cascade_terrain"):
+                if terrain_casts:
                     stats["shadow_terrain_triangles"] += self._draw_terrain_caster(
                         mat, float(cascades.texel_size[k]))
                 sets = self._light_sets(mat, float(cascades.texel_size[k]))
@@ -422,7 +427,10 @@ class ObjectRenderer:
         return {"u_cascade_count": count, "u_cascade_matrix": np.ascontiguousarray(
                     mats.transpose(0, 2, 1)).reshape(-1),
                 "u_cascade_far": far, "u_cascade_texel": texel, "u_cascade_bias": bias,
-                "u_cascade_eye": camera.eye, "u_cascade_forward": camera.forward}
+                "u_cascade_eye": camera.eye, "u_cascade_forward": camera.forward,
+                # the terrain casts into the maps only with cascade_terrain: then it needs
+                # the offset against its own texels, otherwise none (common/cascades.glsl)
+                "u_cascade_terrain_offset": TERRAIN_CASCADE_OFFSET if terrain_casts else 0.0}
 
     def _light_sets(self, matrix: np.ndarray, texel: float) -> list:
         """Per mesh, the instances inside a cascade's box (x, y in light clip space; every
@@ -484,9 +492,9 @@ class ObjectRenderer:
             self._shadow[2].use(location=CASCADE_UNIT)
             program["u_cascade_depth"].value = CASCADE_UNIT
 
-    def draw(self, uniforms: Mapping[str, Any]) -> dict[str, int]:
+    def draw(self, uniforms: Mapping[str, Any], *, impostors: bool = True) -> dict[str, int]:
         """After the terrain (depth-tested against it): every visible object, meshes near and
-        impostors far, lit like the terrain."""
+        impostors far (``impostors=False``: the meshes only), lit like the terrain."""
         import moderngl
 
         ctx = self.ctx
@@ -515,8 +523,9 @@ class ObjectRenderer:
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.front_face = "ccw"
         cam = uniforms["u_camera_pos"]
-        drawn = self._draw_sets(self._view_sets, (mesh_prog, imp_prog), "v", uniforms,
-                                (*cam, 1.0))
+        sets = self._view_sets if impostors else [(near, far[:0])
+                                                  for near, far in self._view_sets]
+        drawn = self._draw_sets(sets, (mesh_prog, imp_prog), "v", uniforms, (*cam, 1.0))
         ctx.disable(moderngl.CULL_FACE)
         stats = {"objects_meshes": int(sum(len(a) for a, _ in self._view_sets)),
                  "objects_impostors": int(sum(len(b) for _, b in self._view_sets)),
