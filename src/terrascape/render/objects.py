@@ -51,10 +51,6 @@ IMPOSTOR_CELL = 128
 CASCADE_COUNT = 3
 # an object shorter than this many texels of a cascade casts into it as an impostor
 SHADOW_IMPOSTOR_TEXELS = 24.0
-# normal offset (texels, × 1 + 2 sin θ) of terrain receivers when the terrain casts into the
-# cascades too (cascade_terrain): its coarse caster grid lies up to a texel off the drawn
-# surface
-TERRAIN_CASCADE_OFFSET = 0.75
 # Texture units of the objects' own textures (below the terrain's daylight units 10-14 and
 # the spare units from 16; technique samplers count up from 0).
 _ATLAS_COLOR_UNIT = 8
@@ -428,12 +424,11 @@ class ObjectRenderer:
         mesh_prog = load_program(ctx, "objects/mesh", {"DEPTH_ONLY": 1})
         imp_prog = load_program(ctx, "objects/impostor", {"DEPTH_ONLY": 1})
         stats = {"shadow_terrain_triangles": 0, "shadow_object_triangles": 0}
-        terrain_casts = bool(params.get("cascade_terrain"))
         try:
             for k in range(count):
                 ctx.viewport = (k * res, 0, res, res)
                 mat = cascades.matrices[k]
-                if terrain_casts:
+                if params.get("cascade_terrain"):
                     stats["shadow_terrain_triangles"] += self._draw_terrain_caster(
                         mat, float(cascades.texel_size[k]))
                 sets = self._light_sets(mat, float(cascades.texel_size[k]))
@@ -454,10 +449,7 @@ class ObjectRenderer:
         return {"u_cascade_count": count, "u_cascade_matrix": np.ascontiguousarray(
                     mats.transpose(0, 2, 1)).reshape(-1),
                 "u_cascade_far": far, "u_cascade_texel": texel, "u_cascade_bias": bias,
-                "u_cascade_eye": camera.eye, "u_cascade_forward": camera.forward,
-                # the terrain casts into the maps only with cascade_terrain: then it needs
-                # the offset against its own texels, otherwise none (common/cascades.glsl)
-                "u_cascade_terrain_offset": TERRAIN_CASCADE_OFFSET if terrain_casts else 0.0}
+                "u_cascade_eye": camera.eye, "u_cascade_forward": camera.forward}
 
     def _light_sets(self, matrix: np.ndarray, texel: float) -> list:
         """Per mesh, the instances inside a cascade's box (x, y in light clip space; every
