@@ -51,13 +51,23 @@ void main() {
     float e0 = min(floor(e), u_elevations - 2.0);
     v_rows = vec3(e0, e0 + 1.0, e - e0);
     v_yaw = vec2(c, s);
-    // the quad's frame is the atlas views': x along the horizontal right, up = d × right,
-    // in the plane through the bounding sphere's middle (at 0° the old vertical quad)
+    // the quad's frame is the atlas views': x along the horizontal right, up = d × right.
+    // Seen by the viewer it lies in the plane through the middle of the bounding sphere (from
+    // above, a plane through the foot would sink into the ground around it); seen from the
+    // sun, in the plane through the foot: the shadow it casts is the same (the plane only
+    // moves along the light), but every point of the object's own sunward side then lies
+    // in front of it, not under its own impostor's shadow. At 0° both are the vertical quad
+    // through the object's axis.
     vec3 right = vec3(h.y, 0.0, -h.x);
     vec3 up = cross(d, right);
     float x = in_corner.x * u_radius;
     float u = mix(u_up_range.x, u_up_range.y, in_corner.y);
-    vec3 world = in_place.xyz + scale * (right * x + up * u + d * (u_mid * d.y));
+#ifdef DEPTH_ONLY
+    float along = 0.0;
+#else
+    float along = u_mid * d.y;
+#endif
+    vec3 world = in_place.xyz + scale * (right * x + up * u + d * along);
     v_cell = vec2(in_corner.x * 0.5 + 0.5, in_corner.y);
 #ifndef DEPTH_ONLY
     v_world = world;
