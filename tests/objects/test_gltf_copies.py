@@ -231,3 +231,37 @@ def test_copies_nowhere_on_the_terrain_or_too_many_are_clear_errors(tmp_path, te
         warnings.simplefilter("ignore", OutsideTerrainWarning)
         with pytest.raises(InvalidParameterError, match="places 6 objects"):
             load_objects(str(path), terrain, max_objects=5)
+
+
+def test_damaged_copies_files_give_one_clear_error(tmp_path, terrain):
+    """Bytes of the copies glb changed at random: instances or one TerrascapeError line,
+    never another exception (hypothesis, capped examples)."""
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from terrascape.errors import TerrascapeError
+
+    good = write_copies_glb(tmp_path / "copies.glb").read_bytes()
+
+    @settings(max_examples=120, deadline=None, derandomize=True)
+    @given(edits=st.lists(st.tuples(st.integers(0, len(good) - 1), st.integers(0, 255)),
+                          min_size=1, max_size=6),
+           cut=st.one_of(st.none(), st.integers(0, len(good))))
+    def check(edits, cut):
+        data = bytearray(good)
+        for where, value in edits:
+            data[where] = value
+        if cut is not None:
+            data = data[:cut]
+        bad = tmp_path / "bad.glb"
+        bad.write_bytes(bytes(data))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                inst = load_objects(str(bad), terrain)
+            except TerrascapeError as exc:
+                assert "\n" not in str(exc)
+                return
+        assert len(inst) > 0 and np.isfinite(inst.positions).all()
+
+    check()
