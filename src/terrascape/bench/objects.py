@@ -132,8 +132,8 @@ def terrain_shadow_agreement(quick: bool = False) -> BenchTable:
 
 
 def bird_path(renderer, n: int = 2):
-    """Views from 55° above (the bird's-eye view of a map): objects stay meshes there (the
-    impostor atlas holds side views only)."""
+    """Views from 55° above (the bird's-eye view of a map): far objects are impostors there
+    too (the atlas holds views from the side to straight above)."""
     return [renderer.default_camera(azimuth=200.0 + 90.0 * k, elevation=55.0)
             for k in range(n)]
 

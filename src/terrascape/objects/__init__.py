@@ -1,9 +1,10 @@
 """Objects on the terrain: meshes, their instances, scattering by rules."""
 
-from terrascape.objects.gltf import load_gltf_mesh
+from terrascape.objects.gltf import load_gltf_copies, load_gltf_mesh
 from terrascape.objects.load import load_objects, load_rules
 from terrascape.objects.meshes import BUILTIN_NAMES, builtin_mesh, builtin_meshes
 from terrascape.objects.model import Instances, ObjectMesh
+from terrascape.objects.placement import instances_from_copies
 from terrascape.objects.rules import (
     DEFAULT_MAX_OBJECTS,
     Band,
@@ -27,6 +28,8 @@ __all__ = [
     "builtin_meshes",
     "default_rules",
     "default_tree_rule",
+    "instances_from_copies",
+    "load_gltf_copies",
     "load_gltf_mesh",
     "load_objects",
     "load_rules",

@@ -14,12 +14,18 @@ transpose), or flat normals where a primitive has none, as the glTF specificatio
 viewer must compute. A node whose transform mirrors (negative determinant) has its winding
 reversed, again as the specification says.
 
+:func:`load_gltf_copies` reads a file that places copies instead — nodes sharing a mesh, or
+``EXT_mesh_gpu_instancing`` (per-instance ``TRANSLATION``, ``ROTATION``, ``SCALE``
+accessors) — as each glTF mesh once and every copy's transform.
+
 A file that cannot be read, needs an extension this reader lacks (Draco, meshopt) or holds no
 triangles raises :class:`~terrascape.errors.FileFormatError`.
 
 References
 ----------
 The Khronos Group, "glTF 2.0 Specification", 2021 (§3.7 geometry, §3.9 materials).
+
+The Khronos Group, "EXT_mesh_gpu_instancing", glTF extension registry, 2021.
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ from __future__ import annotations
 import io
 import os
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -34,13 +41,14 @@ import numpy as np
 from terrascape.errors import FileFormatError
 from terrascape.objects.model import ObjectMesh
 
-__all__ = ["load_gltf_mesh"]
+__all__ = ["GltfCopies", "load_gltf_copies", "load_gltf_mesh", "places_copies"]
 
 _COMPONENTS = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16,
                5125: np.uint32, 5126: np.float32}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+INSTANCING = "EXT_mesh_gpu_instancing"
 #: Extensions whose data this reader understands (or may ignore without wrong geometry).
-_READABLE = {"KHR_mesh_quantization", "KHR_materials_unlit", "KHR_texture_transform",
+_READABLE = {INSTANCING, "KHR_mesh_quantization", "KHR_materials_unlit", "KHR_texture_transform",
              "KHR_materials_emissive_strength", "KHR_materials_specular", "KHR_materials_ior"}
 _TRIANGLES, _STRIP, _FAN = 4, 5, 6
 
@@ -226,19 +234,10 @@ def _primitive(reader: _Reader, prim, matrix: np.ndarray):
     return (tri.reshape(-1, 3), np.repeat(fn, 3, axis=0), colour[faces].reshape(-1, 3), flat)
 
 
-def load_gltf_mesh(path: str | os.PathLike, *, name: str | None = None) -> ObjectMesh:
-    """Every triangle of the glTF/glb file ``path`` as one mesh (see the module docstring).
-
-    Parameters
-    ----------
-    path
-        A ``.glb`` or ``.gltf`` file (external buffers and images next to it are read).
-    name
-        The mesh's name; default the file's stem.
-    """
+def _open(p: Path):
+    """``(document, reader)`` of the glTF file ``p``, or one clear error."""
     import pygltflib
 
-    p = Path(path)
     if not p.is_file():
         raise FileFormatError(f"{p}: no such glTF file")
     try:
@@ -264,9 +263,13 @@ def load_gltf_mesh(path: str | os.PathLike, *, name: str | None = None) -> Objec
     if unknown:
         raise FileFormatError(f"{p}: needs the glTF extension {unknown[0]}, which terrascape "
                               "cannot read; export it without compression")
-    reader = _Reader(doc, p)
-    parts = []
+    return doc, _Reader(doc, p)
+
+
+def _mesh_nodes(doc, p: Path) -> list[tuple[object, np.ndarray]]:
+    """``(node, world matrix)`` of every node of the default scene that draws a mesh."""
     nodes = doc.nodes or []
+    out = []
 
     def visit(index: int, parent: np.ndarray, depth: int) -> None:
         if depth > 64 or index >= len(nodes):
@@ -274,10 +277,7 @@ def load_gltf_mesh(path: str | os.PathLike, *, name: str | None = None) -> Objec
         node = nodes[index]
         matrix = parent @ _node_matrix(node)
         if node.mesh is not None and node.mesh < len(doc.meshes or []):
-            for prim in doc.meshes[node.mesh].primitives:
-                part = _primitive(reader, prim, matrix)
-                if part is not None:
-                    parts.append(part)
+            out.append((node, matrix))
         for child in node.children or []:
             visit(child, matrix, depth + 1)
 
@@ -293,9 +293,19 @@ def load_gltf_mesh(path: str | os.PathLike, *, name: str | None = None) -> Objec
     except (IndexError, KeyError, TypeError, ValueError, AttributeError) as exc:
         raise FileFormatError(f"{p}: a broken glTF structure ({type(exc).__name__}: "
                               f"{str(exc)[:120]})") from None
-    if not parts:
-        raise FileFormatError(f"{p}: holds no triangle mesh (only points, lines or nothing); "
-                              "objects need triangles")
+    return out
+
+
+def _primitives(reader: _Reader, mesh, matrix: np.ndarray, p: Path) -> list:
+    try:
+        parts = [_primitive(reader, prim, matrix) for prim in mesh.primitives]
+    except (IndexError, KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise FileFormatError(f"{p}: a broken glTF structure ({type(exc).__name__}: "
+                              f"{str(exc)[:120]})") from None
+    return [part for part in parts if part is not None]
+
+
+def _merge(parts: list, name: str, p: Path) -> ObjectMesh:
     offset = 0
     positions, normals, colours, faces = [], [], [], []
     for pos, nrm, col, fc in parts:
@@ -307,7 +317,146 @@ def load_gltf_mesh(path: str | os.PathLike, *, name: str | None = None) -> Objec
     pos = np.concatenate(positions)
     if not np.isfinite(pos).all():
         raise FileFormatError(f"{p}: vertex positions are not finite")
-    return ObjectMesh(name or p.stem, pos.astype(np.float32),
+    return ObjectMesh(name, pos.astype(np.float32),
                       np.concatenate(normals).astype(np.float32),
                       np.clip(np.concatenate(colours), 0.0, 1.0).astype(np.float32),
                       np.concatenate(faces).astype(np.uint32))
+
+
+def _no_triangles(p: Path) -> FileFormatError:
+    return FileFormatError(f"{p}: holds no triangle mesh (only points, lines or nothing); "
+                           "objects need triangles")
+
+
+def load_gltf_mesh(path: str | os.PathLike, *, name: str | None = None) -> ObjectMesh:
+    """Every triangle of the glTF/glb file ``path`` as one mesh (see the module docstring).
+
+    Parameters
+    ----------
+    path
+        A ``.glb`` or ``.gltf`` file (external buffers and images next to it are read).
+    name
+        The mesh's name; default the file's stem.
+    """
+    p = Path(path)
+    doc, reader = _open(p)
+    parts = []
+    for node, matrix in _mesh_nodes(doc, p):
+        parts += _primitives(reader, doc.meshes[node.mesh], matrix, p)
+    if not parts:
+        raise _no_triangles(p)
+    return _merge(parts, name or p.stem, p)
+
+
+# --- a file that places copies --------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class GltfCopies:
+    """The copies of meshes a glTF file places.
+
+    Attributes
+    ----------
+    meshes
+        One mesh per glTF mesh drawn (its primitives merged, in the mesh's own frame).
+    kind
+        int ``(N,)``: which mesh each copy draws.
+    matrices
+        float64 ``(N, 4, 4)``: each copy's transform into the file's frame (column vectors):
+        the node's transform down the tree, after the copy's own ``EXT_mesh_gpu_instancing``
+        translation × rotation × scale.
+    """
+
+    meshes: tuple[ObjectMesh, ...]
+    kind: np.ndarray
+    matrices: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.kind)
+
+
+def _instance_matrices(reader: _Reader, node, p: Path) -> np.ndarray | None:
+    """``(n, 4, 4)`` TRS matrices of a node's EXT_mesh_gpu_instancing, or None."""
+    ext = (node.extensions or {}).get(INSTANCING)
+    if ext is None:
+        return None
+    attrs = ext.get("attributes") if isinstance(ext, dict) else None
+    if not isinstance(attrs, dict) or not attrs:
+        raise FileFormatError(f"{p}: a node's {INSTANCING} has no attributes")
+    columns = {}
+    for key, width in (("TRANSLATION", 3), ("ROTATION", 4), ("SCALE", 3)):
+        if key in attrs:
+            try:
+                values = reader.accessor(int(attrs[key]))
+            except (IndexError, KeyError, TypeError, ValueError) as exc:
+                raise FileFormatError(f"{p}: the {INSTANCING} accessor {key} is broken "
+                                      f"({type(exc).__name__})") from None
+            if values.shape[1] != width:
+                raise FileFormatError(f"{p}: {INSTANCING} {key} must be VEC{width}")
+            columns[key] = values.astype(np.float64)
+    counts = {len(v) for v in columns.values()}
+    if len(counts) != 1:
+        raise FileFormatError(f"{p}: the {INSTANCING} accessors of a node differ in count "
+                              f"({', '.join(f'{k} {len(v)}' for k, v in columns.items())})")
+    n = counts.pop()
+    m = np.tile(np.eye(4), (n, 1, 1))
+    if "ROTATION" in columns:
+        q = columns["ROTATION"]
+        q = q / np.maximum(np.linalg.norm(q, axis=1, keepdims=True), 1e-300)
+        x, y, z, w = q.T
+        m[:, :3, :3] = np.stack([
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ], axis=1)
+    if "SCALE" in columns:
+        m[:, :3, :3] = m[:, :3, :3] * columns["SCALE"][:, None, :]
+    if "TRANSLATION" in columns:
+        m[:, :3, 3] = columns["TRANSLATION"]
+    return m
+
+
+def places_copies(path: str | os.PathLike) -> bool:
+    """True when the glTF file ``path`` places copies of its meshes — a node with
+    ``EXT_mesh_gpu_instancing``, or one mesh drawn by more than one node — rather than
+    holding one model."""
+    p = Path(path)
+    doc, _ = _open(p)
+    drawn = [node.mesh for node, _ in _mesh_nodes(doc, p)]
+    instanced = any(INSTANCING in (node.extensions or {}) for node, _ in _mesh_nodes(doc, p))
+    return instanced or len(drawn) != len(set(drawn))
+
+
+def load_gltf_copies(path: str | os.PathLike) -> GltfCopies:
+    """Every copy the glTF file ``path`` places: one per node drawing a mesh, or one per
+    instance of a node with ``EXT_mesh_gpu_instancing`` (``TRANSLATION``, ``ROTATION``,
+    ``SCALE``, each optional; the node's own transform applied after the instance's, as
+    the extension specifies)."""
+    p = Path(path)
+    doc, reader = _open(p)
+    meshes: dict[int, ObjectMesh | None] = {}
+    names: set[str] = set()
+    kind, mats = [], []
+    for node, matrix in _mesh_nodes(doc, p):
+        index = node.mesh
+        if index not in meshes:
+            parts = _primitives(reader, doc.meshes[index], np.eye(4), p)
+            base = doc.meshes[index].name or f"{p.stem}_{index}"
+            name, k = base, 2
+            while name in names:
+                name, k = f"{base}_{k}", k + 1
+            names.add(name)
+            meshes[index] = _merge(parts, name, p) if parts else None
+        if meshes[index] is None:
+            continue
+        inst = _instance_matrices(reader, node, p)
+        copies = matrix[None] if inst is None else matrix[None] @ inst
+        mats.append(copies)
+        kind += [index] * len(copies)
+    if not mats:
+        raise _no_triangles(p)
+    order = [i for i in meshes if meshes[i] is not None]
+    remap = {i: k for k, i in enumerate(order)}
+    matrices = np.concatenate(mats)
+    if not np.isfinite(matrices).all():
+        raise FileFormatError(f"{p}: a copy's transform is not finite")
+    return GltfCopies(tuple(meshes[i] for i in order),
+                      np.array([remap[i] for i in kind], np.int64), matrices)

@@ -5,7 +5,10 @@
 * ``default`` — the built-in meshes by the built-in rules
   (:func:`~terrascape.objects.rules.default_rules`);
 * a ``.glb`` / ``.gltf`` file — the user's model, scattered by the default tree rule
-  (:func:`~terrascape.objects.rules.default_tree_rule`);
+  (:func:`~terrascape.objects.rules.default_tree_rule`); or, when the file places copies
+  of its meshes (``EXT_mesh_gpu_instancing``, or one mesh drawn by several nodes), those
+  copies where the file puts them, standing on the terrain
+  (:mod:`terrascape.objects.placement`);
 * a ``.toml`` / ``.json`` rules file (``docs/objects.md``): ``[[rules]]`` tables, optional
   ``sea_level`` and ``max_objects``, and an optional ``[meshes]`` table naming the user's glTF
   files (paths relative to the rules file) that the rules may use beside the built-in meshes.
@@ -113,8 +116,14 @@ def load_objects(
         return scatter(heightmap, None, **kwargs)
     suffix = Path(spec).suffix.lower()
     if suffix in MODEL_SUFFIXES:
-        from terrascape.objects.gltf import load_gltf_mesh
+        from terrascape.objects.gltf import load_gltf_copies, load_gltf_mesh, places_copies
 
+        if places_copies(spec):  # the file says where its objects stand
+            from terrascape.objects.placement import instances_from_copies
+
+            return instances_from_copies(load_gltf_copies(spec), heightmap,
+                                         exaggeration=exaggeration, max_objects=max_objects,
+                                         source=Path(spec).name)
         mesh = load_gltf_mesh(spec)
         rule = default_tree_rule((mesh.name,))
         return scatter(heightmap, RuleSet((rule,), adapt_density=True),

@@ -6,9 +6,10 @@ sun's cascaded shadow maps of objects and terrain together.
   position, scale and yaw (the transform of ``Instances.matrices()``).
 * Every frame the instances are culled against the view frustum on the CPU (bounding
   spheres, vectorised numpy) and split by projected size: an object smaller on screen than
-  ``impostor_pixels`` is drawn as an impostor — a quad turned toward the viewer, textured
-  from an atlas of the mesh rendered once from several directions (Maciel & Shirley 1995),
-  with normals, so it is lit like the mesh.
+  ``impostor_pixels`` is drawn as an impostor — a quad facing the viewer, textured from an
+  atlas of the mesh rendered once from a hemisphere of directions (8 around it at each of
+  4 elevations, 0° to straight above; Maciel & Shirley 1995), with normals, so it is lit
+  like the mesh; the four atlas views around the viewer's direction are blended.
 * ``object_shadows="cascades"``: the sun's cascaded shadow maps
   (:mod:`terrascape.render.cascades`) drawn from the objects (meshes near, sun-facing
   impostors far), looked up by the terrain's and the objects' shading
@@ -43,9 +44,10 @@ from terrascape.render.cascades import fit_cascades
 from terrascape.render.shaders import load_program, set_uniforms
 
 OBJECT_SHADOW_MODES = ("cascades", "volumes", "none")
-IMPOSTOR_VIEWS = 8
+IMPOSTOR_VIEWS = 8  # atlas views around each mesh, at each elevation
+# Elevations (degrees) of the atlas views, evenly spaced from the side to straight above
+IMPOSTOR_ELEVATIONS = (0.0, 30.0, 60.0, 90.0)
 IMPOSTOR_CELL = 128
-IMPOSTOR_MAX_ELEVATION = 40.0  # degrees: seen from higher up, objects stay meshes
 CASCADE_COUNT = 3
 # an object shorter than this many texels of a cascade casts into it as an impostor
 SHADOW_IMPOSTOR_TEXELS = 24.0
@@ -98,29 +100,44 @@ def sphere_in_frustum(planes: np.ndarray, centres: np.ndarray, radii: np.ndarray
 def impostor_mask(camera: Camera, centres: np.ndarray, heights: np.ndarray,
                   viewport_height: int, impostor_pixels: float) -> np.ndarray:
     """bool ``(N,)``: objects drawn as impostors — their height projects to fewer than
-    ``impostor_pixels`` pixels and they are seen from less than
-    :data:`IMPOSTOR_MAX_ELEVATION` degrees above (the atlas holds side views only: from
-    above, a quad turned toward the viewer would show its edge). None when
-    ``impostor_pixels`` is 0."""
+    ``impostor_pixels`` pixels (from any elevation: the atlas holds views from the side to
+    straight above). None when ``impostor_pixels`` is 0."""
     if impostor_pixels <= 0:
         return np.zeros(len(centres), bool)
-    rel = camera.eye - centres
-    dist = np.linalg.norm(rel, axis=1)
-    small = heights * camera.pixels_per_radian(viewport_height) < impostor_pixels * dist
-    return small & (rel[:, 1] < math.sin(math.radians(IMPOSTOR_MAX_ELEVATION)) * dist)
+    dist = np.linalg.norm(camera.eye - centres, axis=1)
+    return heights * camera.pixels_per_radian(viewport_height) < impostor_pixels * dist
 
 
-def _bake_matrix(view: int, views: int, radius: float, y0: float, y1: float) -> np.ndarray:
-    """Orthographic camera of atlas view ``view``: from direction (sin φ, 0, cos φ) in the
-    mesh's frame toward its axis, x across [-radius, radius], y over [y0, y1]."""
+def impostor_up_range(radius: float, y0: float, y1: float) -> tuple[float, float]:
+    """The range of the quad's "up" coordinate that holds the mesh seen from every atlas
+    elevation θ: a cylinder of ``radius`` over y0…y1 spans y0·cos θ − r·sin θ …
+    y1·cos θ + r·sin θ along the up axis of a view from θ."""
+    lo, hi = math.inf, -math.inf
+    for el in IMPOSTOR_ELEVATIONS:
+        c, s = math.cos(math.radians(el)), math.sin(math.radians(el))
+        lo, hi = min(lo, y0 * c - radius * s), max(hi, y1 * c + radius * s)
+    return lo, hi
+
+
+def _bake_matrix(view: int, views: int, elevation: float, radius: float,
+                 up_range: tuple[float, float], mid: float, depth_radius: float) -> np.ndarray:
+    """Orthographic camera of atlas view ``view`` at ``elevation`` degrees: from direction
+    d = (sin φ cos θ, sin θ, cos φ cos θ) in the mesh's frame, x along the horizontal right
+    (cos φ, 0, −sin φ) over [-radius, radius], y along up = d × right over ``up_range``,
+    depth along d within ``depth_radius`` of the point (0, mid, 0). The impostor quad
+    (objects/impostor.glsl) spans the same coordinates."""
     phi = 2.0 * math.pi * view / views
-    d = np.array([math.sin(phi), 0.0, math.cos(phi)])
-    right = np.array([d[2], 0.0, -d[0]])
+    el = math.radians(elevation)
+    d = np.array([math.sin(phi) * math.cos(el), math.sin(el), math.cos(phi) * math.cos(el)])
+    right = np.array([math.cos(phi), 0.0, -math.sin(phi)])
+    up = np.cross(d, right)
+    u0, u1 = up_range
     m = np.zeros((4, 4))
     m[0, :3] = right / radius
-    m[1, 1] = 2.0 / (y1 - y0)
-    m[1, 3] = -(y1 + y0) / (y1 - y0)
-    m[2, :3] = -d / radius  # nearer to the viewer = smaller depth
+    m[1, :3] = up * (2.0 / (u1 - u0))
+    m[1, 3] = -(u1 + u0) / (u1 - u0)
+    m[2, :3] = -d / depth_radius  # nearer to the viewer = smaller depth
+    m[2, 3] = mid * math.sin(el) / depth_radius
     m[3, 3] = 1.0
     return m
 
@@ -142,6 +159,9 @@ class _MeshGPU:
         self.y_range = (y0, y1)
         mid = 0.5 * (y0 + y1)
         radius = float(np.sqrt(p[:, 0] ** 2 + (p[:, 1] - mid) ** 2 + p[:, 2] ** 2).max())
+        self.mid = mid
+        self.sphere_radius = max(radius, 1e-6)
+        self.up_range = impostor_up_range(self.radius_xz, y0, y1)
         sel = inst.of_kind(index)
         scale = inst.scale[sel].astype(np.float64)
         self.count = len(sel)
@@ -197,15 +217,19 @@ class ObjectRenderer:
 
     # --- impostor atlas ---------------------------------------------------------------
     def _bake_atlas(self):
-        """Render every mesh from IMPOSTOR_VIEWS directions into a colour and a normal atlas
-        (one row of cells per mesh), premultiplied by coverage (the background is 0)."""
+        """Render every mesh from IMPOSTOR_VIEWS directions at each of IMPOSTOR_ELEVATIONS
+        into a colour and a normal atlas (per mesh one row of cells per elevation),
+        premultiplied by coverage (the background is 0)."""
         import moderngl
 
         ctx = self.ctx
         views, cell = IMPOSTOR_VIEWS, IMPOSTOR_CELL
-        size = (views * cell, len(self.meshes) * cell)
-        colour = ctx.texture(size, 4, dtype="f4")
-        normal = ctx.texture(size, 4, dtype="f4")
+        rows = len(IMPOSTOR_ELEVATIONS)
+        size = (views * cell, len(self.meshes) * rows * cell)
+        # half floats: 4 elevations × 8 views of 128² per mesh, premultiplied values in
+        # [-1, 1] — 11 bits of mantissa are far below what a 128-texel cell resolves
+        colour = ctx.texture(size, 4, dtype="f2")
+        normal = ctx.texture(size, 4, dtype="f2")
         depth = ctx.depth_renderbuffer(size)
         fbo = ctx.framebuffer(color_attachments=[colour, normal], depth_attachment=depth)
         prog = load_program(ctx, "objects/bake")
@@ -217,10 +241,12 @@ class ObjectRenderer:
             vao = ctx.vertex_array(prog, [(m.vbos[0], "3f", "in_position"),
                                           (m.vbos[1], "3f", "in_normal"),
                                           (m.vbos[2], "3f", "in_color")], m.ibo, 4)
-            for k in range(views):
-                ctx.viewport = (k * cell, m.index * cell, cell, cell)
-                set_uniforms(prog, u_bake=_bake_matrix(k, views, m.radius_xz, *m.y_range))
-                vao.render(moderngl.TRIANGLES)
+            for j, el in enumerate(IMPOSTOR_ELEVATIONS):
+                for k in range(views):
+                    ctx.viewport = (k * cell, (m.index * rows + j) * cell, cell, cell)
+                    set_uniforms(prog, u_bake=_bake_matrix(
+                        k, views, el, m.radius_xz, m.up_range, m.mid, m.sphere_radius))
+                    vao.render(moderngl.TRIANGLES)
             vao.release()
         fbo.release()
         depth.release()
@@ -235,7 +261,7 @@ class ObjectRenderer:
         out = []
         for tex in self._atlas:
             w, h = tex.size
-            out.append(np.frombuffer(tex.read(), np.float32).reshape(h, w, 4).copy())
+            out.append(np.frombuffer(tex.read(), np.float16).reshape(h, w, 4).astype(np.float32))
         return out[0], out[1]
 
     # --- per-frame selection ------------------------------------------------------------
@@ -267,10 +293,11 @@ class ObjectRenderer:
         mesh_prog, imp_prog = programs
         set_uniforms(mesh_prog, **uniforms)
         set_uniforms(imp_prog, **uniforms)
-        cells = (float(IMPOSTOR_VIEWS), float(len(self.meshes)))
+        rows = len(IMPOSTOR_ELEVATIONS)
+        cells = (float(IMPOSTOR_VIEWS), float(len(self.meshes) * rows))
         set_uniforms(imp_prog, u_facing=facing, u_views=float(IMPOSTOR_VIEWS),
-                     u_atlas_cells=cells, u_atlas_color=_ATLAS_COLOR_UNIT,
-                     u_atlas_normal=_ATLAS_NORMAL_UNIT)
+                     u_elevations=float(rows), u_atlas_cells=cells,
+                     u_atlas_color=_ATLAS_COLOR_UNIT, u_atlas_normal=_ATLAS_NORMAL_UNIT)
         self._atlas[0].use(location=_ATLAS_COLOR_UNIT)
         self._atlas[1].use(location=_ATLAS_NORMAL_UNIT)
         drawn = 0
@@ -282,8 +309,8 @@ class ObjectRenderer:
                 drawn += n * m.mesh.triangles
             n = self._upload(m, slot + "i", far)
             if n:
-                set_uniforms(imp_prog, u_radius=m.radius_xz, u_y_range=m.y_range,
-                             u_atlas_row=float(m.index))
+                set_uniforms(imp_prog, u_radius=m.radius_xz, u_up_range=m.up_range,
+                             u_mid=m.mid, u_atlas_row=float(m.index * rows))
                 self._vao(imp_prog, m, slot + "i", True).render(moderngl.TRIANGLE_STRIP,
                                                                   vertices=4, instances=n)
                 drawn += 2 * n
@@ -484,9 +511,9 @@ class ObjectRenderer:
             self._shadow[2].use(location=CASCADE_UNIT)
             program["u_cascade_depth"].value = CASCADE_UNIT
 
-    def draw(self, uniforms: Mapping[str, Any]) -> dict[str, int]:
+    def draw(self, uniforms: Mapping[str, Any], *, impostors: bool = True) -> dict[str, int]:
         """After the terrain (depth-tested against it): every visible object, meshes near and
-        impostors far, lit like the terrain."""
+        impostors far (``impostors=False``: the meshes only), lit like the terrain."""
         import moderngl
 
         ctx = self.ctx
@@ -515,8 +542,9 @@ class ObjectRenderer:
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.front_face = "ccw"
         cam = uniforms["u_camera_pos"]
-        drawn = self._draw_sets(self._view_sets, (mesh_prog, imp_prog), "v", uniforms,
-                                (*cam, 1.0))
+        sets = self._view_sets if impostors else [(near, far[:0])
+                                                  for near, far in self._view_sets]
+        drawn = self._draw_sets(sets, (mesh_prog, imp_prog), "v", uniforms, (*cam, 1.0))
         ctx.disable(moderngl.CULL_FACE)
         stats = {"objects_meshes": int(sum(len(a) for a, _ in self._view_sets)),
                  "objects_impostors": int(sum(len(b) for _, b in self._view_sets)),
@@ -541,11 +569,13 @@ class ObjectRenderer:
 
 __all__ = [
     "CASCADE_COUNT",
+    "IMPOSTOR_ELEVATIONS",
     "OBJECT_SHADOW_MODES",
     "ObjectRenderer",
     "ObjectShadowFallbackWarning",
     "cascade_resolution",
     "impostor_mask",
+    "impostor_up_range",
     "resolve_object_shadows",
     "sphere_in_frustum",
 ]

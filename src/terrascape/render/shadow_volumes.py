@@ -199,7 +199,10 @@ def shade_shadow_volumes(renderer, fbo, camera, uniforms: Mapping[str, Any], *, 
         ctx.depth_func = "<="
         if objects is not None:
             with stencil_test(nonzero=True):
-                objects.draw(dark)
+                # not the impostors: a quad through the middle of its object lies inside
+                # the object's own volume, and would be drawn all in shadow; they keep their
+                # baked normals' shading and the terrain's shadow
+                objects.draw(dark, impostors=False)
             if deferred:
                 with stencil_replace(0):
                     fbo.color_mask = (False, False, False, False)

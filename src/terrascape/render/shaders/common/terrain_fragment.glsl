@@ -88,7 +88,7 @@ vec3 view_dir() {
 vec2 sun_sky_visibility() {
     vec2 vis = texture(u_sun_sky, grid_texcoord(vec2(textureSize(u_sun_sky, 0)))).rg;
     if (u_cascade_count > 0) {
-        vis.x = min(vis.x, cascade_sun_visibility(v_world, normalize(v_normal)));
+        vis.x = min(vis.x, cascade_sun_visibility(v_world, normalize(v_normal), 0.0));
     }
     return vis;
 }

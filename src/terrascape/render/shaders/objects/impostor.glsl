@@ -1,9 +1,11 @@
-// Far objects as impostors (terrascape.render.objects): a quad standing on the object's foot
-// and turned about +Y toward the viewer, textured from an atlas of the mesh rendered from
-// several directions around it once at start (albedo + coverage, and normals in the mesh's
-// frame), premultiplied by coverage. The two atlas views nearest to the viewer's direction are cross-faded, and the
-// normals lit like the mesh, so the switch from mesh to impostor keeps its colour.
-// DEPTH_ONLY: the shadow-map pass, the quad turned toward the sun (u_facing.w = 0).
+// Far objects as impostors (terrascape.render.objects): a quad through the middle of the
+// object facing the viewer, textured from an atlas of the mesh rendered once from a
+// hemisphere of directions — u_views around it at each of u_elevations elevations from the
+// side (0°) to straight above (90°) — (albedo + coverage, and normals in the mesh's frame),
+// premultiplied by coverage. The four atlas views around the viewer's direction (two
+// around, two in elevation) are blended, and the normals lit like the mesh, so the switch
+// from mesh to impostor keeps its colour, seen from the side or from above.
+// DEPTH_ONLY: the shadow-map pass, the quad facing the sun (u_facing.w = 0).
 #if defined VERTEX_SHADER
 in vec2 in_corner;  // x in [-1, 1] across, y in [0, 1] up
 in vec4 in_place;   // xyz foot, w scale
@@ -11,10 +13,13 @@ in float in_yaw;
 uniform mat4 u_view_proj;
 uniform vec4 u_facing;      // (point, 1): face that point; (direction, 0): face along it
 uniform float u_radius;     // the mesh's largest distance from its vertical axis
-uniform vec2 u_y_range;     // the mesh's lowest and highest y
-uniform float u_views;      // atlas views per mesh (columns)
+uniform vec2 u_up_range;    // the quad's extent along its up axis (mesh units)
+uniform float u_mid;        // height of the middle of the mesh's bounding sphere
+uniform float u_views;      // atlas views per elevation (columns)
+uniform float u_elevations; // atlas elevations per mesh (rows), 0° … 90°
 out vec2 v_cell;            // position inside the atlas cell, [0, 1]²
 flat out vec3 v_views;      // first view, second view, weight of the second
+flat out vec3 v_rows;       // lower elevation row, upper row, weight of the upper
 flat out vec2 v_yaw;        // (cos, sin) of the instance's yaw
 #ifndef DEPTH_ONLY
 out vec3 v_world;
@@ -22,21 +27,47 @@ flat out vec3 v_foot_r;     // foot x, z and the instance's radius
 #endif
 
 void main() {
-    vec3 toward = u_facing.xyz - in_place.xyz * u_facing.w;
-    vec2 h = toward.xz;
+    float scale = in_place.w;
+    vec3 centre = in_place.xyz + vec3(0.0, u_mid * scale, 0.0);
+    vec3 toward = u_facing.xyz - centre * u_facing.w;
+    vec3 d = dot(toward, toward) > 1e-12 ? normalize(toward) : vec3(0.0, 1.0, 0.0);
+    // seen from below the horizon: the side view (the atlas holds the upper hemisphere)
+    if (d.y < 0.0) {
+        d = vec3(d.x, 0.0, d.z);
+        d = dot(d, d) > 1e-12 ? normalize(d) : vec3(0.0, 0.0, 1.0);
+    }
+    vec2 h = d.xz;
+    // straight above: any horizontal frame will do, the views differ by a turn only
     h = dot(h, h) > 1e-12 ? normalize(h) : vec2(0.0, 1.0);
     float c = cos(in_yaw);
     float s = sin(in_yaw);
-    // the viewing direction in the mesh's frame, and its angle around the mesh
+    // the viewing direction in the mesh's frame: its angle around the mesh ...
     vec2 local = vec2(c * h.x - s * h.y, s * h.x + c * h.y);
     float f = mod(atan(local.x, local.y) / 6.28318531 * u_views + u_views, u_views);
     float k0 = floor(f);
     v_views = vec3(k0, mod(k0 + 1.0, u_views), f - k0);
+    // ... and its elevation, between two rows of views
+    float e = clamp(asin(clamp(d.y, 0.0, 1.0)) / 1.57079633, 0.0, 1.0) * (u_elevations - 1.0);
+    float e0 = min(floor(e), u_elevations - 2.0);
+    v_rows = vec3(e0, e0 + 1.0, e - e0);
     v_yaw = vec2(c, s);
+    // the quad's frame is the atlas views': x along the horizontal right, up = d × right.
+    // Seen by the viewer it lies in the plane through the middle of the bounding sphere (from
+    // above, a plane through the foot would sink into the ground around it); seen from the
+    // sun, in the plane through the foot: the shadow it casts is the same (the plane only
+    // moves along the light), but every point of the object's own sunward side then lies
+    // in front of it, not under its own impostor's shadow. At 0° both are the vertical quad
+    // through the object's axis.
     vec3 right = vec3(h.y, 0.0, -h.x);
-    float scale = in_place.w;
-    vec3 world = in_place.xyz + right * (in_corner.x * u_radius * scale)
-               + vec3(0.0, mix(u_y_range.x, u_y_range.y, in_corner.y) * scale, 0.0);
+    vec3 up = cross(d, right);
+    float x = in_corner.x * u_radius;
+    float u = mix(u_up_range.x, u_up_range.y, in_corner.y);
+#ifdef DEPTH_ONLY
+    float along = 0.0;
+#else
+    float along = u_mid * d.y;
+#endif
+    vec3 world = in_place.xyz + scale * (right * x + up * u + d * along);
     v_cell = vec2(in_corner.x * 0.5 + 0.5, in_corner.y);
 #ifndef DEPTH_ONLY
     v_world = world;
@@ -47,21 +78,29 @@ void main() {
 #elif defined FRAGMENT_SHADER
 uniform sampler2D u_atlas_color;   // linear albedo × coverage, alpha = coverage
 uniform sampler2D u_atlas_normal;  // normal in the mesh's frame × coverage, w = coverage
-uniform float u_atlas_row;         // this mesh's row of cells
-uniform vec2 u_atlas_cells;        // (views, meshes)
+uniform float u_atlas_row;         // this mesh's first row of cells (elevation 0°)
+uniform vec2 u_atlas_cells;        // (views, meshes × elevations)
 in vec2 v_cell;
 flat in vec3 v_views;
+flat in vec3 v_rows;
 flat in vec2 v_yaw;
 
-vec2 atlas_uv(float view) {
-    return (vec2(view, u_atlas_row) + clamp(v_cell, 0.002, 0.998)) / u_atlas_cells;
+vec2 atlas_uv(float view, float row) {
+    return (vec2(view, u_atlas_row + row) + clamp(v_cell, 0.002, 0.998)) / u_atlas_cells;
+}
+
+// The atlas blended over the four views around the viewing direction.
+vec4 atlas(sampler2D tex) {
+    vec4 lower = mix(texture(tex, atlas_uv(v_views.x, v_rows.x)),
+                     texture(tex, atlas_uv(v_views.y, v_rows.x)), v_views.z);
+    vec4 upper = mix(texture(tex, atlas_uv(v_views.x, v_rows.y)),
+                     texture(tex, atlas_uv(v_views.y, v_rows.y)), v_views.z);
+    return mix(lower, upper, v_rows.z);
 }
 
 #ifdef DEPTH_ONLY
 void main() {
-    float a = mix(texture(u_atlas_color, atlas_uv(v_views.x)).a,
-                  texture(u_atlas_color, atlas_uv(v_views.y)).a, v_views.z);
-    if (a < 0.5) {
+    if (atlas(u_atlas_color).a < 0.5) {
         discard;
     }
 }
@@ -72,17 +111,14 @@ flat in vec3 v_foot_r;
 out vec4 f_color;
 
 void main() {
-    vec4 a = texture(u_atlas_color, atlas_uv(v_views.x));
-    vec4 b = texture(u_atlas_color, atlas_uv(v_views.y));
-    vec4 albedo = mix(a, b, v_views.z);
+    vec4 albedo = atlas(u_atlas_color);
     if (albedo.a < 0.5) {
         discard;
     }
     // premultiplied: dividing by the coverage gives the mean over the covered texels; the
     // mean normal is left unnormalised — the diffuse and sky terms are linear in N, so a
     // texel covering two faces is lit as their mean, not brighter
-    vec4 nb = mix(texture(u_atlas_normal, atlas_uv(v_views.x)),
-                  texture(u_atlas_normal, atlas_uv(v_views.y)), v_views.z);
+    vec4 nb = atlas(u_atlas_normal);
     vec3 n = nb.xyz / nb.w;
     float c = v_yaw.x;
     float s = v_yaw.y;

@@ -62,7 +62,8 @@ vec2 foot_sun_sky(vec2 foot) {
 // shadow is looked up; foot: the object's foot (x, z).
 vec4 shade_object(vec3 color, vec3 N, vec3 p, vec3 q, vec2 foot) {
     vec2 vis = foot_sun_sky(foot);
-    float sun = min(cascade_sun_visibility(q, N), terrain_sun_visibility(q));
+    float sun = min(cascade_sun_visibility(q, N, CASCADE_OBJECT_OFFSET),
+                    terrain_sun_visibility(q));
     vec3 V = normalize(u_camera_pos - p);
     if (u_lighting == 3) {
         vec3 radiance = daylight_radiance(color, N, sun, vis.y);
