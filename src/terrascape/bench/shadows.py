@@ -136,7 +136,9 @@ def _frame_and_agreement(frames: _Frames, hm, inst, camera, quick: bool) -> list
     volumes.keep_count = False
     depth = frames.target.read_depth()
     t0 = time.perf_counter()
-    ref = shadow_reference(camera, depth, SUN, instances=inst, heightmap=hm)
+    # the depth of the last frame (volumes: drawn with an infinite far plane)
+    ref = shadow_reference(frames.terrain.last_camera, depth, SUN, instances=inst,
+                           heightmap=hm)
     ref_s = time.perf_counter() - t0
 
     w, h = frames.size
