@@ -301,3 +301,28 @@ def test_looking_away_culls_every_volume(gl_ctx):
         assert not r.last_shadow_count().any()
     finally:
         r.release()
+
+
+@pytest.mark.parametrize("lighting", ["none", "vertex", "lightmap", "daylight"])
+@pytest.mark.parametrize("technique", ["plain", "material", "bump", "relief"])
+def test_volumes_darken_every_lighting_mode(scene, technique, lighting):
+    """Forward (plain), deferred (material), bump-mapped and relief terrain: the ground in
+    an object's shadow is darker under every lighting model, and nothing else changes."""
+    from terrascape.objects.shadow_reference import surface_points
+
+    r, _, _, cam = scene
+    params = {"sun": SUN, "fog_density": 0.0, "lighting": lighting}
+    lit = r.render(cam, technique, {**params, "object_shadows": "none"}).astype(float)
+    shaded = r.render(cam, technique, {**params, "object_shadows": "volumes"}).astype(float)
+    assert r.terrain.last_technique == technique
+    count = r.last_shadow_count()
+    pts = surface_points(cam, r.last_depth())
+    ground = np.isfinite(pts).all(axis=-1) & (np.abs(np.nan_to_num(pts[..., 1])) < 0.05)
+    ground &= ~boundary_band(ground, 1)  # not the boxes' faces just above the ground
+    edge = boundary_band(count > 0, 1)
+    core = (count > 0) & ~edge & ground
+    out = (count == 0) & ~edge & ground
+    assert core.sum() > 500 and out.sum() > 5000
+    luma_lit, luma = lit[..., :3].mean(axis=-1), shaded[..., :3].mean(axis=-1)
+    assert np.all(luma[core] < 0.8 * luma_lit[core])
+    np.testing.assert_array_equal(shaded[out], lit[out])

@@ -52,8 +52,9 @@ from terrascape.render.stencil import (
 # The mode "volumes" falls back to when the target has no stencil buffer (or no PyOpenGL).
 FALLBACK_MODE = "cascades"
 # Uniform values that switch the sun's light off in every lighting model of the shaders
-# (daylight: the sun's irradiance; Phong: its diffuse and specular terms).
-SUN_OFF = {"u_sun_irradiance": (0.0, 0.0, 0.0), "u_kd": 0.0, "u_ks": 0.0}
+# (daylight: the sun's irradiance; Phong: its diffuse and specular terms; the lightmap and
+# unlit modes: u_sun_blocked, common/lighting.glsl).
+SUN_OFF = {"u_sun_irradiance": (0.0, 0.0, 0.0), "u_kd": 0.0, "u_ks": 0.0, "u_sun_blocked": 1}
 # Polygon offset (depth units) that pushes the volumes' near caps behind the sunlit faces
 # they lie on (see terrascape.render.stencil.zfail_counting).
 VOLUME_DEPTH_OFFSET = 2.0

@@ -471,6 +471,9 @@ class TerrainRenderer:
             "u_fog_density": fog,
             "u_fog_color": fog_color,
             "u_tile_size": tile,
+            # the shadow-volume pass sets it to 1 (terrascape.render.shadow_volumes.SUN_OFF)
+            "u_sun_blocked": 0,
+            "u_lightmap_ambient": float(params.get("lightmap_ambient", 0.2)),
         }
         skip = {
             "sun",
