@@ -167,3 +167,27 @@ def test_casters_in_view_keep_what_can_shadow_the_view():
     c, r = bounding_spheres(inst)
     assert np.allclose(c[:, [0, 2]], np.asarray(pos, float)[:, [0, 2]])
     assert r[4] == pytest.approx(10.0 * r[0])
+
+
+def test_bounded_volume_is_closed_outward_and_ends_at_the_floor():
+    from terrascape.objects.silhouette import bounded_volume
+
+    light = (0.3, 0.8, 0.5)
+    m = np.eye(4)
+    m[1, 3] = 2.0  # the box floats from y = 2 to 3
+    vol = bounded_volume(mesh_volume(box(), m[None], light), light, floor=-1.0)
+    assert vol.shape == (2 * 6 + 2 * 6, 3, 4) and np.all(vol[..., 3] == 1.0)
+    assert vol[..., 1].min() == pytest.approx(-1.0)
+    edges = _closed_counts(vol)
+    assert all(n == 1 for n in edges.values())
+    assert all(edges.get((b, a)) == 1 for a, b in edges)
+    # outward: the signed volume (divergence theorem) is positive, and it is the prism
+    # the sun sweeps: the box's silhouette area × the vertical drop, for a directional sun
+    p = vol[..., :3].astype(np.float64)
+    signed = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0
+    assert signed > 0
+    # the sun's sweep of the unit box down to y = −1 (a drop of 3 to 4): the box plus the
+    # prism below its lit faces' projection — bounded below by box + footprint·3
+    assert signed > 1.0 + 3.0
+    with pytest.raises(InvalidParameterError, match="above the horizon"):
+        bounded_volume(vol, (0.0, -1.0, 0.0), 0.0)

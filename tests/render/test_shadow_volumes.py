@@ -326,3 +326,25 @@ def test_volumes_darken_every_lighting_mode(scene, technique, lighting):
     luma_lit, luma = lit[..., :3].mean(axis=-1), shaded[..., :3].mean(axis=-1)
     assert np.all(luma[core] < 0.8 * luma_lit[core])
     np.testing.assert_array_equal(shaded[out], lit[out])
+
+
+@pytest.mark.parametrize("technique", ["plain", "material"])
+def test_volumes_cut_at_the_lowest_surface_count_the_same(scene, technique):
+    from terrascape.render.shadow_volumes import ShadowVolumes
+
+    r, _, boxes, cam = scene
+    volumes = ShadowVolumes.of(r.terrain)
+    params = {"object_shadows": "volumes", "sun": SUN}
+    r.render(cam, technique, params)
+    infinite = r.last_shadow_count().copy()
+    volumes.reach = "floor"
+    try:
+        r.render(cam, technique, params)
+        assert r.terrain.last_stats["shadow_volume_triangles"] > 0
+        cut = r.last_shadow_count()
+    finally:
+        volumes.reach = "infinite"
+    assert (infinite > 0).sum() > 300
+    assert ((cut > 0) == (infinite > 0)).mean() >= 0.9995
+    ref = shadow_reference(cam, r.last_depth(), SUN, instances=boxes)
+    assert agreement(cut > 0, ref.object_shadow, ref.surface) >= 0.995

@@ -356,6 +356,66 @@ def casters_in_view(instances: Instances, planes: np.ndarray, light, floor: floa
     return ~outside.any(axis=1)
 
 
+def bounded_volume(triangles: np.ndarray, light, floor: float) -> np.ndarray:
+    """The volume triangles of :func:`mesh_volume` for a sun (directional light) cut off at
+    height ``floor``: the silhouette is extruded down to the plane ``y = floor`` instead of
+    to infinity, and the near caps, projected onto that plane and reversed, close it there.
+
+    Below the lowest drawn surface a volume contains nothing visible, so the count is the
+    same on every pixel; what changes is the fill: each volume covers the screen only down
+    to the ground instead of to the vanishing point of the sun's direction, and no vertex is
+    at infinity. (The same closed-volume argument as Everitt & Kilgard's §3; Lengyel 2002
+    bounds volumes by the light's range the same way.)
+
+    Parameters
+    ----------
+    triangles
+        float32 ``(M, 3, 4)`` from :func:`mesh_volume` / :func:`shadow_volume` for the
+        directional ``light``: near caps (three w = 1 corners) and sides ``(q, p, −L∞)``.
+    light
+        The direction toward the sun they were built for (above the horizon).
+    floor
+        Height of the cut, below every surface that can be shadowed.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 ``(M', 3, 4)``, every w = 1: near caps, far caps, two triangles per side.
+    """
+    tri = np.asarray(triangles, dtype=np.float32)
+    if tri.ndim != 3 or tri.shape[1:] != (3, 4):
+        raise InvalidParameterError(f"volume triangles must be (M, 3, 4), got {tri.shape}")
+    lt = _light4(light)
+    if lt[3] != 0.0 or lt[1] <= 0.0:
+        raise InvalidParameterError(
+            f"bounded volumes need a sun above the horizon (a direction with y > 0), got "
+            f"{light!r}")
+    d = lt[:3]
+    floor = float(floor)
+
+    def down(v):  # (K, 4) corners slid along −d onto the plane y = floor
+        t = np.maximum(v[:, 1].astype(np.float64) - floor, 0.0) / d[1]
+        out = np.empty_like(v)
+        out[:, :3] = v[:, :3] - (t[:, None] * d).astype(np.float32)
+        out[:, 1] = np.where(v[:, 1] > floor, np.float32(floor), v[:, 1])
+        out[:, 3] = 1.0
+        return out
+
+    side = tri[:, 2, 3] == 0.0
+    caps, sides = tri[~side], tri[side]
+    n_cap, n_side = len(caps), len(sides)
+    out = np.empty((2 * n_cap + 2 * n_side, 3, 4), np.float32)
+    out[:n_cap] = caps
+    far = down(caps.reshape(-1, 4)).reshape(-1, 3, 4)
+    out[n_cap:2 * n_cap] = far[:, ::-1]
+    q, p = sides[:, 0], sides[:, 1]
+    p2, q2 = down(p), down(q)
+    k = 2 * n_cap
+    out[k:k + n_side] = np.stack([q, p, p2], axis=1)
+    out[k + n_side:] = np.stack([q, p2, q2], axis=1)
+    return out
+
+
 def shadow_volume(instances: Instances, light, keep: np.ndarray | None = None) -> np.ndarray:
     """Shadow volume triangles of every instance (or of those ``keep`` marks, a bool
     ``(N,)`` mask such as :func:`casters_in_view`): float32 ``(M, 3, 4)`` homogeneous world
@@ -380,6 +440,7 @@ def shadow_volume(instances: Instances, light, keep: np.ndarray | None = None) -
 __all__ = [
     "MeshEdges",
     "OpenMeshWarning",
+    "bounded_volume",
     "bounding_spheres",
     "casters_in_view",
     "mesh_edges",

@@ -37,7 +37,7 @@ import numpy as np
 
 from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.objects.model import Instances
-from terrascape.objects.silhouette import casters_in_view, shadow_volume
+from terrascape.objects.silhouette import bounded_volume, casters_in_view, shadow_volume
 from terrascape.render.objects import OBJECT_SHADOW_MODES, ObjectShadowFallbackWarning
 from terrascape.render.shaders import load_program, set_uniforms
 from terrascape.render.stencil import (
@@ -55,6 +55,9 @@ FALLBACK_MODE = "cascades"
 # (daylight: the sun's irradiance; Phong: its diffuse and specular terms; the lightmap and
 # unlit modes: u_sun_blocked, common/lighting.glsl).
 SUN_OFF = {"u_sun_irradiance": (0.0, 0.0, 0.0), "u_kd": 0.0, "u_ks": 0.0, "u_sun_blocked": 1}
+# How far the silhouettes are extruded (ShadowVolumes.reach).
+VOLUME_REACH = ("floor", "infinite")
+DEFAULT_REACH = "infinite"
 # Polygon offset (depth units) that pushes the volumes' near caps behind the sunlit faces
 # they lie on (see terrascape.render.stencil.zfail_counting).
 VOLUME_DEPTH_OFFSET = 2.0
@@ -105,6 +108,11 @@ class ShadowVolumes:
         # cull: build volumes only for casters whose shadow can reach the view
         # (silhouette.casters_in_view); off for comparisons
         self.cull = True
+        # reach: "floor" extrudes the silhouettes down to just below the lowest drawn
+        # surface (silhouette.bounded_volume: the same count, far less fill), "infinite"
+        # to points at infinity (Everitt & Kilgard's volumes, drawn with the infinite far
+        # plane)
+        self.reach = DEFAULT_REACH
 
     @classmethod
     def of(cls, renderer) -> ShadowVolumes:
@@ -137,21 +145,24 @@ class ShadowVolumes:
         return self._count
 
     def set_casters(self, casters: Instances | None, sun_dir,
-                    keep: np.ndarray | None = None) -> int:
+                    keep: np.ndarray | None = None, floor: float | None = None) -> int:
         """Volumes of ``casters`` (those ``keep`` marks: :func:`casters_in_view`) for the sun
-        toward ``sun_dir``, rebuilt only when any of them changed; returns the number of
-        volume triangles."""
+        toward ``sun_dir``, extruded to infinity or, with ``floor``, down to that height
+        (:func:`bounded_volume`); rebuilt only when any of these changed. Returns the number
+        of volume triangles."""
         import time
 
         d = tuple(float(v) for v in np.asarray(sun_dir, np.float64).reshape(3))
         kept = None if keep is None else np.asarray(keep, bool).tobytes()
-        key = (casters, 0 if casters is None else len(casters), d, kept)
+        key = (casters, 0 if casters is None else len(casters), d, kept, floor)
         if key == self._key:
             return self._count
         self.build_seconds = 0.0
         t0 = time.perf_counter()
         tri = (np.zeros((0, 3, 4), np.float32) if casters is None or not len(casters)
                else shadow_volume(casters, d, keep))
+        if floor is not None and len(tri):
+            tri = bounded_volume(tri, d, floor)
         self.build_seconds = time.perf_counter() - t0
         return self.set_triangles(tri, key)
 
@@ -203,7 +214,13 @@ def shade_shadow_volumes(renderer, fbo, camera, uniforms: Mapping[str, Any], *, 
                 if volumes.cull else np.ones(len(casters), bool))
     else:
         casters, keep = None, np.zeros(0, bool)
-    n = volumes.set_casters(casters, sun, keep if casters is not None else None)
+    floor = renderer.lowest_surface_height()
+    if volumes.reach not in VOLUME_REACH:
+        raise InvalidParameterError(
+            f"volume reach must be one of {', '.join(VOLUME_REACH)}, got {volumes.reach!r}")
+    # the cut lies a little below the lowest surface, never on a drawn one
+    cut = floor - 0.01 * max(renderer.mesh.extent) if volumes.reach == "floor" else None
+    n = volumes.set_casters(casters, sun, keep if casters is not None else None, cut)
     volumes.count(fbo, uniforms["u_view_proj"])
     volumes.last_count = read_stencil(fbo) if volumes.keep_count else None
     stats = {"shadow_volume_triangles": n, "shadow_volume_casters": int(keep.sum()),
