@@ -125,6 +125,16 @@ def as_texture_data(value: Any, *, name: str = "texture") -> TextureData:
                        bool(tex.nearest), levels, bool(tex.mip_blend))
 
 
+def _texture_spec(tex: TextureData) -> tuple | None:
+    """What a texture made by :func:`upload_texture` must share with ``tex`` to take its
+    pixels in place (size, channels, type, filtering); None when it cannot (3-D, arrays,
+    explicit mip chains, nearest filtering)."""
+    if tex.kind != "2d" or tex.levels or tex.nearest:
+        return None
+    return (tex.data.shape, tex.data.dtype.str, bool(tex.repeat), bool(tex.mipmaps),
+            bool(tex.mip_blend))
+
+
 def upload_texture(ctx, tex: TextureData, *, name: str = "texture", limits: dict | None = None):
     """Create a moderngl texture from validated :class:`TextureData` (checked against the
     context's size limits)."""
@@ -267,6 +277,7 @@ class TerrainRenderer:
         self.world = heightmap if self.exaggeration == 1.0 else heightmap.scaled(
             self.exaggeration)
         self._env: dict[str, tuple[Any, Any]] = {}  # daylight textures: name -> (tex, key)
+        self._env_spec: dict[str, tuple | None] = {}  # their _texture_spec
         # Sun/sky visibility as an 8-bit texture (llvmpipe filters unorm8 on its fast path);
         # False uploads float32 (the exact values, for comparisons: bench terrain_shading).
         self.visibility_8bit = True
@@ -954,10 +965,21 @@ class TerrainRenderer:
         have = self._env.get(name)
         if have is not None and have[1] == key:
             return have[0]
-        tex = upload_texture(self.ctx, build(), name=name, limits=self.limits)
-        if have is not None:
-            have[0].release()
+        data = as_texture_data(build(), name=name)
+        spec = _texture_spec(data)
+        if have is not None and spec is not None and self._env_spec.get(name) == spec:
+            # a moving sun changes the visibility map every frame: write into the texture
+            # it already has instead of allocating a new one (and its sampler state)
+            tex = have[0]
+            tex.write(data.data.tobytes())
+            if data.mipmaps:
+                tex.build_mipmaps()
+        else:
+            tex = upload_texture(self.ctx, data, name=name, limits=self.limits)
+            if have is not None:
+                have[0].release()
         self._env[name] = (tex, key)
+        self._env_spec[name] = spec
         return tex
 
     def sun_sky_visibility(self, params: Mapping[str, Any]) -> np.ndarray:
