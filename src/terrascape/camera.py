@@ -8,8 +8,15 @@ horizon, clamped to ±89.9 so looking straight up/down never yields a NaN matrix
 Matrices are float64 ``(4, 4)`` for column vectors (``clip = P @ V @ [x, y, z, 1]``), the
 OpenGL convention; upload them to GL as ``M.T.astype("f4").tobytes()`` (column-major).
 
+``infinite_far=True`` gives the projection with its far plane at infinity of Everitt &
+Kilgard (2002), which stencil shadow volumes draw with: points at infinity (w = 0) land at
+window depth 1 − ε/2, inside the depth range, so nothing of a volume is clipped by a far
+plane. ``far`` still bounds what the camera is said to see (culling, cascade splits).
+
 References
 ----------
+- C. Everitt and M. J. Kilgard, "Practical and robust stenciled shadow volumes for
+  hardware-accelerated rendering", NVIDIA technical report, 2002 (arXiv:cs/0301002), §4.
 - D. Janković, "Reljefne tehnike teksturiranja u prikazu terena" (Relief texturing techniques
   in terrain rendering), MSc thesis 62, Faculty of Electrical Engineering and Computing,
   University of Zagreb, 2010, §2.6.4.
@@ -26,6 +33,9 @@ from terrascape._validate import check_finite, check_positive, check_range
 from terrascape.errors import InvalidParameterError
 
 PITCH_LIMIT = 89.9
+# ε of the infinite-far projection (Everitt & Kilgard 2002, §4): points at infinity go to
+# NDC depth 1 − ε, two steps of a 24-bit depth buffer in front of the far plane.
+INFINITE_FAR_EPSILON = 2.0 ** -22
 
 
 def _vec3(value, name: str) -> np.ndarray:
@@ -69,6 +79,7 @@ class Camera:
     aspect: float = 16 / 9
     near: float = 0.1
     far: float = 10_000.0
+    infinite_far: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position", tuple(_vec3(self.position, "camera position")))
@@ -81,6 +92,7 @@ class Camera:
         far = check_positive(self.far, "far")
         if far <= near:
             raise InvalidParameterError(f"far ({far}) must be greater than near ({near})")
+        object.__setattr__(self, "infinite_far", bool(self.infinite_far))
 
     # --- constructors ------------------------------------------------------------------
     @classmethod
@@ -142,13 +154,46 @@ class Camera:
         m = np.zeros((4, 4))
         m[0, 0] = f / self.aspect
         m[1, 1] = f
-        m[2, 2] = (fa + n) / (n - fa)
-        m[2, 3] = 2.0 * fa * n / (n - fa)
+        if self.infinite_far:
+            # the limit far → ∞, pulled in by ε so w = 0 points are not on the far plane
+            eps = INFINITE_FAR_EPSILON
+            m[2, 2] = eps - 1.0
+            m[2, 3] = n * (eps - 2.0)
+        else:
+            m[2, 2] = (fa + n) / (n - fa)
+            m[2, 3] = 2.0 * fa * n / (n - fa)
         m[3, 2] = -1.0
         return m
 
     def view_projection(self) -> np.ndarray:
         return self.projection_matrix() @ self.view_matrix()
+
+    def eye_distance(self, window_depth) -> np.ndarray:
+        """Distance along the view axis (eye-space −z) of window depths in [0, 1] drawn with
+        this camera's projection; depth 1 (nothing drawn) gives inf."""
+        d = np.asarray(window_depth, dtype=np.float64)
+        ndc = d * 2.0 - 1.0
+        n, fa = self.near, self.far
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if self.infinite_far:
+                eps = INFINITE_FAR_EPSILON
+                s = n * (2.0 - eps) / ((1.0 - eps) - ndc)
+            else:
+                s = 2.0 * fa * n / ((fa + n) - ndc * (fa - n))
+        return np.where((d >= 1.0) | (s <= 0.0), np.inf, s)
+
+    def window_depth(self, eye_distance) -> np.ndarray:
+        """Window depth in [0, 1] of points at ``eye_distance`` along the view axis (the
+        inverse of :meth:`eye_distance`); inf gives 1."""
+        s = np.asarray(eye_distance, dtype=np.float64)
+        n, fa = self.near, self.far
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if self.infinite_far:
+                eps = INFINITE_FAR_EPSILON
+                ndc = (1.0 - eps) - n * (2.0 - eps) / s
+            else:
+                ndc = ((fa + n) - 2.0 * fa * n / s) / (fa - n)
+        return np.where(np.isfinite(s), ndc * 0.5 + 0.5, 1.0)
 
     def frustum_planes(self) -> np.ndarray:
         """Six planes ``(a, b, c, d)`` (left, right, bottom, top, near, far), unit normals

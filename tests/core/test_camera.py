@@ -93,3 +93,34 @@ def test_bad_camera_parameters_raise(kwargs):
 def test_look_at_same_point_raises():
     with pytest.raises(InvalidParameterError):
         Camera.look_at((1, 1, 1), (1, 1, 1))
+
+
+def test_infinite_far_puts_points_at_infinity_inside_the_depth_range():
+    from terrascape.camera import INFINITE_FAR_EPSILON
+
+    cam = Camera.look_at((0, 10, 30), (0, 0, 0), near=0.5, far=100.0, infinite_far=True)
+    vp = cam.view_projection()
+    # a direction (w = 0) in front of the camera: NDC depth 1 − ε, not clipped
+    for d in ([0.0, -10.0, -30.0, 0.0], [3.0, -8.0, -30.0, 0.0]):
+        clip = vp @ np.array(d)
+        assert clip[3] > 0
+        assert clip[2] / clip[3] == pytest.approx(1.0 - INFINITE_FAR_EPSILON, abs=1e-12)
+    # finite points: the same x, y as the finite camera; depth the limit far → ∞
+    p = np.array([2.0, 1.0, -5.0, 1.0])
+    finite = Camera.look_at((0, 10, 30), (0, 0, 0), near=0.5, far=1e9)
+    a, b = vp @ p, finite.view_projection() @ p
+    np.testing.assert_allclose(a[:2] / a[3], b[:2] / b[3], rtol=1e-12)
+    assert a[2] / a[3] == pytest.approx(b[2] / b[3], abs=1e-6)
+
+
+@pytest.mark.parametrize("infinite", [False, True])
+def test_window_depth_and_eye_distance_are_inverse(infinite):
+    cam = Camera(near=0.5, far=100.0, infinite_far=infinite)
+    s = np.array([0.6, 1.0, 7.0, 99.0])  # beyond the near plane (depth 0)
+    d = cam.window_depth(s)
+    assert np.all((d > 0) & (d < 1)) and np.all(np.diff(d) > 0)
+    np.testing.assert_allclose(cam.eye_distance(d), s, rtol=1e-9)
+    # against the matrix: window depth of a point s in front of the eye
+    clip = cam.projection_matrix() @ np.array([0.0, 0.0, -7.0, 1.0])
+    assert d[2] == pytest.approx(clip[2] / clip[3] * 0.5 + 0.5, abs=1e-12)
+    assert cam.eye_distance(1.0) == np.inf and cam.window_depth(np.inf) == 1.0

@@ -134,3 +134,60 @@ def test_bad_light():
         mesh_volume(box(), np.eye(4)[None], (0, 1, 0, 2))
     with pytest.raises(InvalidParameterError, match="non-zero"):
         mesh_volume(box(), np.eye(4)[None], (0, 0, 0))
+
+
+def test_casters_in_view_keep_what_can_shadow_the_view():
+    from terrascape.camera import Camera
+    from terrascape.objects import Instances, builtin_meshes
+    from terrascape.objects.silhouette import bounding_spheres, casters_in_view
+
+    tree = builtin_meshes()["conifer"]
+    # a camera at the origin looking north (−z) over flat ground at height 0
+    cam = Camera(position=(0.0, 10.0, 0.0), yaw=0.0, pitch=-20.0, near=0.5, far=400.0)
+    sun = np.array([0.0, 1.0, -1.0]) / np.sqrt(2.0)  # in the north, 45° high
+    pos = [[0, 0, -50],   # in view
+           [0, 0, 30],    # behind the camera, shadow falls further behind: culled
+           [0, 0, -900],  # beyond the far plane, its shadow too: culled
+           [80, 0, -60],  # off to the right, shadow falls south: culled
+           [0, 0, 40]]    # behind the camera, but tall: its shadow reaches the view
+    inst = Instances((tree,), [0] * 5, pos, [1, 1, 1, 1, 10.0], [0] * 5)
+    keep = casters_in_view(inst, cam.frustum_planes(), sun, floor=0.0)
+    assert keep.tolist() == [True, False, False, False, True]
+    # a shadow falling away from the view stays culled however deep the floor
+    deep = casters_in_view(inst, cam.frustum_planes(), sun, floor=-1000.0)
+    assert not deep[1] and not deep[3] and deep[0] and deep[4]
+    # a sun in the south throws the shadow of the tree behind the camera toward the view:
+    # too short to reach the ground it sees, but it would reach ground 1000 below
+    south = np.array([0.0, 1.0, 1.0]) / np.sqrt(2.0)
+    assert not casters_in_view(inst, cam.frustum_planes(), south, floor=0.0)[1]
+    assert casters_in_view(inst, cam.frustum_planes(), south, floor=-1000.0)[1]
+    # a sun under the horizon casts nothing; point lights are not culled
+    assert not casters_in_view(inst, cam.frustum_planes(), [0, -1, 0], 0.0).any()
+    assert casters_in_view(inst, cam.frustum_planes(), [0, 50, 0, 1], 0.0).all()
+    c, r = bounding_spheres(inst)
+    assert np.allclose(c[:, [0, 2]], np.asarray(pos, float)[:, [0, 2]])
+    assert r[4] == pytest.approx(10.0 * r[0])
+
+
+def test_bounded_volume_is_closed_outward_and_ends_at_the_floor():
+    from terrascape.objects.silhouette import bounded_volume
+
+    light = (0.3, 0.8, 0.5)
+    m = np.eye(4)
+    m[1, 3] = 2.0  # the box floats from y = 2 to 3
+    vol = bounded_volume(mesh_volume(box(), m[None], light), light, floor=-1.0)
+    assert vol.shape == (2 * 6 + 2 * 6, 3, 4) and np.all(vol[..., 3] == 1.0)
+    assert vol[..., 1].min() == pytest.approx(-1.0)
+    edges = _closed_counts(vol)
+    assert all(n == 1 for n in edges.values())
+    assert all(edges.get((b, a)) == 1 for a, b in edges)
+    # outward: the signed volume (divergence theorem) is positive, and it is the prism
+    # the sun sweeps: the box's silhouette area × the vertical drop, for a directional sun
+    p = vol[..., :3].astype(np.float64)
+    signed = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0
+    assert signed > 0
+    # the sun's sweep of the unit box down to y = −1 (a drop of 3 to 4): the box plus the
+    # prism below its lit faces' projection — bounded below by box + footprint·3
+    assert signed > 1.0 + 3.0
+    with pytest.raises(InvalidParameterError, match="above the horizon"):
+        bounded_volume(vol, (0.0, -1.0, 0.0), 0.0)

@@ -199,3 +199,152 @@ def test_render_cli_with_volumes_equals_the_api(gl_ctx, tmp_path):
     # the objects' shadows darken the frame
     none = np.asarray(Image.open(flat_out)).astype(float)
     assert (img.astype(float).mean(axis=-1) < 0.85 * none.mean(axis=-1)).mean() > 0.005
+
+
+def test_infinite_far_plane_counts_alone_and_keeps_the_pictures(scene):
+    """The frame is drawn with the infinite far plane: the count needs no depth clamping
+    (the same stencil without it), and the picture is the one a finite far plane draws
+    wherever the count is zero."""
+    from terrascape.render.context import current
+    from terrascape.render.shadow_volumes import ShadowVolumes
+    from terrascape.render.stencil import read_stencil
+
+    r, _, _, cam = scene
+    params = {"sun": SUN, "fog_density": 0.0}
+    lit = r.render(cam, "plain", {**params, "object_shadows": "none"})
+    assert not r.terrain.last_camera.infinite_far
+    shaded = r.render(cam, "plain", {**params, "object_shadows": "volumes"})
+    drawn = r.terrain.last_camera
+    assert drawn.infinite_far and drawn.far == cam.far
+    count = r.last_shadow_count()
+    assert (count > 0).sum() > 300
+    with current(r.ctx):
+        ShadowVolumes.of(r.terrain).count(r._stencil.fbo, drawn.view_projection(),
+                                          depth_clamp=False)
+        unclamped = read_stencil(r._stencil.fbo)
+    np.testing.assert_array_equal(unclamped, count)
+    outside = count == 0
+    # the sky's view rays come from another matrix: a rounding step on a few pixels at most
+    diff = np.abs(shaded[outside].astype(int) - lit[outside].astype(int))
+    assert diff.max() <= 1 and (diff > 0).mean() < 1e-3
+    # the depth handed back is in the caller's (finite) camera: the same surface points
+    from terrascape.objects.shadow_reference import surface_points
+
+    r.render(cam, "plain", {**params, "object_shadows": "none"})
+    finite_depth = r.last_depth()
+    r.render(cam, "plain", {**params, "object_shadows": "volumes"})
+    a, b = surface_points(cam, finite_depth), surface_points(cam, r.last_depth())
+    both = np.isfinite(a).all(axis=-1) & np.isfinite(b).all(axis=-1)
+    assert both.mean() > 0.5
+    assert np.nanmax(np.abs(a[both] - b[both])) < 0.05
+
+
+def _off_screen_scene(gl_ctx):
+    """Flat ground seen from above; a tall box off screen toward the sun, whose shadow falls
+    into the view, and another off screen away from the sun, whose shadow cannot."""
+    from terrascape.render.offscreen import OffscreenRenderer
+
+    hm = Heightmap(np.zeros((129, 129), np.float32), spacing=(1.0, 1.0))
+    r = OffscreenRenderer(gl_ctx, hm, size=SIZE)
+    boxes = Instances((box((6.0, 40.0, 6.0)),), [0, 0], [[70, 0, 30], [96, 0, 100]],
+                      [1.0, 1.0], [0.3, 0.0])
+    r.terrain.set_objects(boxes)
+    cam = Camera.look_at((34, 38, 78), (34, 0, 62), aspect=SIZE[0] / SIZE[1], near=1.0,
+                         far=500.0, fov_y=40.0)
+    return r, boxes, cam
+
+
+def test_a_caster_off_screen_still_shadows_the_view(gl_ctx):
+    from terrascape.objects.silhouette import bounding_spheres
+    from terrascape.render.objects import sphere_in_frustum
+    from terrascape.render.shadow_volumes import ShadowVolumes
+
+    r, boxes, cam = _off_screen_scene(gl_ctx)
+    try:
+        centres, radii = bounding_spheres(boxes)
+        assert not sphere_in_frustum(cam.frustum_planes(), centres, radii).any()
+        params = {"sun": SUN, "fog_density": 0.0}
+        lit = r.render(cam, "plain", {**params, "object_shadows": "none"}).astype(float)
+        shaded = r.render(cam, "plain", {**params, "object_shadows": "volumes"})
+        stats = r.terrain.last_stats
+        assert stats["shadow_volume_casters"] == 1 and stats["shadow_volume_culled"] == 1
+        count = r.last_shadow_count()
+        ref = shadow_reference(cam, r.last_depth(), SUN, instances=boxes)
+        assert ref.object_shadow.sum() > 1000  # the off-screen box's shadow is in view
+        assert agreement(count > 0, ref.object_shadow, ref.surface) >= 0.995
+        inner = ref.object_shadow & ~boundary_band(ref.object_shadow, 1)
+        luma = shaded[..., :3].astype(float).mean(axis=-1)
+        assert np.all(luma[inner] < 0.75 * lit[..., :3].mean(axis=-1)[inner])
+        # culling changed nothing: the count of every volume is the same
+        volumes = ShadowVolumes.of(r.terrain)
+        volumes.cull = False
+        try:
+            full = r.render(cam, "plain", {**params, "object_shadows": "volumes"})
+            assert r.terrain.last_stats["shadow_volume_culled"] == 0
+            np.testing.assert_array_equal(r.last_shadow_count(), count)
+            np.testing.assert_array_equal(full, shaded)
+        finally:
+            volumes.cull = True
+    finally:
+        r.release()
+
+
+def test_looking_away_culls_every_volume(gl_ctx):
+    r, _, _ = _off_screen_scene(gl_ctx)
+    try:
+        # toward the south-west, away from both boxes and their shadows
+        away = Camera.look_at((30, 10, 90), (0, 0, 128), aspect=SIZE[0] / SIZE[1], near=1.0,
+                              far=500.0)
+        r.render(away, "plain", {"sun": SUN, "object_shadows": "volumes"})
+        stats = r.terrain.last_stats
+        assert stats["shadow_volume_culled"] == 2 and stats["shadow_volume_triangles"] == 0
+        assert not r.last_shadow_count().any()
+    finally:
+        r.release()
+
+
+@pytest.mark.parametrize("lighting", ["none", "vertex", "lightmap", "daylight"])
+@pytest.mark.parametrize("technique", ["plain", "material", "bump", "relief"])
+def test_volumes_darken_every_lighting_mode(scene, technique, lighting):
+    """Forward (plain), deferred (material), bump-mapped and relief terrain: the ground in
+    an object's shadow is darker under every lighting model, and nothing else changes."""
+    from terrascape.objects.shadow_reference import surface_points
+
+    r, _, _, cam = scene
+    params = {"sun": SUN, "fog_density": 0.0, "lighting": lighting}
+    lit = r.render(cam, technique, {**params, "object_shadows": "none"}).astype(float)
+    shaded = r.render(cam, technique, {**params, "object_shadows": "volumes"}).astype(float)
+    assert r.terrain.last_technique == technique
+    count = r.last_shadow_count()
+    pts = surface_points(cam, r.last_depth())
+    ground = np.isfinite(pts).all(axis=-1) & (np.abs(np.nan_to_num(pts[..., 1])) < 0.05)
+    ground &= ~boundary_band(ground, 1)  # not the boxes' faces just above the ground
+    edge = boundary_band(count > 0, 1)
+    core = (count > 0) & ~edge & ground
+    out = (count == 0) & ~edge & ground
+    assert core.sum() > 500 and out.sum() > 5000
+    luma_lit, luma = lit[..., :3].mean(axis=-1), shaded[..., :3].mean(axis=-1)
+    assert np.all(luma[core] < 0.8 * luma_lit[core])
+    np.testing.assert_array_equal(shaded[out], lit[out])
+
+
+@pytest.mark.parametrize("technique", ["plain", "material"])
+def test_volumes_cut_at_the_lowest_surface_count_the_same(scene, technique):
+    from terrascape.render.shadow_volumes import ShadowVolumes
+
+    r, _, boxes, cam = scene
+    volumes = ShadowVolumes.of(r.terrain)
+    params = {"object_shadows": "volumes", "sun": SUN}
+    r.render(cam, technique, params)
+    infinite = r.last_shadow_count().copy()
+    volumes.reach = "floor"
+    try:
+        r.render(cam, technique, params)
+        assert r.terrain.last_stats["shadow_volume_triangles"] > 0
+        cut = r.last_shadow_count()
+    finally:
+        volumes.reach = "infinite"
+    assert (infinite > 0).sum() > 300
+    assert ((cut > 0) == (infinite > 0)).mean() >= 0.9995
+    ref = shadow_reference(cam, r.last_depth(), SUN, instances=boxes)
+    assert agreement(cut > 0, ref.object_shadow, ref.surface) >= 0.995

@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import pytest
 
 from terrascape.heightmap import Heightmap
 from terrascape.lighting.shadows import soft_shadow
@@ -61,3 +62,32 @@ def test_without_a_worker_the_exact_map_is_computed_when_the_sun_stops():
     key, vis = m.visibility(100.0, 30.0)
     assert key[0] == "exact"
     assert np.array_equal(vis, soft_shadow(hm, 100.0, 30.0, sun_radius_deg=0.5, samples=6))
+
+
+@pytest.mark.gl
+def test_a_new_sun_rewrites_the_visibility_texture_in_place(gl_ctx):
+    """Each sun position writes its visibility map into the texture the renderer already
+    has (no new texture per frame); the frame is the one a fresh renderer draws."""
+    from terrascape.camera import Camera
+    from terrascape.render.offscreen import OffscreenRenderer
+
+    hm = _ridge(65)
+    cam = Camera.look_at((32, 30, 90), (32, 0, 32), aspect=4 / 3, near=1.0, far=400.0)
+    moving = OffscreenRenderer(gl_ctx, hm, size=(96, 72))
+    try:
+        moving.render(cam, "plain", {"sun": (90.0, 20.0), "lighting": "daylight"})
+        tex = moving.terrain._env["u_sun_sky"][0]
+        glo = tex.glo
+        frame = moving.render(cam, "plain", {"sun": (250.0, 15.0), "lighting": "daylight"})
+        assert moving.terrain._env["u_sun_sky"][0] is tex and tex.glo == glo
+        fresh = OffscreenRenderer(gl_ctx, hm, size=(96, 72))
+        try:
+            ref = fresh.render(cam, "plain", {"sun": (250.0, 15.0), "lighting": "daylight"})
+        finally:
+            fresh.release()
+        np.testing.assert_array_equal(frame, ref)
+        # and the shadows really moved: the first sun's frame is another picture
+        first = moving.render(cam, "plain", {"sun": (90.0, 20.0), "lighting": "daylight"})
+        assert np.abs(first.astype(int) - frame.astype(int)).max() > 30
+    finally:
+        moving.release()

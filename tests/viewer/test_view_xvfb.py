@@ -172,3 +172,80 @@ def test_view_window_keys_and_quit(xvfb, tmp_path):
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def _headless_shadow_frames(size):
+    """What the viewer draws for the command line of the test below, headless: the frames
+    with object shadow volumes and without object shadows (uint8, row 0 at the top)."""
+    from terrascape.cli.cmd_render import load_objects_option
+    from terrascape.cli.cmd_view import generate_terrain
+    from terrascape.render.context import headless_context
+    from terrascape.render.stencil import StencilFramebuffer
+    from terrascape.viewer.session import ViewerSession
+
+    hm = generate_terrain("fbm", 65, 4)
+    inst = load_objects_option("default", hm, seed=4, exaggeration=1.0)
+    frames = {}
+    with headless_context() as ctx:
+        target = StencilFramebuffer(ctx, size)
+        session = ViewerSession(ctx, hm, size=size, technique="material", hud=False,
+                                objects=inst, warn=lambda m: None)
+        try:
+            for mode in ("volumes", "none"):
+                session.state.object_shadows = mode
+                session.render(target.fbo, 0.0)
+                raw = target.fbo.read(components=3, alignment=1)
+                frames[mode] = np.frombuffer(raw, np.uint8).reshape(size[1], size[0], 3)[::-1]
+        finally:
+            session.release()
+            target.release()
+    return frames
+
+
+def _shadowed(volumes: np.ndarray, none: np.ndarray) -> np.ndarray:
+    """bool: pixels the object shadows darken (below 0.85× the frame without them)."""
+    lum = lambda im: im.astype(np.float64).sum(axis=-1)  # noqa: E731
+    return lum(volumes) < 0.85 * lum(none)
+
+
+@pytest.mark.gl
+def test_view_window_shadow_volumes_match_the_headless_render(xvfb, tmp_path):
+    """Stencil shadow volumes in a real window (the window's own stencil buffer): the pixels
+    they darken are the ones the headless renderer darkens, and G switches them off."""
+    env = dict(xvfb, HOME=str(tmp_path), XDG_CONFIG_HOME=str(tmp_path / "config"))
+    proc = subprocess.Popen(
+        [sys.executable, "-c", CLI, "view", "--generate", "fbm", "--gen-size", "65", "--seed",
+         "4", "--size", f"{W}x{H}", "--objects", "default", "--object-shadows", "volumes",
+         "--no-hud", "--screenshot-dir", str(tmp_path)],
+        env=env, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    )
+    try:
+        wid = subprocess.run(
+            ["xdotool", "search", "--sync", "--name", "terrascape view"], env=env,
+            capture_output=True, text=True, timeout=60, check=True,
+        ).stdout.split()[0]
+        shaded = _wait_for(env, lambda im: im.std() > 10, 60, "a first frame")
+        time.sleep(1.0)
+        shaded = _grab(env)
+        _key(env, wid, "g")  # volumes → none
+        plain = _wait_for(env, lambda im: _scene_change(shaded, im) > 0.002, 30,
+                          "G to switch the shadow volumes off")
+        time.sleep(1.0)
+        plain = _grab(env)
+        _key(env, wid, "Escape")
+        rc = proc.wait(timeout=30)
+        err = proc.stderr.read().decode()
+        assert rc == 0, err
+        assert "stencil" not in err, err  # no fallback to shadow maps: the window has one
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    ref = _headless_shadow_frames((W, H))
+    window = _shadowed(shaded, plain)
+    headless = _shadowed(ref["volumes"].astype(np.int16), ref["none"].astype(np.int16))
+    assert headless.mean() > 0.01  # the objects cast real shadows in this view
+    # the same frames: the window's pixels are the headless ones (a rounding step at most)
+    assert np.abs(plain - ref["none"]).max(axis=-1).mean() < 1.0
+    assert (window == headless).mean() > 0.995
+    assert (window & headless).sum() > 0.98 * headless.sum()

@@ -325,11 +325,13 @@ def surface_points(camera: Camera, depth: np.ndarray) -> np.ndarray:
 
 def depth_quantum(camera: Camera, points: np.ndarray) -> np.ndarray:
     """Eye-space length of one step of a 24-bit depth buffer at world ``points`` (N, 3):
-    ``Δz = 2⁻²⁴ · z² · (f − n) / (f · n)`` for eye depth z (perspective depth is 1/z-like)."""
+    ``Δz = 2⁻²⁴ · z² · (f − n) / (f · n)`` for eye depth z (perspective depth is 1/z-like;
+    ``2⁻²⁴ · z² / n`` with an infinite far plane)."""
     pts = np.asarray(points, np.float64).reshape(-1, 3)
     z = -(np.c_[pts, np.ones(len(pts))] @ camera.view_matrix().T)[:, 2]
     n, f = camera.near, camera.far
-    return 2.0 ** -_DEPTH_BITS * z * z * (f - n) / (f * n)
+    per_n = 1.0 / n if camera.infinite_far else (f - n) / (f * n)  # the limit f → ∞
+    return 2.0 ** -_DEPTH_BITS * z * z * per_n
 
 
 @dataclass(frozen=True)

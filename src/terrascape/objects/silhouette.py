@@ -18,6 +18,8 @@ Everitt, C. & Kilgard, M. J. (2002). Practical and robust stenciled shadow volum
 hardware-accelerated rendering. NVIDIA technical report (arXiv:cs/0301002).
 
 Crow, F. C. (1977). Shadow algorithms for computer graphics. *SIGGRAPH '77*, 242-248.
+
+Lengyel, E. (2002). The mechanics of robust stencil shadows. *Gamasutra*, October 11, 2002.
 """
 
 from __future__ import annotations
@@ -290,17 +292,159 @@ def mesh_volume(mesh: ObjectMesh, matrices: np.ndarray, light) -> np.ndarray:
     return out.reshape(-1, 3, 4)
 
 
-def shadow_volume(instances: Instances, light) -> np.ndarray:
-    """Shadow volume triangles of every instance: float32 ``(M, 3, 4)`` homogeneous world
+def bounding_spheres(instances: Instances) -> tuple[np.ndarray, np.ndarray]:
+    """World bounding spheres of every instance: ``(centres (N, 3), radii (N,))`` float64.
+    Each mesh's sphere is centred on its vertical axis (halfway up), so yaw cannot move it."""
+    if not isinstance(instances, Instances):
+        raise InvalidParameterError(f"expected Instances, got {type(instances).__name__}")
+    n = len(instances)
+    mid = np.zeros(n)
+    radius = np.zeros(n)
+    for k, mesh in enumerate(instances.meshes):
+        sel = instances.of_kind(k)
+        if not len(sel):
+            continue
+        p = mesh.positions.astype(np.float64)
+        m = 0.5 * (float(p[:, 1].min()) + float(p[:, 1].max()))
+        mid[sel] = m
+        radius[sel] = float(np.sqrt(p[:, 0] ** 2 + (p[:, 1] - m) ** 2 + p[:, 2] ** 2).max())
+    scale = instances.scale.astype(np.float64)
+    centres = instances.positions.astype(np.float64).copy()
+    centres[:, 1] += mid * scale
+    return centres, radius * scale
+
+
+def casters_in_view(instances: Instances, planes: np.ndarray, light, floor: float
+                    ) -> np.ndarray:
+    """bool ``(N,)``: the instances whose shadow volume can reach what the frustum shows.
+
+    Shadow caster culling (Everitt & Kilgard 2002, §5; Lengyel 2002): a caster off screen
+    can still shadow visible ground, so each caster is kept when its bounding sphere swept
+    away from the sun, down to the lowest surface that can be drawn (``floor``), is not
+    entirely outside one of the frustum ``planes``. Below the floor no surface is drawn, so
+    a volume that misses the frustum above it contains no visible point and counts 0 on
+    every pixel: dropping it leaves the stencil exactly as it was.
+
+    Parameters
+    ----------
+    planes
+        ``(6, 4)`` inward planes ``(a, b, c, d)`` (:meth:`terrascape.camera.Camera.frustum_planes`).
+    light
+        Direction toward the sun (3 numbers, or ``(x, y, z, 0)``) — point lights, whose
+        volumes widen, are not culled (all kept).
+    floor
+        The lowest height any drawn surface has (world units).
+    """
+    centres, radii = bounding_spheres(instances)
+    pl = np.asarray(planes, np.float64)
+    if pl.ndim != 2 or pl.shape[1] != 4 or not np.isfinite(pl).all():
+        raise InvalidParameterError(f"planes must be finite (P, 4), got {pl.shape}")
+    lt = _light4(light)
+    if lt[3] != 0.0:
+        return np.ones(len(instances), bool)
+    d = lt[:3]
+    if d[1] <= 0.0:  # a sun at or below the horizon casts no volumes above any floor
+        return np.zeros(len(instances), bool)
+    # the swept sphere is the capsule from c to c − T·d: every point of the caster reaches
+    # the floor along −d within T = (top − floor) / d_y
+    reach = np.maximum(centres[:, 1] + radii - float(floor), 0.0) / d[1]
+    ends = centres - reach[:, None] * d
+    norm = np.linalg.norm(pl[:, :3], axis=1)
+    near = (centres @ pl[:, :3].T + pl[:, 3]) / norm
+    far = (ends @ pl[:, :3].T + pl[:, 3]) / norm
+    outside = (near < -radii[:, None]) & (far < -radii[:, None])
+    return ~outside.any(axis=1)
+
+
+def bounded_volume(triangles: np.ndarray, light, floor: float) -> np.ndarray:
+    """The volume triangles of :func:`mesh_volume` for a sun (directional light) cut off at
+    height ``floor``: the silhouette is extruded down to the plane ``y = floor`` instead of
+    to infinity, and the near caps, projected onto that plane and reversed, close it there.
+
+    Below the lowest drawn surface a volume contains nothing visible, so the count is the
+    same on every pixel; what changes is the fill: each volume covers the screen only down
+    to the ground instead of to the vanishing point of the sun's direction, and no vertex is
+    at infinity. (The same closed-volume argument as Everitt & Kilgard's §3; Lengyel 2002
+    bounds volumes by the light's range the same way.)
+
+    Parameters
+    ----------
+    triangles
+        float32 ``(M, 3, 4)`` from :func:`mesh_volume` / :func:`shadow_volume` for the
+        directional ``light``: near caps (three w = 1 corners) and sides ``(q, p, −L∞)``.
+    light
+        The direction toward the sun they were built for (above the horizon).
+    floor
+        Height of the cut, below every surface that can be shadowed.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 ``(M', 3, 4)``, every w = 1: near caps, far caps, two triangles per side.
+    """
+    tri = np.asarray(triangles, dtype=np.float32)
+    if tri.ndim != 3 or tri.shape[1:] != (3, 4):
+        raise InvalidParameterError(f"volume triangles must be (M, 3, 4), got {tri.shape}")
+    lt = _light4(light)
+    if lt[3] != 0.0 or lt[1] <= 0.0:
+        raise InvalidParameterError(
+            f"bounded volumes need a sun above the horizon (a direction with y > 0), got "
+            f"{light!r}")
+    d = lt[:3]
+    floor = float(floor)
+
+    def down(v):  # (K, 4) corners slid along −d onto the plane y = floor
+        t = np.maximum(v[:, 1].astype(np.float64) - floor, 0.0) / d[1]
+        out = np.empty_like(v)
+        out[:, :3] = v[:, :3] - (t[:, None] * d).astype(np.float32)
+        out[:, 1] = np.where(v[:, 1] > floor, np.float32(floor), v[:, 1])
+        out[:, 3] = 1.0
+        return out
+
+    side = tri[:, 2, 3] == 0.0
+    caps, sides = tri[~side], tri[side]
+    n_cap, n_side = len(caps), len(sides)
+    out = np.empty((2 * n_cap + 2 * n_side, 3, 4), np.float32)
+    out[:n_cap] = caps
+    far = down(caps.reshape(-1, 4)).reshape(-1, 3, 4)
+    out[n_cap:2 * n_cap] = far[:, ::-1]
+    q, p = sides[:, 0], sides[:, 1]
+    p2, q2 = down(p), down(q)
+    k = 2 * n_cap
+    out[k:k + n_side] = np.stack([q, p, p2], axis=1)
+    out[k + n_side:] = np.stack([q, p2, q2], axis=1)
+    return out
+
+
+def shadow_volume(instances: Instances, light, keep: np.ndarray | None = None) -> np.ndarray:
+    """Shadow volume triangles of every instance (or of those ``keep`` marks, a bool
+    ``(N,)`` mask such as :func:`casters_in_view`): float32 ``(M, 3, 4)`` homogeneous world
     vertices (see :func:`mesh_volume`), mesh after mesh."""
     if not isinstance(instances, Instances):
         raise InvalidParameterError(f"expected Instances, got {type(instances).__name__}")
     mats = instances.matrices()
-    parts = [mesh_volume(mesh, mats[instances.of_kind(k)], light)
-             for k, mesh in enumerate(instances.meshes) if len(instances.of_kind(k))]
+    if keep is None:
+        keep = np.ones(len(instances), bool)
+    keep = np.asarray(keep, bool)
+    if keep.shape != (len(instances),):
+        raise InvalidParameterError(
+            f"keep must be a bool mask of the {len(instances)} instances, got {keep.shape}")
+    groups = [(mesh, np.flatnonzero((instances.kind == k) & keep))
+              for k, mesh in enumerate(instances.meshes)]
+    parts = [mesh_volume(mesh, mats[sel], light) for mesh, sel in groups if len(sel)]
     if not parts:
         return np.zeros((0, 3, 4), np.float32)
     return np.concatenate(parts)
 
 
-__all__ = ["MeshEdges", "OpenMeshWarning", "mesh_edges", "mesh_volume", "shadow_volume", "welded"]
+__all__ = [
+    "MeshEdges",
+    "OpenMeshWarning",
+    "bounded_volume",
+    "bounding_spheres",
+    "casters_in_view",
+    "mesh_edges",
+    "mesh_volume",
+    "shadow_volume",
+    "welded",
+]

@@ -210,13 +210,20 @@ class OffscreenRenderer:
     @_current
     def last_depth(self) -> np.ndarray:
         """float32 ``(h, w)`` window depth of the last frame (row 0 at the top, 1 = sky):
-        with the camera it gives each pixel's surface point
-        (:func:`terrascape.objects.shadow_reference.surface_points`)."""
+        with the camera given to :meth:`render` it gives each pixel's surface point
+        (:func:`terrascape.objects.shadow_reference.surface_points`). A shadow-volume frame
+        is drawn with an infinite far plane; its depth is mapped back to that camera's."""
         if self._stencil and self._last_fbo is self._stencil.fbo:
-            return self._stencil.read_depth()
-        w, h = self._draw_size
-        raw = self.fbo.read(attachment=-1, components=1, dtype="f4")
-        return np.frombuffer(raw, np.float32).reshape(h, w)[::-1].copy()
+            depth = self._stencil.read_depth()
+        else:
+            w, h = self._draw_size
+            raw = self.fbo.read(attachment=-1, components=1, dtype="f4")
+            depth = np.frombuffer(raw, np.float32).reshape(h, w)[::-1].copy()
+        drawn = self.terrain.last_camera
+        if drawn is not None and drawn.infinite_far:
+            finite = replace(drawn, infinite_far=False)
+            depth = finite.window_depth(drawn.eye_distance(depth)).astype(np.float32)
+        return depth
 
     def _stencil_fbo(self):
         """The framebuffer with a stencil buffer that shadow volumes count in (made on first

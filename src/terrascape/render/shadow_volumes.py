@@ -9,12 +9,15 @@ drawn again, with the same program, only where the count is not zero and with th
 light switched off (its irradiance and the diffuse and specular terms of Phong lighting set
 to 0), so sky light and bounce light remain. Whatever the scene's program shades — terrain
 of any technique, objects — is shadowed this way without code of its own, and the sun can
-move freely: the volumes are rebuilt on the CPU when it does.
+move freely: the volumes are rebuilt on the CPU when it does. Volumes are built only for
+the casters whose shadow can reach the view (shadow caster culling,
+:func:`terrascape.objects.silhouette.casters_in_view`), which leaves the count unchanged.
 
-The volume pass uses the frame's own projection with GL_DEPTH_CLAMP on instead of an
-infinite far plane: clamping keeps every part of a volume beyond the far plane (and its
-points at infinity) at the far plane's depth, behind every surface drawn, which is all
-z-fail needs; the scene's depth buffer stays the one the frame was drawn with.
+A frame with volumes is drawn with Everitt & Kilgard's infinite far plane
+(:attr:`terrascape.camera.Camera.infinite_far`): the volumes' points at infinity (w = 0)
+land just inside the depth range, so no part of a volume is clipped by a far plane, and
+the scene's surfaces use the same depth mapping the volumes are tested against.
+GL_DEPTH_CLAMP stays on during the count as a belt to those braces.
 
 References
 ----------
@@ -34,7 +37,7 @@ import numpy as np
 
 from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.objects.model import Instances
-from terrascape.objects.silhouette import shadow_volume
+from terrascape.objects.silhouette import bounded_volume, casters_in_view, shadow_volume
 from terrascape.render.objects import OBJECT_SHADOW_MODES, ObjectShadowFallbackWarning
 from terrascape.render.shaders import load_program, set_uniforms
 from terrascape.render.stencil import (
@@ -49,8 +52,12 @@ from terrascape.render.stencil import (
 # The mode "volumes" falls back to when the target has no stencil buffer (or no PyOpenGL).
 FALLBACK_MODE = "cascades"
 # Uniform values that switch the sun's light off in every lighting model of the shaders
-# (daylight: the sun's irradiance; Phong: its diffuse and specular terms).
-SUN_OFF = {"u_sun_irradiance": (0.0, 0.0, 0.0), "u_kd": 0.0, "u_ks": 0.0}
+# (daylight: the sun's irradiance; Phong: its diffuse and specular terms; the lightmap and
+# unlit modes: u_sun_blocked, common/lighting.glsl).
+SUN_OFF = {"u_sun_irradiance": (0.0, 0.0, 0.0), "u_kd": 0.0, "u_ks": 0.0, "u_sun_blocked": 1}
+# How far the silhouettes are extruded (ShadowVolumes.reach).
+VOLUME_REACH = ("floor", "infinite")
+DEFAULT_REACH = "infinite"
 # Polygon offset (depth units) that pushes the volumes' near caps behind the sunlit faces
 # they lie on (see terrascape.render.stencil.zfail_counting).
 VOLUME_DEPTH_OFFSET = 2.0
@@ -98,6 +105,14 @@ class ShadowVolumes:
         # keep_count: read the stencil count back after counting (tests, benchmarks)
         self.keep_count = False
         self.last_count: np.ndarray | None = None
+        # cull: build volumes only for casters whose shadow can reach the view
+        # (silhouette.casters_in_view); off for comparisons
+        self.cull = True
+        # reach: "floor" extrudes the silhouettes down to just below the lowest drawn
+        # surface (silhouette.bounded_volume: the same count, far less fill), "infinite"
+        # to points at infinity (Everitt & Kilgard's volumes, drawn with the infinite far
+        # plane)
+        self.reach = DEFAULT_REACH
 
     @classmethod
     def of(cls, renderer) -> ShadowVolumes:
@@ -129,25 +144,32 @@ class ShadowVolumes:
         self.build_seconds += time.perf_counter() - t0
         return self._count
 
-    def set_casters(self, casters: Instances | None, sun_dir) -> int:
-        """Volumes of ``casters`` for the sun toward ``sun_dir``, rebuilt only when either
-        changed; returns the number of volume triangles."""
+    def set_casters(self, casters: Instances | None, sun_dir,
+                    keep: np.ndarray | None = None, floor: float | None = None) -> int:
+        """Volumes of ``casters`` (those ``keep`` marks: :func:`casters_in_view`) for the sun
+        toward ``sun_dir``, extruded to infinity or, with ``floor``, down to that height
+        (:func:`bounded_volume`); rebuilt only when any of these changed. Returns the number
+        of volume triangles."""
         import time
 
         d = tuple(float(v) for v in np.asarray(sun_dir, np.float64).reshape(3))
-        key = (casters, 0 if casters is None else len(casters), d)
+        kept = None if keep is None else np.asarray(keep, bool).tobytes()
+        key = (casters, 0 if casters is None else len(casters), d, kept, floor)
         if key == self._key:
             return self._count
         self.build_seconds = 0.0
         t0 = time.perf_counter()
         tri = (np.zeros((0, 3, 4), np.float32) if casters is None or not len(casters)
-               else shadow_volume(casters, d))
+               else shadow_volume(casters, d, keep))
+        if floor is not None and len(tri):
+            tri = bounded_volume(tri, d, floor)
         self.build_seconds = time.perf_counter() - t0
         return self.set_triangles(tri, key)
 
-    def count(self, fbo, view_proj: np.ndarray, *, depth_offset: float | None = None) -> None:
+    def count(self, fbo, view_proj: np.ndarray, *, depth_offset: float | None = None,
+              depth_clamp: bool = True) -> None:
         """Clear ``fbo``'s stencil and count the uploaded volumes into it (z-fail) against
-        the depth already in ``fbo``."""
+        the depth already in ``fbo`` (drawn with ``view_proj``)."""
         import moderngl
 
         clear_stencil(fbo)
@@ -155,7 +177,7 @@ class ShadowVolumes:
             return
         set_uniforms(self.program, u_view_proj=view_proj)
         offset = VOLUME_DEPTH_OFFSET if depth_offset is None else depth_offset
-        with zfail_counting(self.ctx, fbo, depth_offset=offset):
+        with zfail_counting(self.ctx, fbo, depth_offset=offset, depth_clamp=depth_clamp):
             self._vao.render(moderngl.TRIANGLES, vertices=3 * self._count)
 
     def release(self) -> None:
@@ -186,11 +208,25 @@ def shade_shadow_volumes(renderer, fbo, camera, uniforms: Mapping[str, Any], *, 
     sun = np.asarray(uniforms["u_sun_dir"], np.float64)
     objects = renderer.objects
     casters = objects.instances if objects is not None else None
-    n = volumes.set_casters(casters if sun[1] > 0.0 else None, sun)
+    if casters is not None and sun[1] > 0.0:
+        keep = (casters_in_view(casters, camera.frustum_planes(), sun,
+                                renderer.lowest_surface_height())
+                if volumes.cull else np.ones(len(casters), bool))
+    else:
+        casters, keep = None, np.zeros(0, bool)
+    floor = renderer.lowest_surface_height()
+    if volumes.reach not in VOLUME_REACH:
+        raise InvalidParameterError(
+            f"volume reach must be one of {', '.join(VOLUME_REACH)}, got {volumes.reach!r}")
+    # the cut lies a little below the lowest surface, never on a drawn one
+    cut = floor - 0.01 * max(renderer.mesh.extent) if volumes.reach == "floor" else None
+    n = volumes.set_casters(casters, sun, keep if casters is not None else None, cut)
     volumes.count(fbo, uniforms["u_view_proj"])
     volumes.last_count = read_stencil(fbo) if volumes.keep_count else None
+    stats = {"shadow_volume_triangles": n, "shadow_volume_casters": int(keep.sum()),
+             "shadow_volume_culled": int((~keep).sum())}
     if n == 0:
-        return {"shadow_volume_triangles": 0}
+        return stats
     dark = {**uniforms, **SUN_OFF}
     saved = {k: uniforms[k] for k in SUN_OFF if k in uniforms}
     fbo.depth_mask = False
@@ -229,7 +265,7 @@ def shade_shadow_volumes(renderer, fbo, camera, uniforms: Mapping[str, Any], *, 
         ctx.disable(moderngl.CULL_FACE)
         fbo.depth_mask = True
         fbo.use()
-    return {"shadow_volume_triangles": n}
+    return stats
 
 
 __all__ = [

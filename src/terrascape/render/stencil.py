@@ -147,17 +147,20 @@ def clear_stencil(fbo, value: int = 0) -> None:
 
 
 @contextlib.contextmanager
-def zfail_counting(ctx, fbo, *, depth_offset: float = 2.0) -> Iterator[None]:
+def zfail_counting(ctx, fbo, *, depth_offset: float = 2.0,
+                   depth_clamp: bool = True) -> Iterator[None]:
     """GL state of the volume pass (Everitt & Kilgard's z-fail, two-sided in one draw).
 
     Colour and depth writes off, the depth test on (GL_LESS against the scene's depth), both
     faces drawn: a back face whose fragment is behind the scene's surface increments the
     count, a front face behind it decrements it (wrapping, so the order of faces does not
-    matter); the sum is the number of volumes the surface point is in. GL_DEPTH_CLAMP keeps
-    the parts of the volume beyond the far plane (and the caps at infinity) instead of
-    clipping them: clamped to the far plane they still fail the depth test, as they must.
-    ``depth_offset`` (polygon offset units) pushes the near caps just behind the lit faces
-    they lie on, so a caster's own sunlit surface is outside its volume.
+    matter); the sum is the number of volumes the surface point is in. Drawn with an
+    infinite far plane (:attr:`terrascape.camera.Camera.infinite_far`) no part of a volume
+    lies beyond the far plane; ``depth_clamp`` (GL_DEPTH_CLAMP) is the belt to those braces:
+    with a finite far plane it keeps the parts beyond it at the far plane's depth instead of
+    clipping them, where they still fail the depth test, as they must. ``depth_offset``
+    (polygon offset units) pushes the near caps just behind the lit faces they lie on, so a
+    caster's own sunlit surface is outside its volume.
     """
     import moderngl
 
@@ -170,7 +173,8 @@ def zfail_counting(ctx, fbo, *, depth_offset: float = 2.0) -> Iterator[None]:
     ctx.depth_func = "<"
     ctx.polygon_offset = (0.0, float(depth_offset))
     fbo.use()  # moderngl applies the masks when the framebuffer is bound
-    GL.glEnable(GL.GL_DEPTH_CLAMP)
+    if depth_clamp:
+        GL.glEnable(GL.GL_DEPTH_CLAMP)
     GL.glEnable(GL.GL_STENCIL_TEST)
     GL.glStencilMask(0xFF)
     GL.glStencilFunc(GL.GL_ALWAYS, 0, 0xFF)

@@ -22,6 +22,7 @@ import functools
 import math
 import warnings
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -64,6 +65,8 @@ RENDER_CHUNK = 129
 # at most this many pixels at the chunk's nearest point: there most triangles hold no pixel
 # centre; on larger triangles the test would cost more than it saves.
 CULL_CELL_PX = 1.0
+# The skirts closing the terrain's sides reach this share of its relief below its lowest point.
+SKIRT_DEPTH = 0.05
 _SOFTWARE_RASTERISERS = ("llvmpipe", "softpipe", "swrast", "swiftshader")
 
 
@@ -120,6 +123,16 @@ def as_texture_data(value: Any, *, name: str = "texture") -> TextureData:
                 )
     return TextureData(np.ascontiguousarray(data), tex.kind, bool(tex.repeat), bool(tex.mipmaps),
                        bool(tex.nearest), levels, bool(tex.mip_blend))
+
+
+def _texture_spec(tex: TextureData) -> tuple | None:
+    """What a texture made by :func:`upload_texture` must share with ``tex`` to take its
+    pixels in place (size, channels, type, filtering); None when it cannot (3-D, arrays,
+    explicit mip chains, nearest filtering)."""
+    if tex.kind != "2d" or tex.levels or tex.nearest:
+        return None
+    return (tex.data.shape, tex.data.dtype.str, bool(tex.repeat), bool(tex.mipmaps),
+            bool(tex.mip_blend))
 
 
 def upload_texture(ctx, tex: TextureData, *, name: str = "texture", limits: dict | None = None):
@@ -264,6 +277,7 @@ class TerrainRenderer:
         self.world = heightmap if self.exaggeration == 1.0 else heightmap.scaled(
             self.exaggeration)
         self._env: dict[str, tuple[Any, Any]] = {}  # daylight textures: name -> (tex, key)
+        self._env_spec: dict[str, tuple | None] = {}  # their _texture_spec
         # Sun/sky visibility as an 8-bit texture (llvmpipe filters unorm8 on its fast path);
         # False uploads float32 (the exact values, for comparisons: bench terrain_shading).
         self.visibility_8bit = True
@@ -293,6 +307,9 @@ class TerrainRenderer:
         self._fallen_back: set[str] = set()
         self._mip_levels: dict[str, int] = {}  # sampler -> levels, for "<sampler>_levels"
         self.last_technique: str | None = None  # what the last frame really drew
+        # the camera the last frame was drawn with (with an infinite far plane under
+        # shadow volumes): the one its depth buffer is in
+        self.last_camera: Camera | None = None
         self._objects = None  # terrascape.render.objects.ObjectRenderer, set_objects()
 
     # --- geometry ------------------------------------------------------------------------
@@ -465,6 +482,9 @@ class TerrainRenderer:
             "u_fog_density": fog,
             "u_fog_color": fog_color,
             "u_tile_size": tile,
+            # the shadow-volume pass sets it to 1 (terrascape.render.shadow_volumes.SUN_OFF)
+            "u_sun_blocked": 0,
+            "u_lightmap_ambient": float(params.get("lightmap_ambient", 0.2)),
         }
         skip = {
             "sun",
@@ -625,9 +645,15 @@ class TerrainRenderer:
             from terrascape.render.shadow_volumes import object_shadow_mode
 
             p = object_shadow_mode(self, fbo, p)  # no stencil: shadow maps, warned once
-        uniforms = self.frame_uniforms(camera, p)
         ctx = self.ctx
         objects = self._objects if self._objects is not None and self._objects.enabled else None
+        if objects is not None and p["object_shadows"] == "volumes":
+            # Everitt & Kilgard's infinite far plane: the volumes' points at infinity stay
+            # inside the depth range; the whole frame is drawn with it so the volumes' depth
+            # test compares against the same depth mapping.
+            camera = replace(camera, infinite_far=True)
+        self.last_camera = camera
+        uniforms = self.frame_uniforms(camera, p)
         # Objects: the sun's shadow maps first (their own framebuffer), read by the terrain.
         uniforms.update(objects.begin_frame(camera, fbo.size, p, uniforms["u_sun_dir"])
                         if objects is not None else {"u_cascade_count": 0})
@@ -876,6 +902,13 @@ class TerrainRenderer:
         vao.render(moderngl.TRIANGLES, vertices=3)
 
     # --- daylight: terrain shadows, sky view, water ------------------------------------
+    def lowest_surface_height(self) -> float:
+        """The lowest height any drawn terrain surface has: the skirts' bottom, a little
+        below the terrain's lowest point (shadow caster culling sweeps down to it)."""
+        y = self.mesh.positions.reshape(-1, 3)[:, 1]
+        low = float(y.min())
+        return low - SKIRT_DEPTH * max(float(y.max()) - low, 1e-6)
+
     def _skirt_geometry(self) -> list[np.ndarray]:
         """Vertical walls from the terrain's border down below its lowest point (positions,
         outward normals, tangents; triangles as a flat list), so a view from beyond the edge
@@ -894,10 +927,8 @@ class TerrainRenderer:
         along_x = np.abs(rel[:, 0] / max(ex, 1e-9)) >= np.abs(rel[:, 1] / max(ez, 1e-9))
         normal[along_x, 0] = np.sign(rel[along_x, 0])
         normal[~along_x, 2] = np.sign(rel[~along_x, 1])
-        low = float(grid[..., 1].min())
-        relief = max(float(grid[..., 1].max()) - low, 1e-6)
         bottom = top.copy()
-        bottom[:, 1] = low - 0.05 * relief
+        bottom[:, 1] = self.lowest_surface_height()
         n = len(top)
         a = np.arange(n)
         b = (a + 1) % n
@@ -934,10 +965,21 @@ class TerrainRenderer:
         have = self._env.get(name)
         if have is not None and have[1] == key:
             return have[0]
-        tex = upload_texture(self.ctx, build(), name=name, limits=self.limits)
-        if have is not None:
-            have[0].release()
+        data = as_texture_data(build(), name=name)
+        spec = _texture_spec(data)
+        if have is not None and spec is not None and self._env_spec.get(name) == spec:
+            # a moving sun changes the visibility map every frame: write into the texture
+            # it already has instead of allocating a new one (and its sampler state)
+            tex = have[0]
+            tex.write(data.data.tobytes())
+            if data.mipmaps:
+                tex.build_mipmaps()
+        else:
+            tex = upload_texture(self.ctx, data, name=name, limits=self.limits)
+            if have is not None:
+                have[0].release()
         self._env[name] = (tex, key)
+        self._env_spec[name] = spec
         return tex
 
     def sun_sky_visibility(self, params: Mapping[str, Any]) -> np.ndarray:

@@ -11,11 +11,12 @@ uniform mat4 u_inv_view_proj;
 out vec3 v_ray;
 void main() {
     vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2)) * 2.0 - 1.0;
-    // World points on the near and far planes are affine in screen position for a
-    // perspective projection, so their difference interpolates exactly per vertex and the
+    // World points on the near plane and on a plane of constant depth are affine in screen
+    // position for a perspective projection, so their difference interpolates exactly per vertex and the
     // fragments skip two matrix products (the sky covers most of the screen).
     vec4 a = u_inv_view_proj * vec4(p, -1.0, 1.0);
-    vec4 b = u_inv_view_proj * vec4(p, 1.0, 1.0);
+    // NDC depth 0, not 1: with an infinite far plane NDC 1 lies beyond infinity
+    vec4 b = u_inv_view_proj * vec4(p, 0.0, 1.0);
     v_ray = b.xyz / b.w - a.xyz / a.w;
     gl_Position = vec4(p, 1.0, 1.0);
 }

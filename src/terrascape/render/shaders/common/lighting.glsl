@@ -19,9 +19,21 @@ uniform float u_kd;
 uniform float u_ks;
 uniform float u_shininess;      // alpha
 
+// 1 in the pass that draws again the surfaces inside the objects' shadow volumes
+// (terrascape.render.shadow_volumes): the sun's direct light is off in every lighting model
+// (daylight and Phong also get their sun terms set to 0; the lightmap and unlit modes read
+// this flag).
+uniform int u_sun_blocked;
+
 uniform vec3 u_sun_irradiance;     // klx at normal incidence, white-balanced
 uniform vec3 u_sky_irradiance;     // klx on open horizontal ground from the sky
 uniform vec3 u_ground_irradiance;  // ground albedo × irradiance of open sunlit ground
+
+// A surface under no lighting model shows its albedo; in an object's shadow, the ambient
+// share Phong lighting leaves there (ka·ia), so the shadow shows in unlit frames too.
+vec3 unlit(vec3 albedo) {
+    return u_sun_blocked != 0 ? albedo * (u_ka * u_ambient_color) : albedo;
+}
 
 vec3 phong(vec3 albedo, vec3 N, vec3 L, vec3 V) {
     float ndotl = dot(N, L);

@@ -68,6 +68,7 @@ uniform vec3 u_camera_pos;
 uniform float u_exaggeration;
 uniform int u_lighting;          // 0 none, 1 Phong with the given normal, 2 lightmap, 3 daylight
 uniform sampler2D u_lightmap;    // one value per vertex (terrascape.lighting.lightmap)
+uniform float u_lightmap_ambient;  // its value in shadow
 // Daylight: per vertex, R = visible share of the sun's disc (soft cast shadows from the
 // terrain, terrascape.lighting.soft_shadow), G = sky-view factor; sampled bilinearly per
 // fragment, so shadow edges are as smooth as the penumbra, not the triangles.
@@ -104,10 +105,13 @@ vec3 shade(vec3 albedo, vec3 N) {
         return phong(albedo, N, normalize(u_sun_dir), view_dir());
     }
     if (u_lighting == 2) {
+        if (u_sun_blocked != 0) {  // in an object's shadow: what the lightmap has in shade
+            return albedo * u_lightmap_ambient;
+        }
         vec2 uv = grid_texcoord(vec2(textureSize(u_lightmap, 0)));
         return albedo * texture(u_lightmap, uv).r;
     }
-    return albedo;
+    return unlit(albedo);
 }
 
 // Techniques that light with phong() themselves (bump, relief) get the daylight model too

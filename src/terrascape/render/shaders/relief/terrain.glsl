@@ -212,7 +212,7 @@ void main() {
     }
     vec3 color;
     if (u_lighting == 0) {
-        color = albedo;
+        color = unlit(albedo);
     } else {
         // Shadowed fragments keep the ambient term only.
         color = mix(albedo * u_ka * u_ambient_color, phong(albedo, Nw, L, view_dir()), lit);

@@ -70,7 +70,7 @@ vec4 shade_object(vec3 color, vec3 N, vec3 p, vec3 q, vec2 foot) {
         return vec4(display(aerial_perspective(radiance, p, u_camera_pos)), 1.0);
     }
     vec3 albedo = linear_to_srgb(color);
-    vec3 c = albedo;
+    vec3 c = unlit(albedo);
     if (u_lighting != 0) {
         float ndl = max(dot(N, u_sun_dir), 0.0) * sun;
         c = albedo * (u_ka * u_ambient_color + u_kd * ndl * u_diffuse_color);
