@@ -14,7 +14,7 @@ from terrascape.errors import InvalidParameterError
 from terrascape.export import ExportOptions, get_destination
 from terrascape.heightmap import Heightmap
 from terrascape.world import build_world, connect, recipe_from_dict
-from terrascape.world.export import export_geotiff, export_terrain_rgb
+from terrascape.world.export import export_cog, export_geotiff, export_terrain_rgb
 
 LONLAT = (15.0, 45.0)
 
@@ -63,6 +63,43 @@ def test_geotiff_parallel_equals_serial_and_reads_back(world, client, tmp_path):
         assert src.transform.a == 2.0 and src.transform.e == -2.0
     with pytest.raises(Exception, match="exists"):
         export_geotiff(world, tmp_path / "serial.tif")
+
+
+def test_cog_parallel_equals_serial_is_valid_and_equals_the_store(client, tmp_path):
+    import rasterio
+    from rio_cogeo.cogeo import cog_validate
+
+    # Sides that halve exactly, so each overview sample is the mean of 2 × 2 below it.
+    recipe = recipe_from_dict({
+        "size": [256, 384], "spacing": 2.0, "seed": 8, "chunk": 64,
+        "generator": {"name": "ridged", "relief": 80.0, "scale": 90.0, "octaves": 5}})
+    store = tmp_path / "w.zarr"
+    assert build_world(recipe, store, client=client).complete
+    serial = export_cog(store, tmp_path / "serial.tif", blocksize=64)
+    parallel = export_cog(store, tmp_path / "parallel.tif", client=client, blocksize=64)
+    assert serial.read_bytes() == parallel.read_bytes()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["parallel.tif", "serial.tif",
+                                                            "w.zarr"]  # no leftovers
+    valid, errors, warns = cog_validate(str(parallel))
+    assert valid and not errors and not warns, (errors, warns)
+    h = _heights(store)
+    with rasterio.open(parallel) as src:
+        assert src.tags(ns="IMAGE_STRUCTURE")["LAYOUT"] == "COG"
+        assert src.block_shapes == [(64, 64)] and src.overviews(1) == [2, 4, 8]
+        assert src.transform.a == 2.0 and src.transform.e == -2.0 and src.crs is None
+        assert src.tags()["terrascape_world"] == recipe.digest()
+        assert np.array_equal(src.read(1), h)
+    mean = h.astype(np.float64)
+    for level in range(3):
+        mean = mean.reshape(mean.shape[0] // 2, 2, mean.shape[1] // 2, 2).mean(axis=(1, 3))
+        with rasterio.open(parallel, OVERVIEW_LEVEL=level) as ov:
+            got = ov.read(1)
+        if level == 0:
+            np.testing.assert_allclose(got, mean, atol=1e-4)
+        else:  # GDAL averages each overview from the one above it (float32)
+            np.testing.assert_allclose(got, mean, atol=1e-3)
+    with pytest.raises(InvalidParameterError, match=r"\.tif"):
+        export_cog(store, tmp_path / "x.png")
 
 
 def test_terrain_rgb_parallel_equals_serial_and_whole_map(world, client, tmp_path):
@@ -115,6 +152,13 @@ def test_cli_world_export(world, tmp_path):
                               "--workers", "2", "--threads"])
     assert res.exit_code == 0, res.output
     with rasterio.open(tmp_path / "w.tif") as src:
+        assert np.array_equal(src.read(1), _heights(world))
+        assert src.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") != "COG"
+    res = runner.invoke(app, ["world", "export", str(world), str(tmp_path / "cog.tif"),
+                              "--format", "cog", "--threads"])
+    assert res.exit_code == 0, res.output
+    with rasterio.open(tmp_path / "cog.tif") as src:
+        assert src.tags(ns="IMAGE_STRUCTURE")["LAYOUT"] == "COG"
         assert np.array_equal(src.read(1), _heights(world))
     res = runner.invoke(app, ["world", "export", str(world), str(tmp_path / "tiles"),
                               "--format", "terrarium", "--lonlat", "15,45", "--min-zoom", "15",

@@ -68,7 +68,8 @@ def world_export_cmd(
                                   help="A .tif file (geotiff), or a folder for tiles."),
     fmt: str = typer.Option(
         "geotiff", "--format",
-        help="geotiff (tiled float32, deflate), mapbox (Terrain-RGB tiles) or terrarium."),
+        help="geotiff (tiled float32, deflate), cog (Cloud-Optimized GeoTIFF: tiled, with "
+             "overviews), mapbox (Terrain-RGB tiles) or terrarium."),
     lonlat: str = typer.Option(None, "--lonlat",
                                help="mapbox/terrarium: the world's centre LON,LAT (degrees).",
                                show_default=False),
@@ -91,14 +92,15 @@ def world_export_cmd(
 
     from terrascape.errors import InvalidParameterError
     from terrascape.world import connect, open_world
-    from terrascape.world.export import export_geotiff, export_terrain_rgb
+    from terrascape.world.export import export_cog, export_geotiff, export_terrain_rgb
 
-    if fmt not in ("geotiff", "mapbox", "terrarium"):
-        raise InvalidParameterError(f"--format must be geotiff, mapbox or terrarium, got {fmt!r}")
+    if fmt not in ("geotiff", "cog", "mapbox", "terrarium"):
+        raise InvalidParameterError(
+            f"--format must be geotiff, cog, mapbox or terrarium, got {fmt!r}")
     open_world(store)  # a clear error before a cluster starts
-    if fmt == "geotiff":
+    if fmt in ("geotiff", "cog"):
         if output.suffix.lower() not in (".tif", ".tiff"):
-            raise InvalidParameterError(f"geotiff output must end in .tif, got {output.name!r}")
+            raise InvalidParameterError(f"{fmt} output must end in .tif, got {output.name!r}")
         from terrascape.io.atomic import check_output_path
 
         check_output_path(output, force=force)
@@ -108,6 +110,8 @@ def world_export_cmd(
     with connect(scheduler, workers=workers, memory_limit="2GB", processes=processes) as client:
         if fmt == "geotiff":
             written = [export_geotiff(store, output, client=client, force=force)]
+        elif fmt == "cog":
+            written = [export_cog(store, output, client=client, force=force)]
         else:
             from terrascape.cli.parsing import parse_floats
 

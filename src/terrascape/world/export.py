@@ -1,4 +1,5 @@
-"""Export a world in parallel, tile by tile: a tiled GeoTIFF and Terrain-RGB/Terrarium tiles.
+"""Export a world in parallel, tile by tile: a tiled GeoTIFF or Cloud-Optimized GeoTIFF and
+Terrain-RGB/Terrarium tiles.
 
 Each output tile is one task on the cluster (``client.map``); with no client the same
 function runs in a loop here. A task reads only the window of the store its tile needs, so
@@ -53,16 +54,58 @@ def export_geotiff(path, out, *, client=None, force: bool = False) -> Path:
     The transform puts sample ``[0, 0]``'s outer corner at (0, 0) with the world's spacing
     (a local grid: no CRS); readers get the heights in world units.
     """
-    import rasterio
-    from rasterio.transform import Affine
-    from rasterio.windows import Window
-
     from terrascape.io.atomic import atomic_output
 
+    group, recipe = _finished_world(path)
+    with atomic_output(Path(out), force=force) as tmp:
+        _write_tiled_geotiff(path, group, recipe, tmp, client)
+    return Path(out)
+
+
+def export_cog(path, out, *, client=None, force: bool = False, blocksize: int = 512) -> Path:
+    """The world's heights as a Cloud-Optimized GeoTIFF at ``out`` (written atomically):
+    ``blocksize``² DEFLATE tiles, overviews down to one tile (each sample the average of the four
+    below), the same transform and tags as :func:`export_geotiff`.
+
+    The workers read and pack the blocks into a tiled GeoTIFF next to ``out`` (as
+    :func:`export_geotiff`); GDAL's COG driver then copies it block by block, building the
+    overviews, and the intermediate file is removed: no process holds the whole map, but
+    the folder needs about twice the output's size free while it runs.
+    """
+    import tempfile
+
+    from terrascape.io.atomic import check_output_path
+    from terrascape.io.cog import cog_creation_options, copy_to_cog
+
+    cog_creation_options(blocksize=blocksize)  # a bad size before any work
+    out = Path(out)
+    if out.suffix.lower() not in (".tif", ".tiff"):
+        raise InvalidParameterError(f"COG output must end in .tif, got {out.name!r}")
+    check_output_path(out, force=force)
+    group, recipe = _finished_world(path)
+    with tempfile.TemporaryDirectory(prefix=f".{out.stem[:40]}-cog-",
+                                     dir=out.parent if out.parent.is_dir() else None) as tmp:
+        tiled = Path(tmp) / "tiled.tif"
+        _write_tiled_geotiff(path, group, recipe, tiled, client)
+        copy_to_cog(tiled, out, force=force, blocksize=blocksize)
+    return out
+
+
+def _finished_world(path):
     group, recipe = open_world(path)
     if not group.attrs.get("complete", False):
         raise InvalidParameterError(f"{path} is not finished: run `terrascape world build` "
                                     "again to complete it before exporting")
+    return group, recipe
+
+
+def _write_tiled_geotiff(path, group, recipe, target: Path, client) -> None:
+    """Write the world's heights as a tiled GeoTIFF at ``target`` (blocks packed by the
+    workers, written here in block order)."""
+    import rasterio
+    from rasterio.transform import Affine
+    from rasterio.windows import Window
+
     rows, cols = recipe.shape
     b = TIFF_BLOCK
     blocks = [(str(path), r, min(r + b, rows), c, min(c + b, cols))
@@ -72,13 +115,12 @@ def export_geotiff(path, out, *, client=None, force: bool = False) -> Path:
                "dtype": "float32", "tiled": True, "blockxsize": b, "blockysize": b,
                "compress": "deflate", "predictor": 3, "transform": Affine(sp, 0, 0, 0, -sp, 0),
                "BIGTIFF": "IF_SAFER"}
-    with atomic_output(Path(out), force=force) as tmp, rasterio.open(tmp, "w", **profile) as dst:
+    with rasterio.open(target, "w", **profile) as dst:
         dst.update_tags(terrascape_world=group.attrs["recipe_hash"],
                         spacing=str(sp), seed=str(recipe.seed))
         for (_, r0, r1, c0, c1), data in zip(blocks, _in_order(client, _tiff_block, blocks),
                                              strict=True):
             dst.write(data, 1, window=Window(c0, r0, c1 - c0, r1 - r0))
-    return Path(out)
 
 
 def _in_order(client, fn, args: list[tuple]):
@@ -208,4 +250,4 @@ def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str =
     return written
 
 
-__all__ = ["TIFF_BLOCK", "export_geotiff", "export_terrain_rgb"]
+__all__ = ["TIFF_BLOCK", "export_cog", "export_geotiff", "export_terrain_rgb"]
