@@ -69,14 +69,18 @@ def world_export_cmd(
     fmt: str = typer.Option(
         "geotiff", "--format",
         help="geotiff (tiled float32, deflate), cog (Cloud-Optimized GeoTIFF: tiled, with "
-             "overviews), mapbox (Terrain-RGB tiles) or terrarium."),
+             "overviews), mapbox (Terrain-RGB tiles), terrarium or quantized-mesh (the Cesium "
+             "terrain pyramid)."),
     lonlat: str = typer.Option(None, "--lonlat",
-                               help="mapbox/terrarium: the world's centre LON,LAT (degrees).",
+                               help="Tiles: the world's centre LON,LAT (degrees).",
                                show_default=False),
     min_zoom: int = typer.Option(None, "--min-zoom", min=0, max=24,
                                  help="Tiles: first level.", show_default="0"),
     max_zoom: int = typer.Option(None, "--max-zoom", min=0, max=24, help="Tiles: last level.",
                                  show_default="as dense as the world"),
+    max_error: float = typer.Option(
+        1.0, "--max-error", help="quantized-mesh: vertical error of the finest level "
+        "(metres; doubles per coarser level)."),
     scheduler: str = typer.Option(
         "local", "--scheduler",
         help="local (a new LocalCluster) or the address of a running dask scheduler."),
@@ -92,11 +96,16 @@ def world_export_cmd(
 
     from terrascape.errors import InvalidParameterError
     from terrascape.world import connect, open_world
-    from terrascape.world.export import export_cog, export_geotiff, export_terrain_rgb
+    from terrascape.world.export import (
+        export_cog,
+        export_geotiff,
+        export_quantized_mesh,
+        export_terrain_rgb,
+    )
 
-    if fmt not in ("geotiff", "cog", "mapbox", "terrarium"):
+    if fmt not in ("geotiff", "cog", "mapbox", "terrarium", "quantized-mesh"):
         raise InvalidParameterError(
-            f"--format must be geotiff, cog, mapbox or terrarium, got {fmt!r}")
+            f"--format must be geotiff, cog, mapbox, terrarium or quantized-mesh, got {fmt!r}")
     open_world(store)  # a clear error before a cluster starts
     if fmt in ("geotiff", "cog"):
         if output.suffix.lower() not in (".tif", ".tiff"):
@@ -112,6 +121,13 @@ def world_export_cmd(
             written = [export_geotiff(store, output, client=client, force=force)]
         elif fmt == "cog":
             written = [export_cog(store, output, client=client, force=force)]
+        elif fmt == "quantized-mesh":
+            from terrascape.cli.parsing import parse_floats
+
+            ll = tuple(parse_floats(lonlat, 2, name="--lonlat"))
+            written = export_quantized_mesh(store, output, lonlat=ll, min_zoom=min_zoom,
+                                            max_zoom=max_zoom, max_error=max_error,
+                                            name=store.stem, client=client, force=force)
         else:
             from terrascape.cli.parsing import parse_floats
 

@@ -1,5 +1,5 @@
-"""Export a world in parallel, tile by tile: a tiled GeoTIFF or Cloud-Optimized GeoTIFF and
-Terrain-RGB/Terrarium tiles.
+"""Export a world in parallel, tile by tile: a tiled GeoTIFF or Cloud-Optimized GeoTIFF,
+Terrain-RGB/Terrarium tiles and the Cesium quantized-mesh pyramid.
 
 Each output tile is one task on the cluster (``client.map``); with no client the same
 function runs in a loop here. A task reads only the window of the store its tile needs, so
@@ -14,6 +14,12 @@ memory stays bounded whatever the world's size, and both ways give the same byte
   at most as large as its pixels (level 0 at the finest zoom, where the tiles equal
   ``terrascape export terrain_rgb`` of the map loaded whole, byte for byte; coarser zooms
   read the overviews instead of the full-resolution map).
+* **COG** (GDAL's COG driver): the GeoTIFF above, then copied with overviews.
+* **Cesium quantized-mesh** (:mod:`terrascape.export.cesium`'s tiles, levels and errors):
+  every tile samples the pyramid level whose samples are no larger than its own, meshes
+  and encodes them, and writes its ``.terrain`` file; where the tiles are finer than the
+  world (the finest levels) they equal ``terrascape export cesium`` of the map loaded
+  whole, byte for byte.
 """
 
 from __future__ import annotations
@@ -250,4 +256,90 @@ def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str =
     return written
 
 
-__all__ = ["TIFF_BLOCK", "export_cog", "export_geotiff", "export_terrain_rgb"]
+# --- Cesium quantized-mesh ----------------------------------------------------------------
+def _world_grid(recipe, lonlat):
+    """A :class:`~terrascape.export._geo.GeoGrid` of the world's shape placed at ``lonlat``
+    (as the single-map exporters place a map); its heights are a zero-size-in-memory
+    broadcast — only the shape and georeference are used."""
+    from terrascape.export._geo import GeoGrid
+
+    west, north, dlon, dlat = _geo(recipe, lonlat)
+    return GeoGrid(np.broadcast_to(np.float32(0), recipe.shape), west, north, dlon, dlat)
+
+
+def _quantized_mesh_tile(path: str, lonlat, z: int, x: int, y: int, error: float,
+                         out_dir: str, force: bool) -> tuple[str, int]:
+    """Sample, mesh, encode and write tile ``z/x/y``; returns its path and triangle count.
+
+    The tile's 65 × 65 samples are bilinear in the pyramid level whose samples are no
+    larger than the tile's (level 0 where the tiles are finer than the map: there they
+    equal :func:`terrascape.export.cesium.tile_samples` of the map loaded whole, bit for
+    bit), read as the small window that holds them.
+    """
+    import numba
+
+    from terrascape.export._common import write_bytes
+    from terrascape.export.cesium import bilinear_separable, encode_samples, tile_coordinates
+
+    numba.set_num_threads(1)  # one task = one core, as in a build
+    group, recipe = open_world(path)
+    grid = _world_grid(recipe, lonlat)
+    lon_1d, lat_1d, row, col, inside, bounds = tile_coordinates(grid, z, x, y)
+    rows, cols = recipe.shape
+    row = np.clip(row, 0, rows - 1)
+    col = np.clip(col, 0, cols - 1)
+    n = len(row) - 1
+    pixel = max(float(np.ptp(row)), float(np.ptp(col))) / n
+    level = max(0, math.floor(math.log2(pixel))) if pixel > 1 else 0
+    step = 1 << level
+    lrows, lcols = level_shape(recipe.shape, level)
+    # Division by a power of two and subtraction of whole numbers are exact: the bilinear
+    # weights are those of the whole map.
+    lr = np.clip(row / step, 0, lrows - 1)
+    lc = np.clip(col / step, 0, lcols - 1)
+    a0, b0 = int(np.floor(lr.min())), int(np.floor(lc.min()))
+    a1, b1 = min(lrows, int(np.floor(lr.max())) + 2), min(lcols, int(np.floor(lc.max())) + 2)
+    window = read_level(group, level, a0, a1, b0, b1)
+    h = np.where(inside, bilinear_separable(window, lr - a0, lc - b0), 0.0)
+    size = len(lon_1d)
+    lon = np.broadcast_to(lon_1d, (size, size))
+    lat = np.broadcast_to(lat_1d[:, None], (size, size))
+    data, triangles = encode_samples(lon, lat, h, inside, bounds, error)
+    target = Path(out_dir) / str(z) / str(x) / f"{y}.terrain"
+    target.parent.mkdir(parents=True, exist_ok=True)
+    write_bytes(target, data, force=force)
+    return str(target), triangles
+
+
+def export_quantized_mesh(path, out_dir, *, lonlat: tuple[float, float],
+                          min_zoom: int | None = None, max_zoom: int | None = None,
+                          max_error: float = 1.0, name: str = "world", client=None,
+                          force: bool = False) -> list[Path]:
+    """The Cesium quantized-mesh 1.0 pyramid of the world (``layer.json`` and one
+    ``z/x/y.terrain`` per tile, one task each), as ``terrascape export cesium`` writes it
+    for a map: the same tiles, levels and per-level errors; zooms ``min_zoom`` (0) to
+    ``max_zoom`` (the first as dense as the world)."""
+    from terrascape.export._common import check_out_dir
+    from terrascape.export.cesium import finest_level, tile_jobs, write_metadata
+
+    _, recipe = _finished_world(path)
+    if not (isinstance(max_error, int | float) and math.isfinite(max_error) and max_error > 0):
+        raise InvalidParameterError(f"--max-error must be a positive number, got {max_error!r}")
+    grid = _world_grid(recipe, lonlat)
+    out = check_out_dir(out_dir)
+    top = finest_level(grid) if max_zoom is None else max_zoom
+    bottom = min_zoom or 0
+    if bottom > top:
+        raise InvalidParameterError(f"--min-zoom {bottom} is above --max-zoom {top}")
+    jobs, available = tile_jobs(grid, bottom, top, max_error)
+    ll = tuple(float(v) for v in lonlat)
+    results = _run(client, _quantized_mesh_tile,
+                   [(str(path), ll, z, x, y, err, str(out), force) for z, x, y, err in jobs])
+    written = [Path(p) for p, _ in results]
+    written += write_metadata(out, name, bottom, top, available, max_error, grid.bounds,
+                              force=force)
+    return written
+
+
+__all__ = ["TIFF_BLOCK", "export_cog", "export_geotiff", "export_quantized_mesh",
+           "export_terrain_rgb"]
