@@ -37,7 +37,7 @@ import numpy as np
 
 from terrascape._numba import CACHE, FASTMATH, njit
 from terrascape.errors import InvalidParameterError
-from terrascape.export._common import ExportOptions, check_out_dir, write_bytes, write_text
+from terrascape.export._common import ExportOptions, check_out_dir, write_many, write_text
 from terrascape.export._geo import GeoGrid, geo_grid, tms_geographic_bounds, tms_geographic_range
 from terrascape.heightmap import Heightmap
 
@@ -48,6 +48,9 @@ _WGS84_A = 6378137.0
 # gzip level 1: tiles a tenth larger than at level 6, compressed 2.3 times faster (measured on
 # a 1025² pyramid); compression was a third of the time of a tile at level 6
 _GZIP_LEVEL = 1
+#: Tiles written (and flushed to the disk) as one unit: a flush and a commit per tile took
+#: 20 ms of waiting on the disk each, longer than making the tile (3 ms of CPU).
+WRITE_BATCH = 256
 
 
 def cesium_geometric_error(level: int) -> float:
@@ -298,10 +301,13 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     max_error = 1.0 if options.max_error is None else options.max_error
     written: list[Path] = []
     jobs, available = tile_jobs(grid, bottom, top, max_error)
+    batch: list[tuple[Path, bytes]] = []
     for (z, x, y), data, _ in encode_pyramid(grid, jobs, workers=options.workers):
-        path = out / str(z) / str(x) / f"{y}.terrain"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        written.append(write_bytes(path, data, force=options.force))
+        batch.append((out / str(z) / str(x) / f"{y}.terrain", data))
+        if len(batch) == WRITE_BATCH:
+            written += write_many(batch, force=options.force)
+            batch = []
+    written += write_many(batch, force=options.force)
     written += write_metadata(out, options.name, bottom, top, available, max_error,
                               grid.bounds, force=options.force)
     return written

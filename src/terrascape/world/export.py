@@ -267,22 +267,40 @@ def _world_grid(recipe, lonlat):
     return GeoGrid(np.broadcast_to(np.float32(0), recipe.shape), west, north, dlon, dlat)
 
 
-def _quantized_mesh_tile(path: str, lonlat, z: int, x: int, y: int, error: float,
-                         out_dir: str, force: bool) -> tuple[str, int]:
-    """Sample, mesh, encode and write tile ``z/x/y``; returns its path and triangle count.
+#: Tiles per quantized-mesh task: a tile takes a few milliseconds, so one task a tile would
+#: be mostly scheduling; the task writes its tiles as one unit (see ``write_many``).
+QM_TILES_PER_TASK = 64
+
+
+def _quantized_mesh_tiles(path: str, lonlat, jobs: list, out_dir: str, force: bool
+                          ) -> list[tuple[str, int]]:
+    """Make and write the tiles ``jobs`` (``(z, x, y, error)`` each) as one unit; returns
+    each tile's path and triangle count."""
+    import numba
+
+    from terrascape.export._common import write_many
+
+    numba.set_num_threads(1)  # one task = one core, as in a build
+    group, recipe = open_world(path)
+    made = [_quantized_mesh_tile(group, recipe, lonlat, *job) for job in jobs]
+    out = Path(out_dir)
+    paths = write_many([(out / str(z) / str(x) / f"{y}.terrain", data)
+                        for (z, x, y, _), (data, _) in zip(jobs, made, strict=True)],
+                       force=force)
+    return [(str(p), n) for p, (_, n) in zip(paths, made, strict=True)]
+
+
+def _quantized_mesh_tile(group, recipe, lonlat, z: int, x: int, y: int, error: float
+                         ) -> tuple[bytes, int]:
+    """Sample, mesh and encode tile ``z/x/y``; returns its bytes and triangle count.
 
     The tile's 65 × 65 samples are bilinear in the pyramid level whose samples are no
     larger than the tile's (level 0 where the tiles are finer than the map: there they
     equal :func:`terrascape.export.cesium.tile_samples` of the map loaded whole, bit for
     bit), read as the small window that holds them.
     """
-    import numba
-
-    from terrascape.export._common import write_bytes
     from terrascape.export.cesium import bilinear_separable, encode_samples, tile_coordinates
 
-    numba.set_num_threads(1)  # one task = one core, as in a build
-    group, recipe = open_world(path)
     grid = _world_grid(recipe, lonlat)
     lon_1d, lat_1d, row, col, inside, bounds = tile_coordinates(grid, z, x, y)
     rows, cols = recipe.shape
@@ -304,11 +322,7 @@ def _quantized_mesh_tile(path: str, lonlat, z: int, x: int, y: int, error: float
     size = len(lon_1d)
     lon = np.broadcast_to(lon_1d, (size, size))
     lat = np.broadcast_to(lat_1d[:, None], (size, size))
-    data, triangles = encode_samples(lon, lat, h, inside, bounds, error)
-    target = Path(out_dir) / str(z) / str(x) / f"{y}.terrain"
-    target.parent.mkdir(parents=True, exist_ok=True)
-    write_bytes(target, data, force=force)
-    return str(target), triangles
+    return encode_samples(lon, lat, h, inside, bounds, error)
 
 
 def export_quantized_mesh(path, out_dir, *, lonlat: tuple[float, float],
@@ -333,9 +347,11 @@ def export_quantized_mesh(path, out_dir, *, lonlat: tuple[float, float],
         raise InvalidParameterError(f"--min-zoom {bottom} is above --max-zoom {top}")
     jobs, available = tile_jobs(grid, bottom, top, max_error)
     ll = tuple(float(v) for v in lonlat)
-    results = _run(client, _quantized_mesh_tile,
-                   [(str(path), ll, z, x, y, err, str(out), force) for z, x, y, err in jobs])
-    written = [Path(p) for p, _ in results]
+    n = QM_TILES_PER_TASK
+    results = _run(client, _quantized_mesh_tiles,
+                   [(str(path), ll, jobs[k:k + n], str(out), force)
+                    for k in range(0, len(jobs), n)])
+    written = [Path(p) for batch in results for p, _ in batch]
     written += write_metadata(out, name, bottom, top, available, max_error, grid.bounds,
                               force=force)
     return written
