@@ -18,6 +18,10 @@ further ``(max − min) / 32767`` at most).
 
 Tiles are encoded in parallel worker processes, each with one numba thread: a tile is small
 and many in flight keep both cores busy without numba's thread start-up per tiny kernel.
+This process writes them in units of :data:`WRITE_BATCH` tiles, each unit flushed to the
+disk by a few threads and committed at once (:func:`terrascape.export._common.write_many`):
+one flush and commit per tile waited about 20 ms on the disk, several times the tile's own
+3 ms of CPU, and made the pyramid's wall time.
 
 References
 ----------
