@@ -194,7 +194,7 @@ def run(quick: bool = False) -> list[BenchTable]:
         f"world build {side}² (chunk {chunk}; fBm, thermal ×4, normals, shadow, pyramid)",
         ["workers", "wall s", "height_raw s", "height s", "normals s", "shadow s",
          "levels s", "samples/s per worker", "samples per CPU-s", "speed-up",
-         "workers busy", "peak GB per worker", "load avg"])
+         "workers busy", "cores used", "peak GB per worker", "load avg"])
     check = BenchTable(f"world {side}² stored arrays vs whole-map functions",
                        ["array", "bit-for-bit equal", "samples differing"])
     runs = []
@@ -234,7 +234,7 @@ def run(quick: bool = False) -> list[BenchTable]:
                 round(st.get("shadow", 0.0), 2), round(levels, 2),
                 round(samples / result.seconds / workers), round(samples / cpu),
                 round(base / result.seconds, 2),
-                round(busy / (result.seconds * workers), 3),
+                round(busy / (result.seconds * workers), 3), round(cpu / result.seconds, 2),
                 round(peak / 1e9, 3), round(load, 1)])
         store = folder / f"run{keep}" / "world2.zarr"
         check.rows = _equality(recipe, store)
@@ -261,7 +261,13 @@ def run(quick: bool = False) -> list[BenchTable]:
         "builds' own task times handed to 2 workers in order, stage barriers and the "
         "time outside tasks kept): "
         f"{', '.join(f'{b:.2f}×' for b in bounds)}; 'workers busy' = task time / "
-        "(wall × workers)")
+        "(wall × workers); 'cores used' = the workers' CPU seconds / wall seconds")
+    table.notes.append(
+        "Linux's autogroup scheduler (/proc/sys/kernel/sched_autogroup_enabled) shares the "
+        "CPU fairly between sessions, not processes: when other sessions keep the cores "
+        "busy, this session's builds get the same share whether they run 1 or 2 workers "
+        "('cores used' about equal), and the measured speed-up tends to 1 — the 2-worker "
+        "figure needs a machine the benchmark has to itself")
     table.check_target("speed-up the build's tasks allow on 2 free cores",
                        float(np.median(bounds)), at_least=SPEEDUP_TARGET, unit="×")
     table.notes.append(f"run {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
