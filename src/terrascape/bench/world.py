@@ -185,9 +185,18 @@ def stream_power_seams(side: int = 513, chunk: int = 128, halos=(32, 128)) -> Be
 
 
 def run(quick: bool = False) -> list[BenchTable]:
+    side, chunk = (2049, 512) if quick else (8193, 1024)
+    rounds = ROUNDS[1] if quick else ROUNDS[0]
+    return [*speedup(side, chunk, rounds),
+            stream_power_seams(257 if quick else 513, 64 if quick else 128)]
+
+
+def speedup(side: int, chunk: int, rounds: int = 1) -> list[BenchTable]:
+    """Builds of the benchmark recipe at ``side``² in chunks of ``chunk`` on 1, 2, 2, 1
+    workers, ``rounds`` times, and the check of one store against the whole-map functions:
+    ``python -m terrascape.bench.world speedup 4097 1024 3``."""
     from terrascape.world import recipe_from_dict
 
-    side, chunk = (2049, 512) if quick else (8193, 1024)
     recipe = recipe_from_dict(bench_recipe(side, chunk))
     samples = recipe.rows * recipe.cols
     table = BenchTable(
@@ -198,7 +207,6 @@ def run(quick: bool = False) -> list[BenchTable]:
     check = BenchTable(f"world {side}² stored arrays vs whole-map functions",
                        ["array", "bit-for-bit equal", "samples differing"])
     runs = []
-    rounds = ROUNDS[1] if quick else ROUNDS[0]
     order = ORDER * rounds
     keep = order.index(2)
     with tempfile.TemporaryDirectory(prefix="bench-world-") as tmp:
@@ -271,7 +279,7 @@ def run(quick: bool = False) -> list[BenchTable]:
     table.check_target("speed-up the build's tasks allow on 2 free cores",
                        float(np.median(bounds)), at_least=SPEEDUP_TARGET, unit="×")
     table.notes.append(f"run {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
-    return [table, check, stream_power_seams(257 if quick else 513, 64 if quick else 128)]
+    return [table, check]
 
 
 def build_large(side: int, *, workers: int = 2, chunk: int = 1024, folder: str | Path | None = None
@@ -315,8 +323,12 @@ def build_large(side: int, *, workers: int = 2, chunk: int = 1024, folder: str |
 if __name__ == "__main__":  # pragma: no cover - manual large runs
     import sys
 
-    for t in [build_large(int(sys.argv[1]), workers=int(sys.argv[2]) if len(sys.argv) > 2
-                          else 2)]:
+    if sys.argv[1] == "speedup":  # speedup SIDE CHUNK ROUNDS
+        tables = speedup(*(int(a) for a in sys.argv[2:5]))
+    else:  # SIDE [WORKERS]
+        tables = [build_large(int(sys.argv[1]),
+                              workers=int(sys.argv[2]) if len(sys.argv) > 2 else 2)]
+    for t in tables:
         print(t.title)
         for row in t.rows:
             print("  ", *row)
