@@ -65,7 +65,7 @@ def world_info_cmd(
 def world_export_cmd(
     store: Path = typer.Argument(..., metavar="WORLD", help="World store (world.zarr)."),
     output: Path = typer.Argument(..., metavar="OUT",
-                                  help="A .tif file (geotiff), or a folder for tiles."),
+                                  help="A .tif file (geotiff, cog), or a folder for tiles."),
     fmt: str = typer.Option(
         "geotiff", "--format",
         help="geotiff (tiled float32, deflate), cog (Cloud-Optimized GeoTIFF: tiled, with "
