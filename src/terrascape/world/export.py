@@ -1,7 +1,8 @@
 """Export a world in parallel, tile by tile: a tiled GeoTIFF or Cloud-Optimized GeoTIFF,
 Terrain-RGB/Terrarium tiles and the Cesium quantized-mesh pyramid.
 
-Each output tile is one task on the cluster (``client.map``); with no client the same
+Each GeoTIFF block, and each group of tiles (16 Terrain-RGB or 64 quantized-mesh tiles,
+written as one unit), is one task on the cluster (``client.map``); with no client the same
 function runs in a loop here. A task reads only the window of the store its tile needs, so
 memory stays bounded whatever the world's size, and both ways give the same bytes:
 
@@ -165,16 +166,29 @@ def _geo(recipe, lonlat) -> tuple[float, float, float, float]:
     return lon - recipe.cols * dlon / 2, lat + recipe.rows * dlat / 2, dlon, dlat
 
 
-def _rgb_tile(path: str, geo, z: int, x: int, y: int, fmt: str, out_dir: str,
-              force: bool) -> str:
-    """Encode and write tile ``z/x/y``; returns its path."""
+#: Terrain-RGB tiles per task, written as one unit (see ``write_many``).
+RGB_TILES_PER_TASK = 16
+
+
+def _rgb_tiles(path: str, geo, tiles: list, fmt: str, out_dir: str, force: bool
+               ) -> list[str]:
+    """Encode the tiles ``(z, x, y)`` and write them as one unit; returns their paths."""
+    from terrascape.export._common import write_many
+
+    group, recipe = open_world(path)
+    out = Path(out_dir)
+    items = [(out / str(z) / str(x) / f"{y}.png", _rgb_tile(group, recipe, geo, z, x, y, fmt))
+             for z, x, y in tiles]
+    return [str(p) for p in write_many(items, force=force)]
+
+
+def _rgb_tile(group, recipe, geo, z: int, x: int, y: int, fmt: str) -> bytes:
+    """The PNG bytes of tile ``z/x/y``."""
     from PIL import Image
 
-    from terrascape.export._common import write_bytes
     from terrascape.export._geo import mercator_tile_lonlat
     from terrascape.export.terrain_rgb import encode_mapbox, encode_terrarium
 
-    group, recipe = open_world(path)
     west, north, dlon, dlat = geo
     rows, cols = recipe.shape
     t = (np.arange(TILE) + 0.5) / TILE
@@ -209,17 +223,15 @@ def _rgb_tile(path: str, geo, z: int, x: int, y: int, fmt: str, out_dir: str,
     rgba[..., 3] = np.where(inside, 255, 0)
     buf = io.BytesIO()
     Image.fromarray(rgba, "RGBA").save(buf, format="PNG")
-    target = Path(out_dir) / str(z) / str(x) / f"{y}.png"
-    target.parent.mkdir(parents=True, exist_ok=True)
-    write_bytes(target, buf.getvalue(), force=force)
-    return str(target)
+    return buf.getvalue()
 
 
 def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str = "mapbox",
                        min_zoom: int | None = None, max_zoom: int | None = None,
                        name: str = "world", client=None, force: bool = False) -> list[Path]:
-    """Terrain-RGB (``fmt="mapbox"``) or Terrarium PNG tiles of the world, one task each,
-    plus ``tiles.json``; zooms ``min_zoom`` (0) to ``max_zoom`` (as dense as the world)."""
+    """Terrain-RGB (``fmt="mapbox"``) or Terrarium PNG tiles of the world (one task per
+    :data:`RGB_TILES_PER_TASK` tiles), plus ``tiles.json``; zooms ``min_zoom`` (0) to
+    ``max_zoom`` (as dense as the world)."""
     from terrascape.export._common import check_out_dir, write_text
     from terrascape.export._geo import GeoGrid, mercator_tile_range
     from terrascape.export.terrain_rgb import FORMATS, finest_zoom
@@ -240,13 +252,14 @@ def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str =
     bottom = min_zoom or 0
     if bottom > top:
         raise InvalidParameterError(f"--min-zoom {bottom} is above --max-zoom {top}")
-    args = []
+    tiles = []
     for z in range(bottom, top + 1):
         x0, y0, x1, y1 = mercator_tile_range(z, grid.bounds)
-        args += [(str(path), geo, z, x, y, fmt, str(out), force)
-                 for x in range(x0, x1 + 1) for y in range(y0, y1 + 1)]
-    results = _run(client, _rgb_tile, args)
-    written = [Path(p) for p in results]
+        tiles += [(z, x, y) for x in range(x0, x1 + 1) for y in range(y0, y1 + 1)]
+    n = RGB_TILES_PER_TASK
+    results = _run(client, _rgb_tiles, [(str(path), geo, tiles[k:k + n], fmt, str(out), force)
+                                        for k in range(0, len(tiles), n)])
+    written = [Path(p) for batch in results for p in batch]
     w, s, e, n = grid.bounds
     tilejson = {"tilejson": "2.2.0", "name": name, "scheme": "xyz",
                 "tiles": ["{z}/{x}/{y}.png"], "minzoom": bottom, "maxzoom": top,
