@@ -250,3 +250,20 @@ def test_cli_errors_are_one_line(tmp_path, capsys):
     bad.write_text('size = 100\n[generator]\nname = "fbm"\nwidth = 3\n')
     assert run_app(["world", "build", str(bad), "-o", str(tmp_path / "w.zarr")]) == 2
     assert "width" in capsys.readouterr().err
+
+
+
+def test_a_worker_process_is_one_core(tmp_path):
+    """In worker processes a build's tasks decode with a zarr codec pool of one thread, and
+    the workers' profiler is off."""
+    recipe = recipe_from_dict({"size": [130, 130], "chunk": 64, "seed": 2,
+                               "generator": {"name": "fbm", "relief": 10.0, "scale": 40.0}})
+    with connect("local", workers=2, processes=True, memory_limit=None) as client:
+        assert build_world(recipe, tmp_path / "w.zarr", client=client).complete
+        # Lambdas travel by value (the workers cannot import this test module).
+        pools = client.run(lambda: __import__("zarr.core.sync", fromlist=["x"])
+                           ._executor._max_workers)
+        profile = client.run(lambda: __import__("dask").config.get(
+            "distributed.worker.profile.enabled"))
+    assert len(pools) == 2 and all(v == 1 for v in pools.values()), pools
+    assert all(v is False for v in profile.values()), profile

@@ -14,7 +14,12 @@ from terrascape.errors import InvalidParameterError
 from terrascape.export import ExportOptions, get_destination
 from terrascape.heightmap import Heightmap
 from terrascape.world import build_world, connect, recipe_from_dict
-from terrascape.world.export import export_geotiff, export_terrain_rgb
+from terrascape.world.export import (
+    export_cog,
+    export_geotiff,
+    export_quantized_mesh,
+    export_terrain_rgb,
+)
 
 LONLAT = (15.0, 45.0)
 
@@ -65,6 +70,43 @@ def test_geotiff_parallel_equals_serial_and_reads_back(world, client, tmp_path):
         export_geotiff(world, tmp_path / "serial.tif")
 
 
+def test_cog_parallel_equals_serial_is_valid_and_equals_the_store(client, tmp_path):
+    import rasterio
+    from rio_cogeo.cogeo import cog_validate
+
+    # Sides that halve exactly, so each overview sample is the mean of 2 × 2 below it.
+    recipe = recipe_from_dict({
+        "size": [256, 384], "spacing": 2.0, "seed": 8, "chunk": 64,
+        "generator": {"name": "ridged", "relief": 80.0, "scale": 90.0, "octaves": 5}})
+    store = tmp_path / "w.zarr"
+    assert build_world(recipe, store, client=client).complete
+    serial = export_cog(store, tmp_path / "serial.tif", blocksize=64)
+    parallel = export_cog(store, tmp_path / "parallel.tif", client=client, blocksize=64)
+    assert serial.read_bytes() == parallel.read_bytes()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["parallel.tif", "serial.tif",
+                                                            "w.zarr"]  # no leftovers
+    valid, errors, warns = cog_validate(str(parallel))
+    assert valid and not errors and not warns, (errors, warns)
+    h = _heights(store)
+    with rasterio.open(parallel) as src:
+        assert src.tags(ns="IMAGE_STRUCTURE")["LAYOUT"] == "COG"
+        assert src.block_shapes == [(64, 64)] and src.overviews(1) == [2, 4, 8]
+        assert src.transform.a == 2.0 and src.transform.e == -2.0 and src.crs is None
+        assert src.tags()["terrascape_world"] == recipe.digest()
+        assert np.array_equal(src.read(1), h)
+    mean = h.astype(np.float64)
+    for level in range(3):
+        mean = mean.reshape(mean.shape[0] // 2, 2, mean.shape[1] // 2, 2).mean(axis=(1, 3))
+        with rasterio.open(parallel, OVERVIEW_LEVEL=level) as ov:
+            got = ov.read(1)
+        if level == 0:
+            np.testing.assert_allclose(got, mean, atol=1e-4)
+        else:  # GDAL averages each overview from the one above it (float32)
+            np.testing.assert_allclose(got, mean, atol=1e-3)
+    with pytest.raises(InvalidParameterError, match=r"\.tif"):
+        export_cog(store, tmp_path / "x.png")
+
+
 def test_terrain_rgb_parallel_equals_serial_and_whole_map(world, client, tmp_path):
     serial = export_terrain_rgb(world, tmp_path / "s", lonlat=LONLAT)
     parallel = export_terrain_rgb(world, tmp_path / "p", lonlat=LONLAT, client=client)
@@ -104,6 +146,60 @@ def test_terrain_rgb_parallel_equals_serial_and_whole_map(world, client, tmp_pat
     assert inside.any() and h.min() - 0.1 <= a[inside].min() and a[inside].max() <= h.max() + 0.1
 
 
+def test_quantized_mesh_parallel_equals_serial_and_the_whole_map_export(world, client,
+                                                                        tmp_path):
+    import gzip
+    import io
+    import json
+
+    from quantized_mesh_tile.terrain import TerrainTile
+
+    from terrascape.export._geo import geo_grid, tms_geographic_bounds
+
+    serial = export_quantized_mesh(world, tmp_path / "s", lonlat=LONLAT, name="w")
+    parallel = export_quantized_mesh(world, tmp_path / "p", lonlat=LONLAT, name="w",
+                                     client=client)
+    assert [p.relative_to(tmp_path / "s") for p in serial] == \
+        [p.relative_to(tmp_path / "p") for p in parallel]
+    ours = _files(tmp_path / "p")
+    assert ours == _files(tmp_path / "s")
+    # The exporter of the map loaded whole: the same tiles, layer.json and import note; the
+    # finest two levels (read from level 0) byte for byte.
+    h = _heights(world)
+    hm = Heightmap(h, (2.0, 2.0))
+    get_destination("cesium").export(hm, tmp_path / "whole",
+                                     ExportOptions(name="w", lonlat=LONLAT, workers=1))
+    theirs = _files(tmp_path / "whole")
+    assert ours.keys() == theirs.keys()
+    assert ours["layer.json"] == theirs["layer.json"]
+    top = json.loads(ours["layer.json"])["maxzoom"]
+    tiles = [k for k in ours if k.endswith(".terrain")]
+    finest = [k for k in tiles if int(k.split("/")[0]) >= top - 1]
+    assert len(finest) > 20 and all(ours[k] == theirs[k] for k in finest)
+    # Every tile decodes (quantized-mesh-tile's reader) to heights of the same terrain: the
+    # whole map's bilinear samples at the vertices, within the level's pyramid smoothing.
+    grid = geo_grid(hm, LONLAT)
+    relief = float(h.max() - h.min())
+    diffs = {}
+    for k in tiles:
+        z, x, y = (int(v) for v in k.removesuffix(".terrain").split("/"))
+        w, s, e, n = tms_geographic_bounds(z, x, y)
+        tile = TerrainTile(west=w, south=s, east=e, north=n)
+        tile.fromBytesIO(io.BytesIO(gzip.decompress(ours[k])), hasLighting=True,
+                         hasWatermask=True)
+        lon, lat, got = np.asarray(tile.getVerticesCoordinates()).T
+        want, inside = grid.sample(lon, lat)
+        if inside.sum() < 8:
+            continue
+        assert h.min() - 0.01 * relief <= got[inside].min() <= got[inside].max() \
+            <= h.max() + 0.01 * relief
+        diffs.setdefault(z, []).append(float(np.abs(got - want)[inside].mean()))
+    for z in range(top - 1, top + 1):  # level 0: within the level error and 15-bit step
+        assert max(diffs[z]) <= 1.0 * 2 ** (top - z) + relief / 32767, (z, diffs[z])
+    for z in range(top - 5, top - 1):
+        assert max(diffs[z]) < 0.05 * relief, (z, diffs[z])
+
+
 def test_cli_world_export(world, tmp_path):
     import rasterio
     from typer.testing import CliRunner
@@ -116,6 +212,22 @@ def test_cli_world_export(world, tmp_path):
     assert res.exit_code == 0, res.output
     with rasterio.open(tmp_path / "w.tif") as src:
         assert np.array_equal(src.read(1), _heights(world))
+        assert src.tags(ns="IMAGE_STRUCTURE").get("LAYOUT") != "COG"
+    res = runner.invoke(app, ["world", "export", str(world), str(tmp_path / "cog.tif"),
+                              "--format", "cog", "--threads"])
+    assert res.exit_code == 0, res.output
+    with rasterio.open(tmp_path / "cog.tif") as src:
+        assert src.tags(ns="IMAGE_STRUCTURE")["LAYOUT"] == "COG"
+        assert np.array_equal(src.read(1), _heights(world))
+    res = runner.invoke(app, ["world", "export", str(world), str(tmp_path / "qm"),
+                              "--format", "quantized-mesh", "--lonlat", "15,45", "--min-zoom",
+                              "17", "--threads"])
+    assert res.exit_code == 0, res.output
+    whole = tmp_path / "whole"
+    get_destination("cesium").export(Heightmap(_heights(world), (2.0, 2.0)), whole,
+                                     ExportOptions(name=world.stem, lonlat=LONLAT, min_zoom=17,
+                                                   workers=1))
+    assert _files(tmp_path / "qm") == _files(whole)
     res = runner.invoke(app, ["world", "export", str(world), str(tmp_path / "tiles"),
                               "--format", "terrarium", "--lonlat", "15,45", "--min-zoom", "15",
                               "--threads"])
@@ -142,6 +254,16 @@ def test_export_errors(world, tmp_path, capsys):
                     "webp"]) == 2
     with pytest.raises(InvalidParameterError, match="longitude"):
         export_terrain_rgb(world, tmp_path / "t", lonlat=(200.0, 0.0))
+    assert run_app(["world", "export", str(world), str(tmp_path / "q"), "--format",
+                    "quantized-mesh"]) == 2
+    assert "--lonlat" in capsys.readouterr().err
+    with pytest.raises(InvalidParameterError, match="max-error"):
+        export_quantized_mesh(world, tmp_path / "q", lonlat=LONLAT, max_error=-1.0)
+    with pytest.raises(InvalidParameterError, match="longitude"):
+        export_quantized_mesh(world, tmp_path / "q", lonlat=(0.0, 89.0))
+    with pytest.raises(InvalidParameterError, match="min-zoom"):
+        export_quantized_mesh(world, tmp_path / "q", lonlat=LONLAT, min_zoom=9, max_zoom=8)
+    assert not (tmp_path / "q").exists() or not any((tmp_path / "q").rglob("*.terrain"))
 
 
 def test_export_command_takes_a_world(world, tmp_path):
@@ -156,5 +278,10 @@ def test_export_command_takes_a_world(world, tmp_path):
     ours = _files(tmp_path / "t")
     export_terrain_rgb(world, tmp_path / "s", lonlat=LONLAT, min_zoom=16, name="w")
     assert ours == _files(tmp_path / "s") and any(k.endswith(".png") for k in ours)
+    res = runner.invoke(app, ["export", "cesium", str(world), "-o", str(tmp_path / "c"),
+                              "--lonlat", "15,45", "--min-zoom", "17"])
+    assert res.exit_code == 0, res.output
+    export_quantized_mesh(world, tmp_path / "q", lonlat=LONLAT, min_zoom=17, name="w")
+    assert _files(tmp_path / "c") == _files(tmp_path / "q")
     res = runner.invoke(app, ["export", "unity", str(world), "-o", str(tmp_path / "u")])
     assert res.exit_code != 0

@@ -80,6 +80,48 @@ def _quantized_position_error(mesh, data: bytes) -> tuple[float, float]:
             float(np.max(node.scale) / 32767.0 / 2.0))
 
 
+def pyramid_writes(side: int = 1025, rounds: int = 1) -> BenchTable:
+    """The Cesium pyramid of a ``side``² map written tile by tile (a flush and a commit per
+    file, as before) and in units of ``WRITE_BATCH`` tiles flushed by ``SYNC_THREADS``
+    threads (now), interleaved A B B A per round: wall and CPU seconds, and that both give
+    the same files. ``python -c "from terrascape.bench.export import pyramid_writes as p;
+    print(p(4097))"`` for the 4097² pyramid of the issue."""
+    import hashlib
+
+    from terrascape.export import _common, cesium
+
+    hm = diamond_square(side, roughness=0.55, seed=7, spacing=10.0).normalised(0.0, 1500.0)
+    table = BenchTable(f"Cesium pyramid writes, {side}² map (2 worker processes encode)",
+                       ["writes", "wall s", "CPU s", "tiles", "load avg"])
+    modes = {"one file at a time": (1, 1),
+             f"{cesium.WRITE_BATCH} a unit, {_common.SYNC_THREADS} flush threads":
+             (cesium.WRITE_BATCH, _common.SYNC_THREADS)}
+    saved = cesium.WRITE_BATCH, _common.SYNC_THREADS
+    digests = {}
+    walls: dict[str, list[float]] = {m: [] for m in modes}
+    order = [*modes, *reversed(modes)] * rounds
+    try:
+        with tempfile.TemporaryDirectory(prefix="terrascape-bench-writes-") as tmp:
+            for k, mode in enumerate(order):
+                cesium.WRITE_BATCH, _common.SYNC_THREADS = modes[mode]
+                folder = Path(tmp) / f"run{k}"
+                load = os.getloadavg()[0]
+                _, wall, cpu = _timed(lambda folder=folder: get_destination("cesium").export(
+                    hm, folder, ExportOptions(name="bench", lonlat=_LONLAT, workers=2)))
+                files = sorted(p for p in folder.rglob("*") if p.is_file())
+                digest = hashlib.sha256(b"".join(p.read_bytes() for p in files)).hexdigest()
+                digests.setdefault(mode, digest)
+                walls[mode].append(wall)
+                table.rows.append([mode, wall, cpu, len(files) - 2, round(load, 1)])
+    finally:
+        cesium.WRITE_BATCH, _common.SYNC_THREADS = saved
+    old, new = (sum(walls[m]) for m in modes)
+    table.notes.append(f"same files both ways: {'yes' if len(set(digests.values())) == 1 else 'NO'}"
+                       f"; wall time ratio (sum over the runs) {old / new:.2f}×")
+    table.notes.append(f"run {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+    return table
+
+
 def run(quick: bool = False) -> list[BenchTable]:
     """One row per target: seconds, bytes, and whether its target was met."""
     side = 1025 if quick else 4097
@@ -144,4 +186,4 @@ def run(quick: bool = False) -> list[BenchTable]:
                        "quantized positions add the error shown")
     table.notes.append("the pyramid's CPU seconds include its worker processes: on two idle "
                        "cores its wall time is about half of them plus the workers' start")
-    return [table]
+    return [table, pyramid_writes(1025)]

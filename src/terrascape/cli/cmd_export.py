@@ -22,21 +22,30 @@ def _destinations_help() -> str:
 
 
 def _export_world(destination, store, output, name, lonlat, min_zoom, max_zoom, fmt, force,
-                  quiet) -> None:
+                  quiet, max_error=None) -> None:
     """A world store: tiles made in parallel on a local dask cluster, read window by window
     (:mod:`terrascape.world.export`)."""
     from terrascape.cli.parsing import parse_floats
     from terrascape.errors import InvalidParameterError
     from terrascape.world import connect
-    from terrascape.world.export import export_terrain_rgb
+    from terrascape.world.export import export_quantized_mesh, export_terrain_rgb
 
-    if destination != "terrain_rgb":
+    if destination not in ("terrain_rgb", "cesium"):
         raise InvalidParameterError(
-            f"a world store exports as terrain_rgb here (or `terrascape world export` for a "
-            f"GeoTIFF), not {destination}")
+            f"a world store exports as terrain_rgb or cesium here (or `terrascape world "
+            f"export` for a GeoTIFF), not {destination}")
     if lonlat is None:
         raise InvalidParameterError("a world has no georeference: give --lonlat LON,LAT")
     ll = tuple(parse_floats(lonlat, 2, name="--lonlat"))
+    if destination == "cesium":
+        with timed("export cesium (world, 2 workers)", quiet=quiet), \
+                connect("local", workers=2) as client:
+            written = export_quantized_mesh(
+                store, output, lonlat=ll, min_zoom=min_zoom, max_zoom=max_zoom,
+                max_error=1.0 if max_error is None else max_error, name=name or store.stem,
+                client=client, force=force)
+        out.print(f"{output}: {len(written)} files")
+        return
     with timed("export terrain_rgb (world, 2 workers)", quiet=quiet), \
             connect("local", workers=2) as client:
         written = export_terrain_rgb(store, output, lonlat=ll, fmt=fmt or "mapbox",
@@ -104,7 +113,7 @@ def export_command(
 
     if is_world(heightmap):
         _export_world(destination, heightmap, output, name, lonlat, min_zoom, max_zoom, fmt,
-                      force, quiet)
+                      force, quiet, max_error)
         return
     with timed("read", quiet=quiet), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -138,16 +138,23 @@ def convert(
     crs: str = typer.Option(None, "--crs", help=_CRS_HELP, show_default="from file"),
     reproject: str = typer.Option(None, "--reproject", help=_REPROJECT_HELP,
                                   show_default="off"),
+    cog: bool = typer.Option(
+        False, "--cog",
+        help="TARGET .tif as a Cloud-Optimized GeoTIFF (tiled, overviews, for web map servers)."),
     force: bool = typer.Option(False, "--force", help="Overwrite TARGET (and its sidecar)."),
 ) -> None:
     """Read SOURCE and write it as TARGET (format chosen by TARGET's extension)."""
     from terrascape.io import check_output_path, write_heightmap
 
+    if cog and target.suffix.lower() not in (".tif", ".tiff"):
+        from terrascape.errors import InvalidParameterError
+
+        raise InvalidParameterError(f"--cog writes a .tif file, got {target.name!r}")
     check_output_path(target, force=force)  # fail before reading a large input
     hm = _read(source, size, spacing, vertical_scale, crs, reproject)
     from terrascape.io.heightmap_file import WRITE_METADATA
 
-    written = write_heightmap(hm, target, force=force)
+    written = write_heightmap(hm, target, force=force, format="cog" if cog else None)
     keeps = WRITE_METADATA.get(target.suffix.lower().lstrip("."))
     heights = f"heights {hm.min:.6g} … {hm.max:.6g}"
     spacing = f"spacing ({hm.spacing[0]:.6g}, {hm.spacing[1]:.6g})"

@@ -65,17 +65,22 @@ def world_info_cmd(
 def world_export_cmd(
     store: Path = typer.Argument(..., metavar="WORLD", help="World store (world.zarr)."),
     output: Path = typer.Argument(..., metavar="OUT",
-                                  help="A .tif file (geotiff), or a folder for tiles."),
+                                  help="A .tif file (geotiff, cog), or a folder for tiles."),
     fmt: str = typer.Option(
         "geotiff", "--format",
-        help="geotiff (tiled float32, deflate), mapbox (Terrain-RGB tiles) or terrarium."),
+        help="geotiff (tiled float32, deflate), cog (Cloud-Optimized GeoTIFF: tiled, with "
+             "overviews), mapbox (Terrain-RGB tiles), terrarium or quantized-mesh (the Cesium "
+             "terrain pyramid)."),
     lonlat: str = typer.Option(None, "--lonlat",
-                               help="mapbox/terrarium: the world's centre LON,LAT (degrees).",
+                               help="Tiles: the world's centre LON,LAT (degrees).",
                                show_default=False),
     min_zoom: int = typer.Option(None, "--min-zoom", min=0, max=24,
                                  help="Tiles: first level.", show_default="0"),
     max_zoom: int = typer.Option(None, "--max-zoom", min=0, max=24, help="Tiles: last level.",
                                  show_default="as dense as the world"),
+    max_error: float = typer.Option(
+        1.0, "--max-error", help="quantized-mesh: vertical error of the finest level "
+        "(metres; doubles per coarser level)."),
     scheduler: str = typer.Option(
         "local", "--scheduler",
         help="local (a new LocalCluster) or the address of a running dask scheduler."),
@@ -91,14 +96,20 @@ def world_export_cmd(
 
     from terrascape.errors import InvalidParameterError
     from terrascape.world import connect, open_world
-    from terrascape.world.export import export_geotiff, export_terrain_rgb
+    from terrascape.world.export import (
+        export_cog,
+        export_geotiff,
+        export_quantized_mesh,
+        export_terrain_rgb,
+    )
 
-    if fmt not in ("geotiff", "mapbox", "terrarium"):
-        raise InvalidParameterError(f"--format must be geotiff, mapbox or terrarium, got {fmt!r}")
+    if fmt not in ("geotiff", "cog", "mapbox", "terrarium", "quantized-mesh"):
+        raise InvalidParameterError(
+            f"--format must be geotiff, cog, mapbox, terrarium or quantized-mesh, got {fmt!r}")
     open_world(store)  # a clear error before a cluster starts
-    if fmt == "geotiff":
+    if fmt in ("geotiff", "cog"):
         if output.suffix.lower() not in (".tif", ".tiff"):
-            raise InvalidParameterError(f"geotiff output must end in .tif, got {output.name!r}")
+            raise InvalidParameterError(f"{fmt} output must end in .tif, got {output.name!r}")
         from terrascape.io.atomic import check_output_path
 
         check_output_path(output, force=force)
@@ -108,6 +119,15 @@ def world_export_cmd(
     with connect(scheduler, workers=workers, memory_limit="2GB", processes=processes) as client:
         if fmt == "geotiff":
             written = [export_geotiff(store, output, client=client, force=force)]
+        elif fmt == "cog":
+            written = [export_cog(store, output, client=client, force=force)]
+        elif fmt == "quantized-mesh":
+            from terrascape.cli.parsing import parse_floats
+
+            ll = tuple(parse_floats(lonlat, 2, name="--lonlat"))
+            written = export_quantized_mesh(store, output, lonlat=ll, min_zoom=min_zoom,
+                                            max_zoom=max_zoom, max_error=max_error,
+                                            name=store.stem, client=client, force=force)
         else:
             from terrascape.cli.parsing import parse_floats
 

@@ -14,7 +14,7 @@ from scipy import ndimage
 
 from terrascape.errors import HeightmapSizeError, InvalidParameterError
 from terrascape.heightmap import Heightmap
-from terrascape.io.atomic import atomic_output
+from terrascape.io.atomic import atomic_output, atomic_outputs
 
 FITS = ("pad", "resample", "crop")
 
@@ -191,6 +191,24 @@ def write_bytes(path: Path, data: bytes, *, force: bool) -> Path:
     with atomic_output(path, force=force) as tmp:
         Path(tmp).write_bytes(data)
     return path
+
+
+#: Threads flushing a batch of small files to the disk (see ``atomic_outputs``).
+SYNC_THREADS = 8
+
+
+def write_many(items: list[tuple[Path, bytes]], *, force: bool) -> list[Path]:
+    """Write every ``(path, bytes)`` as one atomic unit (all files or none), flushed to the
+    disk by :data:`SYNC_THREADS` threads: for the thousands of small files of a tile
+    pyramid, a flush and a commit per file would take longer than making the tiles."""
+    if not items:
+        return []
+    for path, _ in items:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_outputs([p for p, _ in items], force=force, sync_threads=SYNC_THREADS) as tmps:
+        for tmp, (_, data) in zip(tmps, items, strict=True):
+            Path(tmp).write_bytes(data)
+    return [p for p, _ in items]
 
 
 def write_text(path: Path, text: str, *, force: bool) -> Path:

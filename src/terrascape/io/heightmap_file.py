@@ -17,6 +17,7 @@ from pathlib import Path
 from terrascape.errors import FileFormatError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.io._common import check_heightmap, check_input_path, normalise_size
+from terrascape.io.cog import write_cog
 from terrascape.io.exr import read_exr, write_exr, write_exr_half
 from terrascape.io.geotiff import read_geotiff, write_geotiff
 from terrascape.io.image import read_image, write_png16, write_preview
@@ -66,6 +67,7 @@ WRITE_METADATA: dict[str, FormatMetadata] = {
     "r32": FormatMetadata(True, True, True, "float32 + .json sidecar"),
     "tif": FormatMetadata(True, True, True, "float32 + ModelPixelScale tag"),
     "tiff": FormatMetadata(True, True, True, "float32 + ModelPixelScale tag"),
+    "cog": FormatMetadata(True, True, True, "float32 Cloud-Optimized GeoTIFF + overviews"),
     "npy": FormatMetadata(True, True, True, "float32 + .npy.json sidecar"),
     "ter": FormatMetadata(True, True, False, "int16 + SCAL and HeightScale"),
     "exr": FormatMetadata(True, True, True, "float32 Y channel + terrascape attribute"),
@@ -106,6 +108,7 @@ WRITE_FORMAT_NAMES: dict[str, Callable[..., Path]] = {
     "r32": write_raw32,
     "tif": write_geotiff,
     "tiff": write_geotiff,
+    "cog": write_cog,
     "npy": write_npy,
     "ter": write_terragen,
     "exr": write_exr,
@@ -197,7 +200,8 @@ def write_heightmap(
     ``.png`` → 16-bit PNG with a terrascape chunk (world units restored on read within half
     a step); ``.bmp`` (or ``format="png8"``) → 8-bit normalised preview; ``.r16``/``.raw`` →
     uint16 RAW + ``.json`` sidecar; ``.r32`` → float32 RAW + sidecar; ``.tif`` → float32
-    TIFF with ModelPixelScale; ``.npy`` → float32 array + ``.npy.json`` sidecar (spacing);
+    TIFF with ModelPixelScale (``format="cog"``: a Cloud-Optimized GeoTIFF with overviews);
+    ``.npy`` → float32 array + ``.npy.json`` sidecar (spacing);
     ``.ter`` → Terragen. What each keeps is :data:`WRITE_METADATA`; a format that loses
     world units or precision (``.bmp``, ``png8``) gives a :class:`MetadataLossWarning`
     naming a lossless one.
@@ -219,8 +223,9 @@ def write_heightmap(
             )
         writer = WRITE_FORMAT_NAMES[key]
         # Previews pick the image container from the suffix, so it must agree with format.
-        want = {"png8": ".png", "bmp": ".bmp", "exr16": ".exr"}.get(key)
-        if want is not None and _extension(p) != want:
+        want = {"png8": ".png", "bmp": ".bmp", "exr16": ".exr", "cog": ".tif"}.get(key)
+        if want is not None and _extension(p) != want and not (
+                want == ".tif" and _extension(p) == ".tiff"):
             raise FileFormatError(f"format {key!r} needs a {want} path, got {p.name!r}")
     else:
         ext = _extension(p)

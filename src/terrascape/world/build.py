@@ -39,6 +39,9 @@ class BuildResult:
     complete: bool = False
     seconds: float = 0.0
     stage_seconds: dict[str, float] = field(default_factory=dict)
+    #: ``name -> (start, stop)`` of each stage, ``time.time()`` seconds (to match a dask
+    #: task stream's times to the stages).
+    stage_times: dict[str, tuple[float, float]] = field(default_factory=dict)
     height_range: tuple[float, float] | None = None
 
 
@@ -62,8 +65,14 @@ def connect(scheduler: str = "local", *, workers: int = 2, memory_limit: str | N
                 raise InvalidParameterError(
                     f"--memory-limit must be a size like 2GB or 512MiB, got {memory_limit!r}"
                 ) from None
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=processes,
-                               memory_limit=memory_limit, dashboard_address=":0")
+        import dask
+
+        # The workers' statistical profiler samples the running task every 10 ms: a few
+        # per cent of a core per worker that a build does not need.
+        with dask.config.set({"distributed.worker.profile.enabled": False}):
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
+                                   processes=processes, memory_limit=memory_limit,
+                                   dashboard_address=":0")
         try:
             with Client(cluster) as client:
                 yield client
@@ -146,7 +155,7 @@ def build_world(
             pending.sort(key=lambda c: phase(*c))
         if budget is not None:
             pending = pending[:budget]
-        t0 = time.perf_counter()
+        t0, wall0 = time.perf_counter(), time.time()
         # Droplet chunks run in four phases (each needs the earlier ones finished); every
         # other stage is one batch of independent chunks.
         batches = ([[c for c in pending if phase(*c) == p] for p in range(PHASES)]
@@ -161,6 +170,7 @@ def build_world(
                 print()
             result.written += sum(client.gather(futures))
         result.stage_seconds[name] = time.perf_counter() - t0
+        result.stage_times[name] = (wall0, time.time())
         if budget is not None:
             budget -= len(pending)
             if budget <= 0 and name != list(array_specs(recipe))[-1]:

@@ -1,6 +1,8 @@
-"""Export a world in parallel, tile by tile: a tiled GeoTIFF and Terrain-RGB/Terrarium tiles.
+"""Export a world in parallel, tile by tile: a tiled GeoTIFF or Cloud-Optimized GeoTIFF,
+Terrain-RGB/Terrarium tiles and the Cesium quantized-mesh pyramid.
 
-Each output tile is one task on the cluster (``client.map``); with no client the same
+Each GeoTIFF block, and each group of tiles (16 Terrain-RGB or 64 quantized-mesh tiles,
+written as one unit), is one task on the cluster (``client.map``); with no client the same
 function runs in a loop here. A task reads only the window of the store its tile needs, so
 memory stays bounded whatever the world's size, and both ways give the same bytes:
 
@@ -13,6 +15,12 @@ memory stays bounded whatever the world's size, and both ways give the same byte
   at most as large as its pixels (level 0 at the finest zoom, where the tiles equal
   ``terrascape export terrain_rgb`` of the map loaded whole, byte for byte; coarser zooms
   read the overviews instead of the full-resolution map).
+* **COG** (GDAL's COG driver): the GeoTIFF above, then copied with overviews.
+* **Cesium quantized-mesh** (:mod:`terrascape.export.cesium`'s tiles, levels and errors):
+  every tile samples the pyramid level whose samples are no larger than its own, meshes
+  and encodes them, and writes its ``.terrain`` file; where the tiles are finer than the
+  world (the finest levels) they equal ``terrascape export cesium`` of the map loaded
+  whole, byte for byte.
 """
 
 from __future__ import annotations
@@ -53,16 +61,58 @@ def export_geotiff(path, out, *, client=None, force: bool = False) -> Path:
     The transform puts sample ``[0, 0]``'s outer corner at (0, 0) with the world's spacing
     (a local grid: no CRS); readers get the heights in world units.
     """
-    import rasterio
-    from rasterio.transform import Affine
-    from rasterio.windows import Window
-
     from terrascape.io.atomic import atomic_output
 
+    group, recipe = _finished_world(path)
+    with atomic_output(Path(out), force=force) as tmp:
+        _write_tiled_geotiff(path, group, recipe, tmp, client)
+    return Path(out)
+
+
+def export_cog(path, out, *, client=None, force: bool = False, blocksize: int = 512) -> Path:
+    """The world's heights as a Cloud-Optimized GeoTIFF at ``out`` (written atomically):
+    ``blocksize``² DEFLATE tiles, overviews down to one tile (each sample the average of the four
+    below), the same transform and tags as :func:`export_geotiff`.
+
+    The workers read and pack the blocks into a tiled GeoTIFF next to ``out`` (as
+    :func:`export_geotiff`); GDAL's COG driver then copies it block by block, building the
+    overviews, and the intermediate file is removed: no process holds the whole map, but
+    the folder needs about twice the output's size free while it runs.
+    """
+    import tempfile
+
+    from terrascape.io.atomic import check_output_path
+    from terrascape.io.cog import cog_creation_options, copy_to_cog
+
+    cog_creation_options(blocksize=blocksize)  # a bad size before any work
+    out = Path(out)
+    if out.suffix.lower() not in (".tif", ".tiff"):
+        raise InvalidParameterError(f"COG output must end in .tif, got {out.name!r}")
+    check_output_path(out, force=force)
+    group, recipe = _finished_world(path)
+    with tempfile.TemporaryDirectory(prefix=f".{out.stem[:40]}-cog-",
+                                     dir=out.parent if out.parent.is_dir() else None) as tmp:
+        tiled = Path(tmp) / "tiled.tif"
+        _write_tiled_geotiff(path, group, recipe, tiled, client)
+        copy_to_cog(tiled, out, force=force, blocksize=blocksize)
+    return out
+
+
+def _finished_world(path):
     group, recipe = open_world(path)
     if not group.attrs.get("complete", False):
         raise InvalidParameterError(f"{path} is not finished: run `terrascape world build` "
                                     "again to complete it before exporting")
+    return group, recipe
+
+
+def _write_tiled_geotiff(path, group, recipe, target: Path, client) -> None:
+    """Write the world's heights as a tiled GeoTIFF at ``target`` (blocks packed by the
+    workers, written here in block order)."""
+    import rasterio
+    from rasterio.transform import Affine
+    from rasterio.windows import Window
+
     rows, cols = recipe.shape
     b = TIFF_BLOCK
     blocks = [(str(path), r, min(r + b, rows), c, min(c + b, cols))
@@ -72,13 +122,12 @@ def export_geotiff(path, out, *, client=None, force: bool = False) -> Path:
                "dtype": "float32", "tiled": True, "blockxsize": b, "blockysize": b,
                "compress": "deflate", "predictor": 3, "transform": Affine(sp, 0, 0, 0, -sp, 0),
                "BIGTIFF": "IF_SAFER"}
-    with atomic_output(Path(out), force=force) as tmp, rasterio.open(tmp, "w", **profile) as dst:
+    with rasterio.open(target, "w", **profile) as dst:
         dst.update_tags(terrascape_world=group.attrs["recipe_hash"],
                         spacing=str(sp), seed=str(recipe.seed))
         for (_, r0, r1, c0, c1), data in zip(blocks, _in_order(client, _tiff_block, blocks),
                                              strict=True):
             dst.write(data, 1, window=Window(c0, r0, c1 - c0, r1 - r0))
-    return Path(out)
 
 
 def _in_order(client, fn, args: list[tuple]):
@@ -117,16 +166,29 @@ def _geo(recipe, lonlat) -> tuple[float, float, float, float]:
     return lon - recipe.cols * dlon / 2, lat + recipe.rows * dlat / 2, dlon, dlat
 
 
-def _rgb_tile(path: str, geo, z: int, x: int, y: int, fmt: str, out_dir: str,
-              force: bool) -> str:
-    """Encode and write tile ``z/x/y``; returns its path."""
+#: Terrain-RGB tiles per task, written as one unit (see ``write_many``).
+RGB_TILES_PER_TASK = 16
+
+
+def _rgb_tiles(path: str, geo, tiles: list, fmt: str, out_dir: str, force: bool
+               ) -> list[str]:
+    """Encode the tiles ``(z, x, y)`` and write them as one unit; returns their paths."""
+    from terrascape.export._common import write_many
+
+    group, recipe = open_world(path)
+    out = Path(out_dir)
+    items = [(out / str(z) / str(x) / f"{y}.png", _rgb_tile(group, recipe, geo, z, x, y, fmt))
+             for z, x, y in tiles]
+    return [str(p) for p in write_many(items, force=force)]
+
+
+def _rgb_tile(group, recipe, geo, z: int, x: int, y: int, fmt: str) -> bytes:
+    """The PNG bytes of tile ``z/x/y``."""
     from PIL import Image
 
-    from terrascape.export._common import write_bytes
     from terrascape.export._geo import mercator_tile_lonlat
     from terrascape.export.terrain_rgb import encode_mapbox, encode_terrarium
 
-    group, recipe = open_world(path)
     west, north, dlon, dlat = geo
     rows, cols = recipe.shape
     t = (np.arange(TILE) + 0.5) / TILE
@@ -161,17 +223,15 @@ def _rgb_tile(path: str, geo, z: int, x: int, y: int, fmt: str, out_dir: str,
     rgba[..., 3] = np.where(inside, 255, 0)
     buf = io.BytesIO()
     Image.fromarray(rgba, "RGBA").save(buf, format="PNG")
-    target = Path(out_dir) / str(z) / str(x) / f"{y}.png"
-    target.parent.mkdir(parents=True, exist_ok=True)
-    write_bytes(target, buf.getvalue(), force=force)
-    return str(target)
+    return buf.getvalue()
 
 
 def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str = "mapbox",
                        min_zoom: int | None = None, max_zoom: int | None = None,
                        name: str = "world", client=None, force: bool = False) -> list[Path]:
-    """Terrain-RGB (``fmt="mapbox"``) or Terrarium PNG tiles of the world, one task each,
-    plus ``tiles.json``; zooms ``min_zoom`` (0) to ``max_zoom`` (as dense as the world)."""
+    """Terrain-RGB (``fmt="mapbox"``) or Terrarium PNG tiles of the world (one task per
+    :data:`RGB_TILES_PER_TASK` tiles), plus ``tiles.json``; zooms ``min_zoom`` (0) to
+    ``max_zoom`` (as dense as the world)."""
     from terrascape.export._common import check_out_dir, write_text
     from terrascape.export._geo import GeoGrid, mercator_tile_range
     from terrascape.export.terrain_rgb import FORMATS, finest_zoom
@@ -192,13 +252,14 @@ def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str =
     bottom = min_zoom or 0
     if bottom > top:
         raise InvalidParameterError(f"--min-zoom {bottom} is above --max-zoom {top}")
-    args = []
+    tiles = []
     for z in range(bottom, top + 1):
         x0, y0, x1, y1 = mercator_tile_range(z, grid.bounds)
-        args += [(str(path), geo, z, x, y, fmt, str(out), force)
-                 for x in range(x0, x1 + 1) for y in range(y0, y1 + 1)]
-    results = _run(client, _rgb_tile, args)
-    written = [Path(p) for p in results]
+        tiles += [(z, x, y) for x in range(x0, x1 + 1) for y in range(y0, y1 + 1)]
+    n = RGB_TILES_PER_TASK
+    results = _run(client, _rgb_tiles, [(str(path), geo, tiles[k:k + n], fmt, str(out), force)
+                                        for k in range(0, len(tiles), n)])
+    written = [Path(p) for batch in results for p in batch]
     w, s, e, n = grid.bounds
     tilejson = {"tilejson": "2.2.0", "name": name, "scheme": "xyz",
                 "tiles": ["{z}/{x}/{y}.png"], "minzoom": bottom, "maxzoom": top,
@@ -208,4 +269,106 @@ def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str =
     return written
 
 
-__all__ = ["TIFF_BLOCK", "export_geotiff", "export_terrain_rgb"]
+# --- Cesium quantized-mesh ----------------------------------------------------------------
+def _world_grid(recipe, lonlat):
+    """A :class:`~terrascape.export._geo.GeoGrid` of the world's shape placed at ``lonlat``
+    (as the single-map exporters place a map); its heights are a zero-size-in-memory
+    broadcast — only the shape and georeference are used."""
+    from terrascape.export._geo import GeoGrid
+
+    west, north, dlon, dlat = _geo(recipe, lonlat)
+    return GeoGrid(np.broadcast_to(np.float32(0), recipe.shape), west, north, dlon, dlat)
+
+
+#: Tiles per quantized-mesh task: a tile takes a few milliseconds, so one task a tile would
+#: be mostly scheduling; the task writes its tiles as one unit (see ``write_many``).
+QM_TILES_PER_TASK = 64
+
+
+def _quantized_mesh_tiles(path: str, lonlat, jobs: list, out_dir: str, force: bool
+                          ) -> list[tuple[str, int]]:
+    """Make and write the tiles ``jobs`` (``(z, x, y, error)`` each) as one unit; returns
+    each tile's path and triangle count."""
+    import numba
+
+    from terrascape.export._common import write_many
+
+    numba.set_num_threads(1)  # one task = one core, as in a build
+    group, recipe = open_world(path)
+    made = [_quantized_mesh_tile(group, recipe, lonlat, *job) for job in jobs]
+    out = Path(out_dir)
+    paths = write_many([(out / str(z) / str(x) / f"{y}.terrain", data)
+                        for (z, x, y, _), (data, _) in zip(jobs, made, strict=True)],
+                       force=force)
+    return [(str(p), n) for p, (_, n) in zip(paths, made, strict=True)]
+
+
+def _quantized_mesh_tile(group, recipe, lonlat, z: int, x: int, y: int, error: float
+                         ) -> tuple[bytes, int]:
+    """Sample, mesh and encode tile ``z/x/y``; returns its bytes and triangle count.
+
+    The tile's 65 × 65 samples are bilinear in the pyramid level whose samples are no
+    larger than the tile's (level 0 where the tiles are finer than the map: there they
+    equal :func:`terrascape.export.cesium.tile_samples` of the map loaded whole, bit for
+    bit), read as the small window that holds them.
+    """
+    from terrascape.export.cesium import bilinear_separable, encode_samples, tile_coordinates
+
+    grid = _world_grid(recipe, lonlat)
+    lon_1d, lat_1d, row, col, inside, bounds = tile_coordinates(grid, z, x, y)
+    rows, cols = recipe.shape
+    row = np.clip(row, 0, rows - 1)
+    col = np.clip(col, 0, cols - 1)
+    n = len(row) - 1
+    pixel = max(float(np.ptp(row)), float(np.ptp(col))) / n
+    level = max(0, math.floor(math.log2(pixel))) if pixel > 1 else 0
+    step = 1 << level
+    lrows, lcols = level_shape(recipe.shape, level)
+    # Division by a power of two and subtraction of whole numbers are exact: the bilinear
+    # weights are those of the whole map.
+    lr = np.clip(row / step, 0, lrows - 1)
+    lc = np.clip(col / step, 0, lcols - 1)
+    a0, b0 = int(np.floor(lr.min())), int(np.floor(lc.min()))
+    a1, b1 = min(lrows, int(np.floor(lr.max())) + 2), min(lcols, int(np.floor(lc.max())) + 2)
+    window = read_level(group, level, a0, a1, b0, b1)
+    h = np.where(inside, bilinear_separable(window, lr - a0, lc - b0), 0.0)
+    size = len(lon_1d)
+    lon = np.broadcast_to(lon_1d, (size, size))
+    lat = np.broadcast_to(lat_1d[:, None], (size, size))
+    return encode_samples(lon, lat, h, inside, bounds, error)
+
+
+def export_quantized_mesh(path, out_dir, *, lonlat: tuple[float, float],
+                          min_zoom: int | None = None, max_zoom: int | None = None,
+                          max_error: float = 1.0, name: str = "world", client=None,
+                          force: bool = False) -> list[Path]:
+    """The Cesium quantized-mesh 1.0 pyramid of the world (``layer.json`` and one
+    ``z/x/y.terrain`` per tile, one task each), as ``terrascape export cesium`` writes it
+    for a map: the same tiles, levels and per-level errors; zooms ``min_zoom`` (0) to
+    ``max_zoom`` (the first as dense as the world)."""
+    from terrascape.export._common import check_out_dir
+    from terrascape.export.cesium import finest_level, tile_jobs, write_metadata
+
+    _, recipe = _finished_world(path)
+    if not (isinstance(max_error, int | float) and math.isfinite(max_error) and max_error > 0):
+        raise InvalidParameterError(f"--max-error must be a positive number, got {max_error!r}")
+    grid = _world_grid(recipe, lonlat)
+    out = check_out_dir(out_dir)
+    top = finest_level(grid) if max_zoom is None else max_zoom
+    bottom = min_zoom or 0
+    if bottom > top:
+        raise InvalidParameterError(f"--min-zoom {bottom} is above --max-zoom {top}")
+    jobs, available = tile_jobs(grid, bottom, top, max_error)
+    ll = tuple(float(v) for v in lonlat)
+    n = QM_TILES_PER_TASK
+    results = _run(client, _quantized_mesh_tiles,
+                   [(str(path), ll, jobs[k:k + n], str(out), force)
+                    for k in range(0, len(jobs), n)])
+    written = [Path(p) for batch in results for p, _ in batch]
+    written += write_metadata(out, name, bottom, top, available, max_error, grid.bounds,
+                              force=force)
+    return written
+
+
+__all__ = ["TIFF_BLOCK", "export_cog", "export_geotiff", "export_quantized_mesh",
+           "export_terrain_rgb"]

@@ -102,13 +102,27 @@ def _eroded_chunk(group, recipe, shape, bounds) -> np.ndarray:
     return eroded_chunk(group, recipe, r0, r1, c0, c1)
 
 
+def _one_codec_thread() -> None:
+    # zarr makes its thread pool on first use, with the size configured then; in a worker
+    # process the first use is a task's, so this sets it before it exists. (Not in the
+    # user's own process, when the workers are its threads.)
+    import multiprocessing
+
+    if (multiprocessing.parent_process() is not None
+            and zarr.config.get("threading.max_workers") != 1):
+        zarr.config.set({"threading.max_workers": 1})
+
+
 def make_chunk(path: str, recipe, stage: str, i: int, j: int, extra: dict) -> int:
     """Compute chunk ``(i, j)`` of ``stage``, write it, then mark it done; returns 1.
 
     The done marker is written after the data, so a build killed in between redoes the
-    chunk. One worker thread is one core: numba's own threads are limited to one.
+    chunk. One worker thread is one core: numba's own threads are limited to one, and so is
+    zarr's pool of codec threads (else one worker decodes a window's chunks on every core,
+    and a node's workers oversubscribe it).
     """
     numba.set_num_threads(1)
+    _one_codec_thread()
     group = zarr.open_group(path, mode="r+")
     shape = recipe.shape
     sp = (recipe.spacing, recipe.spacing)
