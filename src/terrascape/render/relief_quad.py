@@ -22,19 +22,10 @@ from terrascape._validate import check_int, check_positive
 from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.relief.fields import has_walls, sampled_heights
 from terrascape.relief.reference import ReliefQuad, heights_to_depth
+from terrascape.render.techniques import RELIEF_TRACERS
 
-TECHNIQUES: dict[str, int] = {
-    "plain": 0,
-    "parallax": 1,
-    "offset_limiting": 2,
-    "steep": 3,
-    "pom": 4,
-    "relief": 5,
-    "interval": 6,
-    "cone": 7,
-    "minmax": 8,
-    "by_distance": 10,
-}
+#: The relief tracers and their ids in the GLSL (``#define TECHNIQUE <id>``).
+TECHNIQUES: dict[str, int] = RELIEF_TRACERS
 # "auto" is not a shader technique: the renderer resolves it per texture (choose_technique).
 AUTO = "auto"
 OUTPUTS = {"colour": 0, "hit": 1, "shadow": 2}

@@ -42,6 +42,30 @@ from terrascape.texture.hextile import HEX_CONTRAST, HEX_ROTATION, HEX_SHARPNESS
 
 LIGHTING_MODES = {"none": 0, "vertex": 1, "lightmap": 2, "daylight": 3}
 
+#: The height-field tracers of the relief programs (``relief/common/heightfield.glsl``),
+#: selected with ``#define TECHNIQUE <id>``. The shader loader defines ``TECH_<NAME>`` for
+#: each in every program (:func:`terrascape.render.shaders.load_source`), so the GLSL
+#: compares ``TECHNIQUE == TECH_RELIEF`` and no ``.glsl`` file keeps a copy of the numbers.
+#: The names are the relief quad's (``terrascape relief``); the terrain techniques map to
+#: them in :mod:`terrascape.render.relief_techniques`.
+RELIEF_TRACERS: dict[str, int] = {
+    "plain": 0,
+    "parallax": 1,
+    "offset_limiting": 2,
+    "steep": 3,
+    "pom": 4,
+    "relief": 5,
+    "interval": 6,
+    "cone": 7,
+    "minmax": 8,
+    "by_distance": 10,
+}
+
+
+def tracer_id_defines() -> dict[str, int]:
+    """``TECH_<NAME>`` → id of every relief tracer: the ``#define`` block every program gets."""
+    return {f"TECH_{name.upper()}": tid for name, tid in RELIEF_TRACERS.items()}
+
 
 @dataclass(frozen=True)
 class TextureData:
@@ -541,6 +565,7 @@ register_technique(
 __all__ = [
     "COMMON_PARAMS",
     "LIGHTING_MODES",
+    "RELIEF_TRACERS",
     "TECHNIQUE_ALIASES",
     "Technique",
     "TextureData",
@@ -549,4 +574,5 @@ __all__ = [
     "get_technique",
     "register_technique",
     "technique_names",
+    "tracer_id_defines",
 ]
