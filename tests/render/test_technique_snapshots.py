@@ -66,7 +66,7 @@ def render_case(renderers, ctx, hm, technique: str, params: dict, deferred) -> n
     if "relief_size" in get_technique(technique).parameters():
         base["relief_size"] = 64
     img = r.render(r.default_camera(elevation=35.0), technique, {**base, **params})
-    assert getattr(r.terrain, "drawn_technique", r.terrain.last_technique) == technique
+    assert r.terrain.drawn_technique == technique
     return img
 
 
