@@ -140,3 +140,22 @@ def test_a_new_technique_is_one_entry_with_its_own_hook(gl_ctx):
         assert half[centre].mean() < full[centre].mean() - 10
     finally:
         r.release()
+
+
+def test_the_renderer_knows_no_technique_by_name():
+    """terrain.py names no technique and no parameter of one technique: what is particular
+    to a technique is on its entry (a new one needs no edit of the renderer)."""
+    import inspect
+
+    from terrascape.render import terrain
+    from terrascape.render.techniques import COMMON_PARAMS
+
+    source = inspect.getsource(terrain).replace('technique: str | Technique = "plain"', "")
+    own = set()
+    for name in technique_names():
+        # ("regions" is also the common parameter of the height regions)
+        assert name in COMMON_PARAMS or f'"{name}"' not in source, name
+        own |= set(get_technique(name).defaults) - set(COMMON_PARAMS)
+    for param in sorted(own):  # read as params["x"], params.get("x"), "x" in params
+        for use in (f'["{param}"]', f'.get("{param}"', f'"{param}" in '):
+            assert use not in source, param
