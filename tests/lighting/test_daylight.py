@@ -30,11 +30,11 @@ def test_lightmap_does_not_clip(terrain, rgb):
     grey = lightmap(terrain, 135.0, 20.0)
     assert grey.shape == terrain.shape and grey.dtype == np.float32
     codes = np.rint(grey * 255)
-    # the seed formula clips half of a sunlit map to white; the filmic curve rolls off
+    # the classic formula clips half of a sunlit map to white; the filmic curve rolls off
     assert (codes >= codes.max()).mean() <= 0.05
     assert (codes >= 250).mean() <= 0.05
-    seed = lightmap(terrain, 135.0, 20.0, model="seed")
-    assert (seed >= 1.0).mean() > 0.2  # what the old default did
+    classic = lightmap(terrain, 135.0, 20.0, model="classic")
+    assert (classic >= 1.0).mean() > 0.2  # what the old default did
     assert grey.std() > 0.03  # slopes still read
 
 
@@ -86,7 +86,7 @@ def test_validation():
     with pytest.raises(InvalidParameterError, match="turbidity"):
         lightmap(flat, 0.0, 45.0, turbidity=50.0)
     with pytest.raises(InvalidParameterError, match="color"):
-        lightmap(flat, 0.0, 45.0, model="seed", color=True)
+        lightmap(flat, 0.0, 45.0, model="classic", color=True)
     with pytest.raises(InvalidParameterError):
         lightmap(flat, 0.0, -5.0)
 
@@ -105,5 +105,5 @@ def test_shade_cli_daylight_and_seed(tmp_path, terrain):
     assert run_app(["shade", str(src), "-o", str(bad), "--sun-azimuth", "135",
                     "--sun-elevation", "20", "--lighting", "phong"]) == 2
     assert run_app(["shade", str(src), "-o", str(bad), "--sun-azimuth", "135",
-                    "--sun-elevation", "20", "--lighting", "seed", "--color"]) == 2
+                    "--sun-elevation", "20", "--lighting", "classic", "--color"]) == 2
     assert not bad.exists()

@@ -112,11 +112,11 @@ def test_heightfromimage(tmp_path):
 def test_shade(tmp_path, hm_file):
     out = tmp_path / "light.png"
     args = ["shade", str(hm_file), "-o", str(out), "--sun-azimuth", "90",
-            "--sun-elevation", "20", "--ambient", "0.1", "--lighting", "seed", "-q"]
+            "--sun-elevation", "20", "--ambient", "0.1", "--lighting", "classic", "-q"]
     assert run_app(args) == 0
     img = np.array(Image.open(out))
-    # `shade` defaults to the daylight model now; the seed formula is --lighting seed.
-    expect = lightmap(read_heightmap(hm_file), 90.0, 20.0, ambient=0.1, model="seed")
+    # `shade` defaults to the daylight model; the thesis's formula is --lighting classic.
+    expect = lightmap(read_heightmap(hm_file), 90.0, 20.0, ambient=0.1, model="classic")
     np.testing.assert_array_equal(img, np.rint(expect * 255).astype(np.uint8))
     assert (img[16, :15] == round(0.1 * 255)).sum() >= 10  # shadow west of the spike
     out2 = tmp_path / "flat.png"
@@ -128,3 +128,25 @@ def test_shade(tmp_path, hm_file):
     assert not (tmp_path / "bad.png").exists()
     soft = tmp_path / "soft.png"
     assert run_app([*args[:3], str(soft), *args[4:], "--soft"]) == 0
+
+
+def test_shade_earlier_model_name_still_works_and_names_the_new_one(tmp_path, hm_file, capsys):
+    """``--lighting seed`` (the earlier name, hidden from the help) draws the classic model
+    and says its new name once."""
+    new, old = tmp_path / "classic.png", tmp_path / "seed.png"
+    args = ["shade", str(hm_file), "--sun", "90,20", "--ambient", "0.1", "-q"]
+    assert run_app([*args, "-o", str(new), "--lighting", "classic"]) == 0
+    capsys.readouterr()
+    assert run_app([*args, "-o", str(old), "--lighting", "seed"]) == 0
+    said = capsys.readouterr()
+    text = said.out + said.err
+    assert text.count("'classic'") == 1 and "'seed'" in text
+    np.testing.assert_array_equal(np.array(Image.open(old)), np.array(Image.open(new)))
+    with pytest.warns(FutureWarning, match="classic"):
+        earlier = lightmap(read_heightmap(hm_file), 90.0, 20.0, ambient=0.1, model="seed")
+    np.testing.assert_array_equal(
+        earlier, lightmap(read_heightmap(hm_file), 90.0, 20.0, ambient=0.1, model="classic"))
+    capsys.readouterr()
+    assert run_app(["shade", "--help"]) == 0
+    shown = " ".join(capsys.readouterr().out.split())
+    assert "classic" in shown and "seed" not in shown.lower()

@@ -14,7 +14,7 @@ from terrascape.lighting import (
 )
 
 # The seed's lightmap formula (terrascape.lighting.lightmap now defaults to the daylight
-# model; the seed formula stays in lighting.shadows and as model="seed").
+# model; the thesis's formula stays in lighting.shadows and as model="classic").
 from terrascape.lighting.shadows import lightmap
 
 METHODS = [shadow_mask, shadow_mask_reference]

@@ -108,9 +108,8 @@ def test_minmax_on_terrain_uses_its_mip_chain_and_agrees_with_relief(terrain):
 
 
 def test_unavailable_technique_falls_back_to_plain_with_one_warning(terrain):
-    """R11: a program this GL cannot compile renders as plain texturing, warning once."""
-    from terrascape.render.techniques import Technique, get_technique
-    from terrascape.render.terrain import TechniqueFallbackWarning
+    """A program this GL cannot compile renders as plain texturing, warning once."""
+    from terrascape.render.techniques import Technique, TechniqueFallbackWarning, get_technique
 
     relief = get_technique("relief")
     broken = Technique("broken_for_test", "relief/terrain", textures=relief.textures,
@@ -119,7 +118,9 @@ def test_unavailable_technique_falls_back_to_plain_with_one_warning(terrain):
     r = terrain[0]
     with pytest.warns(TechniqueFallbackWarning, match="broken_for_test"):
         first = _draw(terrain, broken)
-    assert r.last_technique == "plain"
+    assert r.drawn_technique == "plain"
+    assert r.drawn.requested == "broken_for_test" and r.drawn.fell_back
+    assert "compile" in r.drawn.reason
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # the second frame does not warn again
         second = _draw(terrain, broken)

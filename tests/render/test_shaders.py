@@ -52,6 +52,24 @@ def test_source_has_version_stage_defines_and_includes(shader_dir):
     assert "#include" not in src
 
 
+def test_relief_tracer_ids_come_from_the_python_table(gl_ctx):
+    """Every program gets ``#define TECH_<NAME> id`` from RELIEF_TRACERS, and no shader
+    file keeps its own copy: the tracer a program compiles is the one the table names."""
+    from terrascape.render.relief_quad import technique_id
+    from terrascape.render.techniques import RELIEF_TRACERS
+
+    lines = load_source("relief/quad", "fragment", {"TECHNIQUE": 5}).splitlines()
+    for name, tid in RELIEF_TRACERS.items():
+        assert lines.count(f"#define TECH_{name.upper()} {tid}") == 1
+    assert technique_id("relief") == RELIEF_TRACERS["relief"]
+    for path in shaders.SHADER_DIR.rglob("*.glsl"):
+        assert "#define TECH_" not in path.read_text(), path
+    # the ids select the tracer: the cone tracer's id compiles the cone map in, plain's not
+    cone = load_program(gl_ctx, "relief/quad", {"TECHNIQUE": RELIEF_TRACERS["cone"]})
+    plain = load_program(gl_ctx, "relief/quad", {"TECHNIQUE": RELIEF_TRACERS["plain"]})
+    assert "u_cone" in cone and "u_cone" not in plain
+
+
 def test_missing_include_is_clear(shader_dir):
     _write(shader_dir, "prog.glsl", '#include "common/nope.glsl"\n')
     with pytest.raises(ShaderSourceError, match=r"nope\.glsl.*not found.*prog\.glsl"):

@@ -97,3 +97,27 @@ def test_tabs_align_columns_and_missing_symbols_are_substituted(font):
     if "∓" not in font.index:
         assert font.expand("∓") == "-/+"
     assert font.expand("\ue001") == FALLBACK
+
+
+@pytest.mark.gl
+def test_hud_program_comes_from_the_shared_loader(gl_ctx):
+    """The HUD's program is one of the renderer's (render/shaders/viewer/hud.glsl, cached
+    per context), and it draws: white glyphs over a black framebuffer."""
+    from terrascape.render.context import current
+    from terrascape.render.shaders import available_programs, load_program
+    from terrascape.viewer.hud import PROGRAM, HudRenderer, Panel
+
+    assert PROGRAM in available_programs()
+    with current(gl_ctx):
+        hud = HudRenderer(gl_ctx, font_size=12)
+        fbo = gl_ctx.simple_framebuffer((120, 40))
+        try:
+            assert hud._prog is load_program(gl_ctx, PROGRAM)
+            fbo.clear(0.0, 0.0, 0.0, 1.0)
+            assert hud.draw(fbo, [Panel(["HUD 42"], background=(0.0, 0.0, 0.0, 0.0))]) == 5
+            img = np.frombuffer(fbo.read(components=3), np.uint8).reshape(40, 120, 3)
+            assert (img.min(-1) > 200).sum() > 20
+        finally:
+            hud.release()
+            fbo.release()
+        assert load_program(gl_ctx, PROGRAM) is not None  # still usable after release

@@ -67,9 +67,10 @@ def run(quick: bool = False) -> list[BenchTable]:
                     drawn.append(r.terrain.last_stats["triangles_drawn"])
                 ms = statistics.median(times) * 1e3
                 plain_ms = ms if tech == "plain" else plain_ms
+                drew = r.terrain.drawn_technique
                 rows.append(
                     [
-                        tech,
+                        tech if drew == tech else f"{tech} (fell back to {drew})",
                         round(ms, 1),
                         round(1e3 / ms, 2),
                         tris,

@@ -238,8 +238,8 @@ def _quad_methods(renderer, hm, camera) -> list[_Method]:
             return img, img[..., 3] > 0, xz
 
         frame()
-        if renderer.last_technique != tech:
-            label += f" (fell back to {renderer.last_technique})"
+        if renderer.drawn_technique != tech:
+            label += f" (fell back to {renderer.drawn_technique})"
         methods.append(_Method(MethodResult(label, "quad", 2, 0.0, seed_key=key),
                                lambda: None, frame, capture))
     return methods

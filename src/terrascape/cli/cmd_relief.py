@@ -124,9 +124,9 @@ def relief_command(
             with timed(f"render {wanted}", quiet=quiet):
                 rgba = r.render(quad, cam, wanted, settings=settings, output="colour",
                                 light_dir=light)
-            if r.last_technique != wanted:
-                console.print(f"[yellow]fell back to {r.last_technique}[/]")
-            technique = r.last_technique
+            if r.drawn_technique != wanted:
+                console.print(f"[yellow]fell back to {r.drawn_technique}[/]")
+            technique = r.drawn_technique
             r.release()
         finally:
             ctx.release()

@@ -161,6 +161,12 @@ def _check_time_options(time, latitude, longitude, day_cycle, frames, turntable)
     return parse_duration(day_cycle)
 
 
+def unset_option(*flags: str, help: str):
+    """An option that is ``None`` unless given: what happens without it is said in its help
+    text (``[default: …]``), not shown as a default value."""
+    return typer.Option(None, *flags, help=help, show_default=False)
+
+
 OBJECTS_HELP = (
     "Objects on the terrain: default (the built-in trees, bushes, rocks and buildings by "
     "the default rules), a .glb/.gltf mesh (scattered like trees) or a rules file "
@@ -232,14 +238,10 @@ def render_command(
         "only the part in view is read, at the detail it needs); omit with --generate.",
         show_default=False,
     ),
-    output: Path = typer.Option(
-        None,
-        "--output",
-        "-o",
+    output: Path = unset_option(
+        "--output", "-o",
         help="Output file: .png (one frame / PNG sequence base name) or .mp4. "
-        "[default: render.png, or turntable.mp4 with --format mp4]",
-        show_default=False,
-    ),
+        "[default: render.png, or turntable.mp4 with --format mp4]"),
     size: str = typer.Option("1280x720", "--size", help="Image size WIDTHxHEIGHT in pixels."),
     technique: str = typer.Option(
         "material",
@@ -247,65 +249,40 @@ def render_command(
         "-t",
         help="Shading technique: {techniques}.",
     ),
-    camera: str = typer.Option(
-        None,
-        "--camera",
-        help="Camera position X,Y,Z in world units (with --target).",
-        show_default=False,
-    ),
-    camera_height: float = typer.Option(
-        None,
+    camera: str = unset_option(
+        "--camera", help="Camera position X,Y,Z in world units (with --target)."),
+    camera_height: float = unset_option(
         "--camera-height",
         help="Place the camera this far above the ground at --camera's x,z (world units; "
-        "then --camera X,Z is enough).",
-        show_default=False,
-    ),
-    target: str = typer.Option(
-        None,
-        "--target",
-        help="Point the camera looks at, X,Y,Z in world units.",
-        show_default=False,
-    ),
-    orbit: str = typer.Option(
-        None,
+        "then --camera X,Z is enough)."),
+    target: str = unset_option("--target", help="Point the camera looks at, X,Y,Z in world units."),
+    orbit: str = unset_option(
         "--orbit",
         help="Camera on an orbit around the terrain centre: AZ,EL,DIST (degrees, degrees, "
-        "world units). Default: a view that frames the whole terrain.",
-        show_default=False,
-    ),
-    sun: str = typer.Option(
-        None, "--sun",
+        "world units). Default: a view that frames the whole terrain."),
+    sun: str = unset_option(
+        "--sun",
         help="Sun azimuth,elevation in degrees (azimuth clockwise from north). "
-        "[default: 135,45]",
-        show_default=False,
-    ),
-    time: str = typer.Option(
-        None, "--time",
+        "[default: 135,45]"),
+    time: str = unset_option(
+        "--time",
         help="Date and time, e.g. 2026-06-21T18:30: the sun, sky, moon and stars of that "
         "moment (instead of --sun). Without a UTC offset it is local solar time (12:00 = the "
         "sun due south); with one (2026-06-21T18:30+02:00) civil time, which needs "
         "--longitude or a georeferenced map. With --day-cycle: the start "
-        "[default 2026-06-21T00:00].",
-        show_default=False,
-    ),
-    latitude: float = typer.Option(
-        None, "--latitude",
+        "[default 2026-06-21T00:00]."),
+    latitude: float = unset_option(
+        "--latitude",
         help="Latitude in degrees north (-90..90) for --time. [default: the map's "
-        "georeference, else 45]",
-        show_default=False,
-    ),
-    longitude: float = typer.Option(
-        None, "--longitude",
+        "georeference, else 45]"),
+    longitude: float = unset_option(
+        "--longitude",
         help="Longitude in degrees east for --time (needed for a time with a UTC offset). "
-        "[default: the map's georeference]",
-        show_default=False,
-    ),
-    day_cycle: str = typer.Option(
-        None, "--day-cycle",
+        "[default: the map's georeference]"),
+    day_cycle: str = unset_option(
+        "--day-cycle",
         help="Render an MP4 of this much time passing from --time (e.g. 24h, 90m, 2d), "
-        "the camera fixed.",
-        show_default=False,
-    ),
+        "the camera fixed."),
     frames: int = typer.Option(
         48, "--frames", help="Frames of the --day-cycle video."
     ),
@@ -318,25 +295,19 @@ def render_command(
         "sky, haze, filmic tone map), vertex (Phong, no shadows), lightmap (the thesis's "
         "lightmap with shadows), none.",
     ),
-    sea_level: float = typer.Option(
-        None, "--sea-level",
+    sea_level: float = unset_option(
+        "--sea-level",
         help="Draw water up to this height (heightmap units, before --exaggeration). "
-        "[default: no water]",
-        show_default=False,
-    ),
-    water_depth: Path = typer.Option(
-        None, "--water-depth",
+        "[default: no water]"),
+    water_depth: Path = unset_option(
+        "--water-depth",
         help="Lakes: a .npy float32 water-depth map of the heightmap's shape (e.g. from "
-        "erosion), drawn as water where > 0.",
-        show_default=False,
-    ),
-    surround: str = typer.Option(
-        None, "--surround",
+        "erosion), drawn as water where > 0."),
+    surround: str = unset_option(
+        "--surround",
         help="Beyond the terrain's edge: sea (water to the horizon), plane (ground at the "
         "lowest height, in the colour of the terrain's lowest ground) or fade (haze). "
-        "[default: sea with --sea-level, else fade]",
-        show_default=False,
-    ),
+        "[default: sea with --sea-level, else fade]"),
     quality: str = typer.Option(
         "default", "--quality",
         help="default, or high: 2×2 supersampling and 16 shadow sweeps (seconds a frame).",
@@ -347,16 +318,13 @@ def render_command(
     exposure: float = typer.Option(
         0.0, "--exposure", help="Daylight: exposure correction in stops (EV)."
     ),
-    haze: float = typer.Option(
-        None, "--haze",
+    haze: float = unset_option(
+        "--haze",
         help="Daylight: aerial-perspective extinction per world unit (0 = off). "
-        "[default: automatic from the terrain size]",
-        show_default=False,
-    ),
+        "[default: automatic from the terrain size]"),
     wireframe: bool = typer.Option(False, "--wireframe", help="Overlay the triangle edges."),
-    objects: str = typer.Option(None, "--objects", help=OBJECTS_HELP, show_default=False),
-    object_shadows: str = typer.Option(
-        None, "--object-shadows", help=OBJECT_SHADOWS_HELP, show_default=False),
+    objects: str = unset_option("--objects", help=OBJECTS_HELP),
+    object_shadows: str = unset_option("--object-shadows", help=OBJECT_SHADOWS_HELP),
     turntable: int = typer.Option(
         0,
         "--turntable",
@@ -366,20 +334,14 @@ def render_command(
         "png", "--format", help="Turntable output: png (numbered sequence) or mp4."
     ),
     fps: float = typer.Option(30.0, "--fps", help="MP4 frames per second."),
-    generate: str = typer.Option(
-        None,
+    generate: str = unset_option(
         "--generate",
         help=f"Generate the terrain instead of reading a file: {names_help()} (2 m grid, "
-        "relief 20 % of the extent).",
-        show_default=False,
-    ),
-    gen_param: list[str] = typer.Option(
-        None,
+        "relief 20 % of the extent)."),
+    gen_param: list[str] = unset_option(
         "--gen-param",
         help="A generator parameter NAME=VALUE, repeatable (e.g. octaves=8); the names are "
-        "the options of `terrascape generate NAME`.",
-        show_default=False,
-    ),
+        "the options of `terrascape generate NAME`."),
     gen_size: int = typer.Option(
         257,
         "--gen-size",

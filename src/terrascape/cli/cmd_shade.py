@@ -207,7 +207,7 @@ def shade_cmd(
     lighting: str = typer.Option(
         "daylight", "--lighting",
         help="Light model: daylight (sun + blue sky + bounce, soft shadows, filmic tone map) "
-        "or seed (ambient + 0.5·(1 + N·L) where lit, ambient in shadow).",
+        "or classic (ambient + 0.5·(1 + N·L) where lit, ambient in shadow).",
     ),
     color: bool = typer.Option(
         False, "--color", help="Daylight: write an RGB lightmap (blue sky light in shadows)."
@@ -218,28 +218,29 @@ def shade_cmd(
     exposure: float = typer.Option(
         -1.0, "--exposure", help="Daylight: exposure correction in stops (EV)."
     ),
-    ambient: float = typer.Option(0.2, "--ambient", help="Seed model: ambient light in [0, 1]."),
+    ambient: float = typer.Option(0.2, "--ambient", help="Classic model: ambient light in [0, 1]."),
     soft: bool = typer.Option(
-        False, "--soft", help="Seed model: soft shadows from the sun's disc (0.27°); the "
+        False, "--soft", help="Classic model: soft shadows from the sun's disc (0.27°); the "
         "daylight model's shadows are always soft."
     ),
     no_shadows: bool = typer.Option(False, "--no-shadows", help="Slope shading only."),
     method: str = typer.Option(
         "fast", "--method",
-        help="Seed model shadow method: fast (O(n²) sweep) or reference (ray per sample).",
+        help="Classic model shadow method: fast (O(n²) sweep) or reference (ray per sample).",
     ),
     force: bool = _FORCE,
     quiet: bool = _QUIET,
     max_memory: str = MAX_MEMORY,
 ) -> None:
     """Lightmap of the terrain under the sun: the daylight model (default), or ambient +
-    0.5·(1 + N·L) where the sun is seen and ambient in shadow (--lighting seed)."""
+    0.5·(1 + N·L) where the sun is seen and ambient in shadow (--lighting classic)."""
     import warnings
 
     from PIL import Image
 
     from terrascape.cli.parsing import parse_floats
     from terrascape.lighting import lightmap
+    from terrascape.lighting.daylight import lighting_model
 
     sun_az, sun_el = parse_floats(sun, 2, name="--sun AZ,EL")
     if sun_azimuth is not None or sun_elevation is not None:
@@ -249,20 +250,21 @@ def shade_cmd(
         sun_el = sun_el if sun_elevation is None else sun_elevation
 
     _require_png(output)
-    if lighting not in ("daylight", "seed"):
-        raise InvalidParameterError(f"--lighting must be daylight or seed, got {lighting!r}")
+    if lighting not in ("daylight", "classic", "seed"):
+        raise InvalidParameterError(f"--lighting must be daylight or classic, got {lighting!r}")
+    lighting = lighting_model(lighting)  # the earlier name "seed" says the new one, once
     if method not in ("fast", "reference"):
         raise InvalidParameterError(f"--method must be 'fast' or 'reference', got {method!r}")
-    if lighting == "seed" and color:
+    if lighting == "classic" and color:
         raise InvalidParameterError("--color needs --lighting daylight")
     check_output_path(output, force=force)
     with timed("read", quiet=quiet):
         hm = _read_heightmap(heightmap)
     _check_memory("shade", hm.rows, hm.cols, max_memory)
     with timed("lightmap", quiet=quiet):
-        if lighting == "seed":
+        if lighting == "classic":
             light = lightmap(
-                hm, sun_az, sun_el, model="seed", ambient=ambient,
+                hm, sun_az, sun_el, model="classic", ambient=ambient,
                 shadows=not no_shadows, soft=soft, method=method,
             )
         else:

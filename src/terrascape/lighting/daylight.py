@@ -357,7 +357,25 @@ def local_sky_visibility(heightmap: Any, *, max_side: int = 257, directions: int
     return ndimage.map_coordinates(svf.astype(np.float64), [rr, cc], order=1, mode="nearest")
 
 
-LIGHTING_MODELS = ("daylight", "seed")
+LIGHTING_MODELS = ("daylight", "classic")
+#: Earlier names of the lighting models, still accepted with a note naming the current one.
+LIGHTING_MODEL_ALIASES = {"seed": "classic"}
+
+
+def lighting_model(name: str) -> str:
+    """The lighting model called ``name``: itself, or the current name of an earlier one
+    (with a ``FutureWarning`` saying so); unknown names raise listing the models."""
+    if name in LIGHTING_MODEL_ALIASES:
+        import warnings
+
+        new = LIGHTING_MODEL_ALIASES[name]
+        warnings.warn(f"lighting model {name!r} is now called {new!r}; the old name will "
+                      "stop working in a later version", FutureWarning, stacklevel=3)
+        return new
+    if name not in LIGHTING_MODELS:
+        raise InvalidParameterError(
+            f"lighting model must be one of {', '.join(LIGHTING_MODELS)}, got {name!r}")
+    return name
 
 
 def lightmap(
@@ -380,32 +398,31 @@ def lightmap(
     ----------
     model
         ``"daylight"`` (default, :func:`daylight_lightmap`: sun + sky + bounce, soft shadows,
-        tone-mapped) or ``"seed"`` (:func:`terrascape.lighting.shadows.lightmap`:
-        ``min(1, ambient + 0.5·(1 + N·L))`` where lit, ``ambient`` in shadow).
+        tone-mapped) or ``"classic"`` (:func:`terrascape.lighting.shadows.lightmap`:
+        ``min(1, ambient + 0.5·(1 + N·L))`` where lit, ``ambient`` in shadow; ``"seed"``
+        is its earlier name).
     shadows
         Cast shadows (both models).
     soft, ambient, method
-        Seed model only: soft shadows, ambient level, ``"fast"``/``"reference"`` shadows.
+        Classic model only: soft shadows, ambient level, ``"fast"``/``"reference"`` shadows.
     sun_radius_deg
         Angular radius of the sun (default 0.5° daylight — the sun plus its aureole — and
-        0.27° seed).
+        0.27° classic).
     color
         Daylight only: RGB ``(rows, cols, 3)`` instead of luminance.
     daylight_options
         ``turbidity``, ``exposure``, ``shadow_samples``, ``sky_visibility`` of
         :func:`daylight_lightmap`.
     """
-    if model not in LIGHTING_MODELS:
-        raise InvalidParameterError(
-            f"lighting model must be one of {', '.join(LIGHTING_MODELS)}, got {model!r}")
-    if model == "seed":
-        from terrascape.lighting.shadows import lightmap as seed_lightmap
+    model = lighting_model(model)
+    if model == "classic":
+        from terrascape.lighting.shadows import lightmap as classic_lightmap
 
         if color or daylight_options:
             extra = ["color"] * bool(color) + sorted(daylight_options)
             raise InvalidParameterError(
-                f"the seed lighting model has no option {', '.join(extra)}")
-        return seed_lightmap(heightmap, sun_azimuth, sun_elevation, ambient=ambient,
+                f"the classic lighting model has no option {', '.join(extra)}")
+        return classic_lightmap(heightmap, sun_azimuth, sun_elevation, ambient=ambient,
                              shadows=shadows, soft=soft, method=method,
                              sun_radius_deg=0.27 if sun_radius_deg is None else sun_radius_deg)
     return daylight_lightmap(heightmap, sun_azimuth, sun_elevation, shadows=shadows,
@@ -415,11 +432,13 @@ def lightmap(
 
 __all__ = [
     "LIGHTING_MODELS",
+    "LIGHTING_MODEL_ALIASES",
     "Daylight",
     "aces_filmic",
     "air_mass",
     "daylight",
     "daylight_lightmap",
+    "lighting_model",
     "lightmap",
     "linear_to_srgb",
     "local_sky_visibility",

@@ -26,7 +26,9 @@ from terrascape.render.shaders import (
     set_uniforms,
 )
 from terrascape.render.techniques import (
+    DrawnTechnique,
     Technique,
+    TechniqueFallbackWarning,
     TextureData,
     TextureSlot,
     get_technique,
@@ -36,10 +38,12 @@ from terrascape.render.techniques import (
 from terrascape.render.terrain import TerrainRenderer, upload_texture
 
 __all__ = [
+    "DrawnTechnique",
     "OffscreenRenderer",
     "ShaderCompileError",
     "ShaderSourceError",
     "Technique",
+    "TechniqueFallbackWarning",
     "TerrainRenderer",
     "TextureData",
     "TextureSlot",

@@ -7,34 +7,30 @@ quad and the camera use the geometry of :mod:`terrascape.relief.reference`, so t
 coordinates the shader writes (``output="hit"``: RGBA32F = hit u, hit v, hit depth,
 texture fetches) compare pixel by pixel with the exact CPU reference.
 
-If a technique's program fails to compile (or the GL lacks what it needs), the renderer warns
-once (``warnings.warn``) and renders plain texturing instead (Janković 2010 §2.6.4.3).
+If a technique's program fails to compile (or the GL lacks what it needs), the renderer
+draws plain texturing instead, said once (:func:`terrascape.render.techniques.
+choose_drawable`, the terrain renderer's decision too); :attr:`ReliefQuadRenderer.
+drawn_technique` says which technique drew.
 """
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from terrascape._validate import check_int, check_positive
-from terrascape.errors import GLUnavailableError, InvalidParameterError
+from terrascape.errors import InvalidParameterError
 from terrascape.relief.fields import has_walls, sampled_heights
 from terrascape.relief.reference import ReliefQuad, heights_to_depth
+from terrascape.render.techniques import (
+    RELIEF_TRACERS,
+    TechniqueFallbackWarning,
+    choose_drawable,
+)
 
-TECHNIQUES: dict[str, int] = {
-    "plain": 0,
-    "parallax": 1,
-    "offset_limiting": 2,
-    "steep": 3,
-    "pom": 4,
-    "relief": 5,
-    "interval": 6,
-    "cone": 7,
-    "minmax": 8,
-    "by_distance": 10,
-}
+#: The relief tracers and their ids in the GLSL (``#define TECHNIQUE <id>``).
+TECHNIQUES: dict[str, int] = RELIEF_TRACERS
 # "auto" is not a shader technique: the renderer resolves it per texture (choose_technique).
 AUTO = "auto"
 OUTPUTS = {"colour": 0, "hit": 1, "shadow": 2}
@@ -44,7 +40,7 @@ WALL_LINEAR_STEPS = 32  # ... for the clearance march over a field with walls
 PROGRAM = "relief/quad"
 
 
-class ReliefFallbackWarning(UserWarning):
+class ReliefFallbackWarning(TechniqueFallbackWarning):
     """A relief technique could not be used; plain texturing is rendered instead."""
 
 
@@ -153,9 +149,6 @@ class ReliefSettings:
         return replace(self, **changes)
 
 
-_WARNED: set = set()
-
-
 def choose_technique(heights) -> str:
     """The technique that holds on this relief texture: the exact min/max tracer where the
     texture allows it (square, power of two), relief mapping's clearance march otherwise.
@@ -197,25 +190,19 @@ def load_relief_program(ctx, technique: str, *, program: str = PROGRAM, defines=
     """
     from terrascape.render.shaders import load_program
 
-    tid = technique_id(technique)
+    technique_id(technique)  # an unknown name is a usage error, not a fallback
     extra = dict(defines or {})
-    try:
-        return load_program(ctx, program, {"TECHNIQUE": tid, **extra}), technique
-    except GLUnavailableError as exc:
-        if technique == "plain":
-            raise
-        key = (id(ctx), program, technique, tuple(sorted(extra)))
-        if key not in _WARNED:
-            _WARNED.add(key)
-            first = str(exc).splitlines()[0]
-            warnings.warn(
-                f"relief technique {technique!r} is unavailable on this GL ({first}); "
-                "rendering plain texturing instead",
-                ReliefFallbackWarning,
-                stacklevel=2,
-            )
-        base = {k: v for k, v in extra.items() if k != "RELIEF_FORCE_COMPILE_ERROR"}
-        return load_program(ctx, program, {"TECHNIQUE": 0, **base}), "plain"
+
+    def build(name: str):
+        # the fallback without the defines that exist to make the requested program fail
+        own = extra if name == technique else {
+            k: v for k, v in extra.items() if k != "RELIEF_FORCE_COMPILE_ERROR"}
+        return load_program(ctx, program, {"TECHNIQUE": technique_id(name), **own})
+
+    prog, drawn = choose_drawable(
+        ctx, technique, build, fallback="plain", what="relief technique",
+        key=(program, technique, tuple(sorted(extra))), category=ReliefFallbackWarning)
+    return prog, drawn.name
 
 
 def relief_texture_data(heights, *, depth: float, bits: int = 32) -> np.ndarray:
@@ -294,7 +281,7 @@ class ReliefQuadRenderer:
         self._vbo = ctx.buffer(reserve=4 * 5 * 4)
         self._vaos: dict = {}
         self._moderngl = moderngl
-        self.last_technique: str | None = None
+        self.drawn_technique: str | None = None  # what the last draw used (see draw)
 
     # --- textures -------------------------------------------------------------------------
     def _make_relief_texture(self, depth):
@@ -358,7 +345,7 @@ class ReliefQuadRenderer:
         """Draw the quad; return the framebuffer as float32 ``(H, W, 4)`` (row 0 = bottom).
 
         ``technique="auto"`` (the default) draws :func:`choose_technique`'s pick for this
-        texture; :attr:`last_technique` says which technique drew.
+        texture; :attr:`drawn_technique` says which technique drew.
 
         ``output="hit"``: (u, v, depth, fetches); ``"shadow"``: (shadow, depth, fetches, 1);
         ``"colour"``: shaded RGBA. Pixels off the quad are 0 with alpha 0 — use
@@ -381,7 +368,7 @@ class ReliefQuadRenderer:
             technique = self.auto_technique
         settings = settings or ReliefSettings()
         program, used = load_relief_program(self.ctx, technique, defines=defines)
-        self.last_technique = used
+        self.drawn_technique = used
         if abs(quad.depth - self._depth_for_normals) > 1e-12:
             self._relief_tex.release()
             self._depth_for_normals = quad.depth
@@ -429,6 +416,11 @@ class ReliefQuadRenderer:
         self.fbo.clear(0.0, 0.0, 0.0, 0.0)
         self.ctx.disable(self._mgl().CULL_FACE)
         self._vao(program).render(self._mgl().TRIANGLE_STRIP)
+
+    @property
+    def last_technique(self) -> str | None:
+        """Same as :attr:`drawn_technique`."""
+        return self.drawn_technique
 
     def release(self) -> None:
         for obj in (self._relief_tex, self._colour_tex, self._cone_tex, self._minmax_tex,

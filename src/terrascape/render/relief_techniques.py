@@ -140,6 +140,9 @@ RELIEF_DEFAULTS: dict[str, Any] = {
     "lod_nearest_from": 3.0,
 }
 
+# The relief field's parameters are baked into its textures.
+RELIEF_CPU_PARAMS = frozenset({"relief_field", "relief_size"})
+
 _SLOTS = (
     TextureSlot("u_color_tex", build_region_texture, depends=("seed", "regions"),
                 description="colour texture, one texel per vertex (region_texture)"),
@@ -202,6 +205,7 @@ def register_relief_techniques(*, replace: bool = True) -> list[str]:
                 defines={"TECHNIQUE": TECHNIQUES[tech]},
                 description=text,
                 deferred=True,
+                cpu_params=RELIEF_CPU_PARAMS,
             ),
             replace=replace,
         )

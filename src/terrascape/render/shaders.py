@@ -18,8 +18,11 @@ frame. Here:
 * ``#include "common/lighting.glsl"`` is resolved relative to the shader root (then to the
   including file's folder), recursively; a file included twice in one program is pasted once
   (``#pragma once`` semantics), a cycle or a missing file is an error;
-* :func:`load_source` prepends ``#version 330 core``, the stage define and user ``#define``s,
-  and ``#line`` directives whose source-string numbers map back to file names in error logs;
+* :func:`load_source` prepends ``#version 330 core``, the stage define, the ids of the relief
+  tracers (``#define TECH_RELIEF 5`` …, from
+  :data:`terrascape.render.techniques.RELIEF_TRACERS`: no ``.glsl`` file keeps the numbers)
+  and user ``#define``s, and ``#line`` directives whose source-string numbers map back to
+  file names in error logs;
 * :func:`set_uniforms` is the constant callback: it validates each value (finite, right
   number of components) and silently skips uniforms the GLSL compiler optimised away, so one
   parameter dictionary can drive every technique.
@@ -41,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from terrascape.errors import FileFormatError, GLUnavailableError, InvalidParameterError
+from terrascape.render.techniques import tracer_id_defines
 
 SHADER_DIR = Path(__file__).resolve().parent / "shaders"
 GLSL_VERSION = "#version 330 core"
@@ -157,7 +161,8 @@ def _source_and_files(name: str, stage: str, defines: Mapping | None) -> tuple[s
         raise InvalidParameterError(f"stage must be one of {sorted(STAGES)}, got {stage!r}")
     files: list[Path] = []
     body = _expand(program_path(name), [], set(), files)
-    header = [GLSL_VERSION, f"#define {STAGES[stage]}", *_define_lines(defines)]
+    header = [GLSL_VERSION, f"#define {STAGES[stage]}", *_define_lines(tracer_id_defines()),
+              *_define_lines(defines)]
     return "\n".join(header + body) + "\n", files
 
 

@@ -165,6 +165,8 @@ MATERIAL_TECHNIQUE = register_technique(
             LIGHTMAP_SLOT,
         ),
         defaults=MATERIAL_DEFAULTS,
+        # the masks and rules are baked into the weight textures
+        cpu_params=frozenset({*MASK_NAMES, "snow_line", "water_level"}),
         description="photo materials by slope, height, curvature and erosion masks, "
                     "hex-tiled, with detail normals",
     ),

@@ -22,25 +22,59 @@ Shader interface every technique program can rely on (see ``shaders/common/``):
   tone map, sRGB; otherwise fog; alpha 1);
 * uniforms set by the renderer every frame: ``u_view_proj``, ``u_camera_pos``, ``u_extent``,
   ``u_spacing``, ``u_grid_size``, ``u_exaggeration``, ``u_height_range`` (world, exaggerated),
-  ``u_sun_dir`` and every parameter ``name`` as ``u_name`` (skipped if the program lacks it).
+  ``u_sun_dir``, and every parameter ``name`` as ``u_name`` (skipped if the program lacks it)
+  except those read on the CPU (:data:`CPU_PARAMS` and the technique's ``cpu_params``).
+
+What is particular to a technique lives on its entry, not in the renderer: its textures
+(``textures``), the uniforms it derives from its parameters (the ``uniforms`` hook, e.g. the
+region table of ``regions``), the parameters that are not uniforms (``cpu_params``), whether
+it is shaded deferred (``deferred``) and what draws when this GL cannot run it
+(``fallback``; :func:`choose_drawable` decides it once per context and says so once).
 """
 
 from __future__ import annotations
 
 import importlib
+import math
 import pkgutil
 import warnings
-from collections.abc import Callable, Mapping
+import weakref
+from collections.abc import Callable, Hashable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
-from terrascape.errors import InvalidParameterError
+from terrascape._validate import check_positive
+from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.texture.hextile import HEX_CONTRAST, HEX_ROTATION, HEX_SHARPNESS
 
 LIGHTING_MODES = {"none": 0, "vertex": 1, "lightmap": 2, "daylight": 3}
+
+#: The height-field tracers of the relief programs (``relief/common/heightfield.glsl``),
+#: selected with ``#define TECHNIQUE <id>``. The shader loader defines ``TECH_<NAME>`` for
+#: each in every program (:func:`terrascape.render.shaders.load_source`), so the GLSL
+#: compares ``TECHNIQUE == TECH_RELIEF`` and no ``.glsl`` file keeps a copy of the numbers.
+#: The names are the relief quad's (``terrascape relief``); the terrain techniques map to
+#: them in :mod:`terrascape.render.relief_techniques`.
+RELIEF_TRACERS: dict[str, int] = {
+    "plain": 0,
+    "parallax": 1,
+    "offset_limiting": 2,
+    "steep": 3,
+    "pom": 4,
+    "relief": 5,
+    "interval": 6,
+    "cone": 7,
+    "minmax": 8,
+    "by_distance": 10,
+}
+
+
+def tracer_id_defines() -> dict[str, int]:
+    """``TECH_<NAME>`` → id of every relief tracer: the ``#define`` block every program gets."""
+    return {f"TECH_{name.upper()}": tid for name, tid in RELIEF_TRACERS.items()}
 
 
 @dataclass(frozen=True)
@@ -84,6 +118,10 @@ class TextureData:
 
 
 TextureBuilder = Callable[[Heightmap, Mapping[str, Any]], TextureData]
+#: ``uniforms(renderer, params) -> {uniform: value}``: what a technique derives from its
+#: parameters each frame (the renderer gives ``heightmap``, ``regions(params)`` and
+#: ``tile_size(params)``).
+UniformsHook = Callable[[Any, Mapping[str, Any]], dict[str, Any]]
 
 
 @dataclass(frozen=True)
@@ -115,6 +153,12 @@ class Technique:
     # sub-pixel triangles on a software rasteriser is cheaper shaded once per pixel in a
     # deferred pass (TerrainRenderer's deferred_shading) than triangle by triangle.
     deferred: bool = False
+    # the technique's own uniforms from its parameters (UniformsHook), beyond u_<name>
+    uniforms: UniformsHook | None = None
+    # its parameters read on the CPU (texture builders, the uniforms hook): never u_<name>
+    cpu_params: frozenset[str] = frozenset()
+    # what draws instead when this GL cannot run the program (None: nothing, it raises)
+    fallback: str | None = "plain"
 
     def parameters(self) -> dict[str, Any]:
         """All accepted parameters with defaults (common ones, then the technique's)."""
@@ -139,6 +183,26 @@ class Technique:
 
     def active_slots(self, params: Mapping[str, Any]) -> list[TextureSlot]:
         return [s for s in self.textures if s.when is None or s.when(params)]
+
+    def parameter_uniforms(self, params: Mapping[str, Any]) -> dict[str, Any]:
+        """``u_<name>`` for every set parameter that is not read on the CPU (booleans as
+        integers); the program skips the ones it does not declare."""
+        return parameter_uniforms(params, CPU_PARAMS | self.cpu_params)
+
+
+def parameter_uniforms(params: Mapping[str, Any],
+                       cpu_params: frozenset[str] | None = None) -> dict[str, Any]:
+    """``u_<name>`` for every set parameter not in ``cpu_params`` (default
+    :data:`CPU_PARAMS`), booleans as integers."""
+    cpu = CPU_PARAMS if cpu_params is None else cpu_params
+    out = {}
+    for key, value in params.items():
+        if key in cpu or key == "textures" or value is None:
+            continue
+        if isinstance(value, (bool, np.bool_)):
+            value = int(value)
+        out[f"u_{key}"] = value
+    return out
 
 
 # ----------------------------------------------------------------------------------------
@@ -316,6 +380,16 @@ COMMON_PARAMS: dict[str, Any] = {
     "cascade_terrain": False,  # draw the terrain into the cascades too (else: ray-cast)
 }
 
+#: Common parameters the renderer turns into uniforms itself (sun, lighting, fog, tile
+#: size, the daylight look) or reads on the CPU (textures, shadows, water, the sky, objects'
+#: own settings are read by their renderers): none is sent as ``u_<name>``.
+CPU_PARAMS = frozenset({
+    "sun", "lighting", "fog_density", "fog_color", "tile_size", "regions", "seed",
+    "material_size", "sky", "wireframe", "shadows", "lightmap_ambient", "turbidity",
+    "exposure", "haze", "sun_radius", "shadow_samples", "sea_level", "water_depth",
+    "surround", "sky_state",
+})  # fmt: skip
+
 _REGISTRY: dict[str, Technique] = {}
 _DISCOVERED = False
 
@@ -400,6 +474,127 @@ def get_technique(name: str) -> Technique:
         ) from None
 
 
+# ----------------------------------------------------------------------------------------
+# Which technique draws: the fallback, decided once per context
+# ----------------------------------------------------------------------------------------
+class TechniqueFallbackWarning(UserWarning):
+    """A technique could not run on this GL; its fallback (plain texturing) drew instead."""
+
+
+@dataclass(frozen=True)
+class DrawnTechnique:
+    """What drew a frame: the ``requested`` technique, or its fallback ``name`` because this
+    GL could not run it (``reason``: the first line of the driver's error)."""
+
+    requested: str
+    name: str
+    reason: str | None = None
+
+    @property
+    def fell_back(self) -> bool:
+        return self.name != self.requested
+
+
+_Built = TypeVar("_Built")
+# context -> {key of a program this GL could not build: the reason}
+_UNAVAILABLE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def choose_drawable(
+    ctx,
+    requested: str,
+    build: Callable[[str], _Built],
+    *,
+    fallback: str | None,
+    key: Hashable = None,
+    what: str = "technique",
+    category: type[Warning] = TechniqueFallbackWarning,
+    warn: Callable[[str], None] | None = None,
+) -> tuple[_Built, DrawnTechnique]:
+    """Build ``requested`` on ``ctx``, or ``fallback`` when this GL cannot (Janković 2010
+    §2.6.4.3: a technique the hardware cannot run degrades to plain texturing instead of
+    stopping the program).
+
+    The decision is made once per context and ``key`` (default: ``requested``): the first
+    failure says so once — through ``warn(message)``, or as a ``category`` warning — and
+    later calls build the fallback without trying again. Callers read the returned
+    :class:`DrawnTechnique`, not the warning.
+
+    Raises
+    ------
+    GLUnavailableError
+        When ``requested`` has no fallback (or is its own), or the fallback fails too.
+    """
+    known = _UNAVAILABLE.setdefault(ctx, {})
+    key = requested if key is None else key
+    reason = known.get(key)
+    if reason is None:
+        try:
+            return build(requested), DrawnTechnique(requested, requested)
+        except GLUnavailableError as exc:
+            if fallback is None or fallback == requested:
+                raise
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            known[key] = reason
+            message = (f"{what} {requested!r} is not available on this GL ({reason}); "
+                       f"rendering {fallback} texturing instead")
+            if warn is not None:
+                warn(message)
+            else:
+                warnings.warn(message, category, stacklevel=3)
+    return build(fallback), DrawnTechnique(requested, fallback, reason)
+
+
+# ----------------------------------------------------------------------------------------
+# Uniform hooks of the built-in techniques
+# ----------------------------------------------------------------------------------------
+def layer_count_uniforms(renderer: Any, params: Mapping[str, Any]) -> dict[str, Any]:
+    """``u_n_layers``: how many region layers the technique's textures hold."""
+    return {"u_n_layers": len(renderer.regions(params))}
+
+
+def region_uniforms(renderer: Any, params: Mapping[str, Any]) -> dict[str, Any]:
+    """The height-region table of ``regions`` (Filipović 2008 T1: each region's maximum and
+    range, the water and rock layers, the slope band where rock takes over) and the detail
+    texture's repeat (``detail_size``; ``None``: a fifth of the material tile)."""
+    from terrascape.texture import SlopeRule
+
+    regions = renderer.regions(params)
+    if not 1 <= len(regions) <= 8:
+        raise InvalidParameterError(f"regions: 1 to 8 regions supported, got {len(regions)}")
+    maxs = np.zeros(8)
+    ranges = np.ones(8)
+    maxs[: len(regions)] = [r.max for r in regions]
+    ranges[: len(regions)] = [r.range for r in regions]
+    names = [r.name.lower() for r in regions]
+    rule = params["slope_rule"]
+    rock, s0, s1 = -1, 0.0, 0.0
+    if rule is True:
+        rule = SlopeRule() if "rock" in names else None
+    if rule:
+        if not isinstance(rule, SlopeRule):
+            raise InvalidParameterError(f"slope_rule must be bool or SlopeRule, got {rule!r}")
+        if rule.region.lower() not in names:
+            raise InvalidParameterError(
+                f"slope rule region {rule.region!r} is not among the regions {names}"
+            )
+        rock = names.index(rule.region.lower())
+        s0, s1 = math.radians(rule.start_deg), math.radians(rule.end_deg)
+    detail = params["detail_size"]
+    return {
+        "u_detail_size": (renderer.tile_size(params) / 5.0 if detail is None
+                          else check_positive(detail, "detail_size")),
+        "u_n_regions": len(regions),
+        "u_region_max": maxs,
+        "u_region_range": ranges,
+        "u_water_index": names.index("water") if "water" in names else -1,
+        "u_rock_index": rock,
+        "u_slope_start": s0,
+        "u_slope_end": s1,
+        "u_n_layers": len(regions),
+    }
+
+
 def _wants_lightmap(params: Mapping[str, Any]) -> bool:
     return params["lighting"] == "lightmap"
 
@@ -427,6 +622,7 @@ register_technique(
             LIGHTMAP_SLOT,
         ),
         description="one colour texture (default: procedural region texture), optional lightmap",
+        fallback=None,  # the last resort: a GL that cannot draw it cannot draw terrain
     )
 )
 register_technique(
@@ -450,6 +646,8 @@ register_technique(
             LIGHTMAP_SLOT,
         ),
         defaults={"detail_size": None, "detail_strength": 0.6, "slope_rule": True},
+        uniforms=region_uniforms,
+        cpu_params=frozenset({"detail_size", "slope_rule"}),
         description="Filipović 2008 T1 region blending on the GPU: (range − |h − max|)/range",
     )
 )
@@ -512,6 +710,7 @@ register_technique(
             LIGHTMAP_SLOT,
         ),
         defaults=_HEX_TILING_DEFAULTS,
+        uniforms=layer_count_uniforms,
         description="Filipović 2008 T3: texture splatting, all layers in one pass, hex-tiled",
     )
 )
@@ -534,19 +733,29 @@ register_technique(
             ),
         ),
         defaults={"ks": 0.2, "bump_height": 1.0, "bump_strength": 1.0},
+        cpu_params=frozenset({"bump_height"}),  # baked into u_normal_height
         description="Janković 2010: normal mapping in tangent space with Phong lighting",
     )
 )
 
 __all__ = [
     "COMMON_PARAMS",
+    "CPU_PARAMS",
     "LIGHTING_MODES",
+    "RELIEF_TRACERS",
     "TECHNIQUE_ALIASES",
+    "DrawnTechnique",
     "Technique",
+    "TechniqueFallbackWarning",
     "TextureData",
     "TextureSlot",
     "canonical_technique_name",
+    "choose_drawable",
     "get_technique",
+    "layer_count_uniforms",
+    "parameter_uniforms",
+    "region_uniforms",
     "register_technique",
     "technique_names",
+    "tracer_id_defines",
 ]

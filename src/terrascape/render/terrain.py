@@ -14,13 +14,16 @@ frame, sky box; Filipović 2008 §4.2: terrain drawn as tiles).
   grid-order vertex buffers it indexes are uploaded on its first call.
 * Textures are built on demand from the technique's :class:`~terrascape.render.techniques.
   TextureSlot` builders (or set explicitly with :meth:`set_texture`) and cached.
+* What is particular to a technique (its textures, uniforms, CPU-side parameters, deferred
+  shading and fallback) is read from its :class:`~terrascape.render.techniques.Technique`
+  entry; the renderer has no branch per technique. Deferred shading is
+  :mod:`terrascape.render.deferred`.
 """
 
 from __future__ import annotations
 
 import functools
 import math
-import warnings
 from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any
@@ -29,18 +32,23 @@ import numpy as np
 
 from terrascape._validate import check_int, check_positive
 from terrascape.camera import Camera
-from terrascape.errors import GLUnavailableError, InvalidParameterError
+from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.lighting.sun import sun_direction
 from terrascape.mesh import DEFAULT_BAND, terrain_mesh
 from terrascape.mesh.small_triangles import cull_small_triangles
 from terrascape.render.context import current, describe_context
+from terrascape.render.deferred import DeferredShading
 from terrascape.render.shaders import load_program, set_uniforms
 from terrascape.render.techniques import (
     LIGHTING_MODES,
+    DrawnTechnique,
     Technique,
+    TechniqueFallbackWarning,
     TextureData,
+    choose_drawable,
     get_technique,
+    parameter_uniforms,
 )
 
 _DTYPES = {np.dtype(np.uint8): "f1", np.dtype(np.float32): "f4"}
@@ -51,13 +59,10 @@ _SAMPLER_TYPES = frozenset(
 # Samplers a technique does not feed get their own units from here up, so no two samplers
 # of different types share unit 0 (a draw-time GL_INVALID_OPERATION that drops the draw).
 _SPARE_UNIT = 16
-# Texture units of the geometry buffer in the deferred shading pass (below the spare units).
-_GBUFFER_UNIT = 12
 # Texture units of the daylight look's own textures (terrain shadows + sky view, heights).
 _SUN_SKY_UNIT = 10
 _HEIGHT_UNIT = 11
-_SKY_LUT_UNIT = 15  # after the G-buffer units 12-14
-_FALLBACK = "plain"
+_SKY_LUT_UNIT = 15  # after the G-buffer units 12-14 (render.deferred.GBUFFER_UNIT)
 # Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
 # (129 ≢ 0, ±1 mod 256, llvmpipe's vertex-cache hash) with few draw calls (64 at 1025²).
 RENDER_CHUNK = 129
@@ -68,10 +73,6 @@ CULL_CELL_PX = 1.0
 # The skirts closing the terrain's sides reach this share of its relief below its lowest point.
 SKIRT_DEPTH = 0.05
 _SOFTWARE_RASTERISERS = ("llvmpipe", "softpipe", "swrast", "swiftshader")
-
-
-class TechniqueFallbackWarning(UserWarning):
-    """A technique could not run on this GL; plain texturing was rendered instead."""
 
 
 def _vec(value: Any, n: int, name: str) -> tuple[float, ...]:
@@ -267,8 +268,7 @@ class TerrainRenderer:
         if deferred_shading is None:
             deferred_shading = self.small_triangle_cull
         self.deferred_shading = bool(deferred_shading)
-        self._gbuffer: tuple | None = None  # (size, fbo, textures) of the geometry buffer
-        self._fullscreen_vaos: dict[int, Any] = {}
+        self._deferred = DeferredShading(ctx)
         # chunk -> (vertex positions (rows, cols, 3), index scratch, index buffer of the kept
         # triangles), made on the chunk's first culled frame
         self._cull_state: dict[int, tuple[np.ndarray, np.ndarray, Any]] = {}
@@ -304,9 +304,11 @@ class TerrainRenderer:
         self._wire_prog = None
         self.last_stats: dict[str, int] = {}
         self._default_regions = None
-        self._fallen_back: set[str] = set()
+        self._fallen_back: set[str] = set()  # object-shadow modes already warned about
         self._mip_levels: dict[str, int] = {}  # sampler -> levels, for "<sampler>_levels"
-        self.last_technique: str | None = None  # what the last frame really drew
+        self.drawn: DrawnTechnique | None = None  # what the last frame really drew, and why
+        # Where the one note of a technique's fallback goes (None: a TechniqueFallbackWarning)
+        self.warn = None
         # the camera the last frame was drawn with (with an infinite far plane under
         # shadow volumes): the one its depth buffer is in
         self.last_camera: Camera | None = None
@@ -446,14 +448,28 @@ class TerrainRenderer:
             self._textures[slot.uniform] = (gl_tex, key)
         return names
 
+    @property
+    def drawn_technique(self) -> str | None:
+        """The technique the last frame drew: the one asked for, or its fallback."""
+        return None if self.drawn is None else self.drawn.name
+
+    @property
+    def last_technique(self) -> str | None:
+        """Same as :attr:`drawn_technique`."""
+        return self.drawn_technique
+
     # --- uniforms ------------------------------------------------------------------------
-    def _auto_tile(self, value) -> float:
+    def tile_size(self, params: Mapping[str, Any]) -> float:
+        """World units per material repeat: ``tile_size``, or 32 × the largest spacing."""
+        value = params["tile_size"]
         if value is None:
             return 32.0 * max(self.heightmap.spacing)
         return check_positive(value, "tile size")
 
-    def frame_uniforms(self, camera: Camera, params: Mapping[str, Any]) -> dict[str, Any]:
-        """Every uniform value of one frame (the thesis's per-frame shader constant callback)."""
+    def frame_uniforms(self, camera: Camera, params: Mapping[str, Any],
+                       technique: Technique | None = None) -> dict[str, Any]:
+        """Every uniform value of one frame (the thesis's per-frame shader constant callback):
+        the renderer's, the ``technique``'s parameters and its ``uniforms`` hook."""
         az, el = _vec(params["sun"], 2, "sun (azimuth, elevation)")
         ex, ez = self.mesh.extent
         lo, hi = self.heightmap.min, self.heightmap.max
@@ -467,7 +483,7 @@ class TerrainRenderer:
         fog_color = (
             horizon if params["fog_color"] is None else _vec(params["fog_color"], 3, "fog_color")
         )
-        tile = self._auto_tile(params["tile_size"])
+        tile = self.tile_size(params)
         u: dict[str, Any] = {
             "u_view_proj": camera.view_projection(),
             "u_inv_view_proj": np.linalg.inv(camera.view_projection()),
@@ -486,38 +502,8 @@ class TerrainRenderer:
             "u_sun_blocked": 0,
             "u_lightmap_ambient": float(params.get("lightmap_ambient", 0.2)),
         }
-        skip = {
-            "sun",
-            "lighting",
-            "fog_density",
-            "fog_color",
-            "tile_size",
-            "regions",
-            "seed",
-            "material_size",
-            "sky",
-            "wireframe",
-            "shadows",
-            "lightmap_ambient",
-            "turbidity",
-            "exposure",
-            "haze",
-            "sun_radius",
-            "shadow_samples",
-            "sea_level",
-            "water_depth",
-            "surround",
-            "slope_rule",
-            "detail_size",
-            "bump_height",
-            "sky_state",
-        }
-        for key, value in params.items():
-            if key in skip or key == "textures" or value is None:
-                continue
-            if isinstance(value, (bool, np.bool_)):
-                value = int(value)
-            u[f"u_{key}"] = value
+        u.update(parameter_uniforms(params) if technique is None
+                 else technique.parameter_uniforms(params))
         if params["lighting"] == "daylight":
             from terrascape.render.atmosphere import daylight_uniforms
 
@@ -529,16 +515,12 @@ class TerrainRenderer:
                 self._edge_albedo[seed] = lowest_ground_albedo(self.heightmap, seed=seed)
             u.update(daylight_uniforms(self.world, params, edge_albedo=self._edge_albedo[seed],
                                        exaggeration=self.exaggeration))
-        if "detail_size" in params:
-            d = params["detail_size"]
-            u["u_detail_size"] = tile / 5.0 if d is None else check_positive(d, "detail_size")
-        if "slope_rule" in params:
-            u.update(self._region_uniforms(params))
-        else:
-            u["u_n_layers"] = len(self._regions(params))
+        if technique is not None and technique.uniforms is not None:
+            u.update(technique.uniforms(self, params))
         return u
 
-    def _regions(self, params):
+    def regions(self, params: Mapping[str, Any]) -> list:
+        """The height regions of ``params`` (``None``: the default regions of this terrain)."""
         regions = params.get("regions")
         if regions is not None:
             return list(regions)
@@ -547,41 +529,6 @@ class TerrainRenderer:
 
             self._default_regions = default_regions(self.heightmap)
         return self._default_regions
-
-    def _region_uniforms(self, params) -> dict[str, Any]:
-        from terrascape.texture import SlopeRule
-
-        regions = self._regions(params)
-        if not 1 <= len(regions) <= 8:
-            raise InvalidParameterError(f"regions: 1 to 8 regions supported, got {len(regions)}")
-        maxs = np.zeros(8)
-        ranges = np.ones(8)
-        maxs[: len(regions)] = [r.max for r in regions]
-        ranges[: len(regions)] = [r.range for r in regions]
-        names = [r.name.lower() for r in regions]
-        rule = params["slope_rule"]
-        rock, s0, s1 = -1, 0.0, 0.0
-        if rule is True:
-            rule = SlopeRule() if "rock" in names else None
-        if rule:
-            if not isinstance(rule, SlopeRule):
-                raise InvalidParameterError(f"slope_rule must be bool or SlopeRule, got {rule!r}")
-            if rule.region.lower() not in names:
-                raise InvalidParameterError(
-                    f"slope rule region {rule.region!r} is not among the regions {names}"
-                )
-            rock = names.index(rule.region.lower())
-            s0, s1 = math.radians(rule.start_deg), math.radians(rule.end_deg)
-        return {
-            "u_n_regions": len(regions),
-            "u_region_max": maxs,
-            "u_region_range": ranges,
-            "u_water_index": names.index("water") if "water" in names else -1,
-            "u_rock_index": rock,
-            "u_slope_start": s0,
-            "u_slope_end": s1,
-            "u_n_layers": len(regions),
-        }
 
     # --- drawing -------------------------------------------------------------------------
     @_current
@@ -615,32 +562,26 @@ class TerrainRenderer:
 
         if not isinstance(camera, Camera):
             raise InvalidParameterError(f"camera must be a Camera, got {type(camera).__name__}")
-        tech = get_technique(technique)
-        p = tech.resolve(params)
-        try:
-            samplers, program = self._prepare(tech, p)
-        except GLUnavailableError as exc:
-            # / Janković 2010 §2.6.4.3: a technique this GL cannot run (compile or
-            # link failure, missing feature) degrades to plain texturing with one warning
-            # per technique instead of taking the viewer down.
-            if tech.name == _FALLBACK:
-                raise
-            if tech.name not in self._fallen_back:
-                self._fallen_back.add(tech.name)
-                warnings.warn(
-                    f"technique {tech.name!r} is not available on this GL ({exc}); "
-                    f"rendering with {_FALLBACK!r} texturing instead",
-                    TechniqueFallbackWarning,
-                    stacklevel=2,
-                )
-            tech = get_technique(_FALLBACK)
-            # Carry over what the caller set (sun, fog, ...), not the failed technique's
-            # own defaults, so the frame is exactly what "plain" would draw.
-            known = tech.parameters()
-            common = {k: v for k, v in (params or {}).items() if k in known}
-            p = tech.resolve(common)
-            samplers, program = self._prepare(tech, p)
-        self.last_technique = tech.name
+        requested = get_technique(technique)
+        requested_params = requested.resolve(params)
+
+        def build(name: str):
+            if name == requested.name:
+                tech, p = requested, requested_params
+            else:
+                tech = get_technique(name)
+                # Carry over what the caller set (sun, fog, ...), not the failed technique's
+                # own defaults, so the frame is exactly what the fallback draws.
+                known = tech.parameters()
+                p = tech.resolve({k: v for k, v in (params or {}).items() if k in known})
+            return (tech, p, *self._prepare(tech, p))
+
+        # A technique this GL cannot run (compile or link failure, missing feature) draws
+        # its fallback, decided once per context and said once.
+        (tech, p, samplers, program), self.drawn = choose_drawable(
+            self.ctx, requested.name, build, fallback=requested.fallback,
+            key=(requested.name, requested.program, repr(sorted(requested.defines.items()))),
+            warn=self.warn)
         if p["object_shadows"] == "volumes":
             from terrascape.render.shadow_volumes import object_shadow_mode
 
@@ -653,7 +594,7 @@ class TerrainRenderer:
             # test compares against the same depth mapping.
             camera = replace(camera, infinite_far=True)
         self.last_camera = camera
-        uniforms = self.frame_uniforms(camera, p)
+        uniforms = self.frame_uniforms(camera, p, tech)
         # Objects: the sun's shadow maps first (their own framebuffer), read by the terrain.
         uniforms.update(objects.begin_frame(camera, fbo.size, p, uniforms["u_sun_dir"])
                         if objects is not None else {"u_cascade_count": 0})
@@ -663,7 +604,8 @@ class TerrainRenderer:
         fbo.clear(*horizon, 1.0, depth=1.0)
         plan = self._chunk_plan(camera, fbo.size)
         # Heavy techniques on a software rasteriser: shaded once per pixel (deferred).
-        deferred = self._deferred_program(tech) if tech.deferred and self.deferred_shading else None
+        deferred = (self._deferred.shading_program(tech)
+                    if tech.deferred and self.deferred_shading else None)
         for unit, name in enumerate(samplers):
             self._textures[name][0].use(location=unit)
         self._bind(deferred or program, uniforms, samplers)
@@ -683,7 +625,9 @@ class TerrainRenderer:
         if deferred is None:
             stats = self._draw_geometry(program, camera, fbo.size, plan)
         else:
-            stats = self._draw_deferred(fbo, deferred, camera, uniforms, plan)
+            stats = self._deferred.draw(
+                fbo, deferred, uniforms["u_view_proj"],
+                lambda geometry: self._draw_geometry(geometry, camera, fbo.size, plan))
         ctx.polygon_offset = (0.0, 0.0)
         if wire:
             wp = self._wire_prog or load_program(ctx, "debug/solid")
@@ -814,92 +758,9 @@ class TerrainRenderer:
                 "chunks_culled": len(self.chunks) - len(visible),
                 "chunks_small_cull": len(small_counts)}
 
-    # --- deferred shading ---------------------------------------------------------------
-    def _deferred_program(self, tech: Technique):
-        """The technique's shading as a full-screen pass over the geometry buffer, or None
-        when this GL cannot build it (the frame is then drawn forward)."""
-        defines = {**(tech.defines or {}), "DEFERRED": 1}
-        try:
-            return load_program(self.ctx, tech.program, defines)
-        except GLUnavailableError:
-            return None
-
-    def _gbuffer_for(self, size):
-        import moderngl
-
-        if self._gbuffer is not None and self._gbuffer[0] == tuple(size):
-            return self._gbuffer
-        self._release_gbuffer()
-        ctx = self.ctx
-        # float32 attributes: the shading pass sees the values forward shading interpolates
-        colours = [ctx.texture(size, 4, dtype="f4") for _ in range(3)]
-        depth = ctx.depth_texture(size)
-        for tex in [*colours, depth]:
-            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        fbo = ctx.framebuffer(color_attachments=colours, depth_attachment=depth)
-        self._gbuffer = (tuple(size), fbo, [*colours, depth])
-        return self._gbuffer
-
-    def _release_gbuffer(self) -> None:
-        if self._gbuffer is not None:
-            _, fbo, textures = self._gbuffer
-            fbo.release()
-            for tex in textures:
-                tex.release()
-            self._gbuffer = None
-
-    def _draw_deferred(self, fbo, shading, camera, uniforms, plan) -> dict[str, int]:
-        """Deferred frame; ``shading`` already holds the frame's uniforms and samplers."""
-        import moderngl
-
-        ctx = self.ctx
-        tangents = "u_gbuffer_tangent" in shading
-        geometry = load_program(ctx, "terrain/gbuffer",
-                                {"TERRAIN_TANGENTS": 1} if tangents else None)
-        _, gbuf, (world, normal, tangent, depth) = self._gbuffer_for(fbo.size)
-        # --- PASS 1: surface attributes of the nearest terrain per pixel
-        gbuf.use()
-        gbuf.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        set_uniforms(geometry, u_view_proj=uniforms["u_view_proj"])
-        stats = self._draw_geometry(geometry, camera, fbo.size, plan)
-        # --- PASS 2: the geometry pass's depth into the target (colour masked off)
-        fbo.use()
-        ctx.disable(moderngl.CULL_FACE)
-        copy = load_program(ctx, "terrain/gbuffer_depth")
-        depth.use(location=_GBUFFER_UNIT)
-        copy["u_gbuffer_depth"].value = _GBUFFER_UNIT
-        ctx.depth_func = "1"
-        fbo.color_mask = (False, False, False, False)
-        try:
-            self._fullscreen(copy)
-        finally:
-            fbo.color_mask = (True, True, True, True)
-        # --- PASS 3: the technique's shading, once per terrain pixel: drawn at depth 1 with
-        # GL_GREATER and no depth writes, so sky pixels fail the early depth test
-        units = {"u_gbuffer_world": world, "u_gbuffer_normal": normal,
-                 "u_gbuffer_tangent": tangent}
-        for unit, (name, tex) in enumerate(units.items(), start=_GBUFFER_UNIT):
-            if name in shading:
-                tex.use(location=unit)
-                shading[name].value = unit
-        ctx.depth_func = ">"
-        fbo.depth_mask = False
-        try:
-            self._fullscreen(shading)
-        finally:
-            fbo.depth_mask = True
-            ctx.depth_func = "<"
-        ctx.enable(moderngl.CULL_FACE)
-        stats["deferred"] = 1
-        return stats
-
     def _fullscreen(self, program) -> None:
-        import moderngl
-
-        vao = self._fullscreen_vaos.get(program.glo)
-        if vao is None:
-            vao = self._fullscreen_vaos[program.glo] = self.ctx.vertex_array(program, [])
-        vao.render(moderngl.TRIANGLES, vertices=3)
+        """One full-screen triangle with ``program`` (the deferred passes' geometry)."""
+        self._deferred.fullscreen(program)
 
     # --- daylight: terrain shadows, sky view, water ------------------------------------
     def lowest_surface_height(self) -> float:
@@ -1195,10 +1056,7 @@ class TerrainRenderer:
         for buf in self._skirt_buffers or []:
             buf.release()
         self._skirt_buffers = None
-        for vao in self._fullscreen_vaos.values():
-            vao.release()
-        self._fullscreen_vaos.clear()
-        self._release_gbuffer()
+        self._deferred.release()
         self.set_objects(None)
 
 

@@ -1,20 +1,22 @@
 """On-screen text for the viewer: panels of lines drawn as textured quads over the scene.
 
 The glyph atlas comes from :func:`terrascape.viewer.font.build_font` (generated at start);
-``viewer/shaders/hud.glsl`` draws glyphs and panel backgrounds in window pixels.
+the program ``viewer/hud`` (``render/shaders/viewer/hud.glsl``, loaded like every program by
+:func:`terrascape.render.shaders.load_program`) draws glyphs and panel backgrounds in window
+pixels.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from terrascape.errors import GLUnavailableError, InvalidParameterError
+from terrascape.errors import InvalidParameterError
+from terrascape.render.shaders import load_program
 from terrascape.viewer.font import BitmapFont, build_font, layout_text, text_block_size
 
-SHADER = Path(__file__).resolve().parent / "shaders" / "hud.glsl"
+PROGRAM = "viewer/hud"
 PADDING = 6.0
 
 
@@ -60,19 +62,6 @@ def panel_origin(size: tuple[float, float], viewport: tuple[int, int], anchor: s
         ) from None
 
 
-def _compile(ctx, path: Path):
-    """Compile a one-file program with the renderer's ``#if defined VERTEX_SHADER`` layout."""
-    text = path.read_text(encoding="utf-8")
-    stages = {}
-    for stage, macro in (("vertex_shader", "VERTEX_SHADER"),
-                         ("fragment_shader", "FRAGMENT_SHADER")):
-        stages[stage] = f"#version 330 core\n#define {macro}\n#line 1 0\n{text}"
-    try:
-        return ctx.program(**stages)
-    except Exception as exc:  # moderngl.Error carries the driver log
-        raise GLUnavailableError(f"HUD shader {path.name} failed to compile:\n{exc}") from None
-
-
 class HudRenderer:
     """Draws :class:`Panel` lists with one font atlas texture and one dynamic vertex buffer."""
 
@@ -84,7 +73,7 @@ class HudRenderer:
         h, w = self.font.atlas.shape
         self._tex = ctx.texture((w, h), 1, self.font.atlas.tobytes())
         self._tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # crisp 1:1 glyph pixels
-        self._prog = _compile(ctx, SHADER)
+        self._prog = load_program(ctx, PROGRAM)  # cached per context: released with it
         self._capacity = 6 * 4 * 4 * 2048
         self._vbo = ctx.buffer(reserve=self._capacity, dynamic=True)
         self._vao = ctx.vertex_array(self._prog, [(self._vbo, "2f 2f", "in_pos", "in_uv")])
@@ -149,7 +138,6 @@ class HudRenderer:
         self._vao.release()
         self._vbo.release()
         self._tex.release()
-        self._prog.release()
 
 
 __all__ = ["HudRenderer", "Panel", "column_tab", "panel_origin"]

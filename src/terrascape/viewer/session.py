@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 import sys
 import time
-import warnings
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -355,6 +354,8 @@ class ViewerSession:
         self.exaggeration = check_positive(exaggeration, "exaggeration")
         self.world = heightmap if self.exaggeration == 1.0 else heightmap.scaled(self.exaggeration)
         self.renderer = TerrainRenderer(ctx, heightmap, exaggeration=self.exaggeration)
+        # the renderer's one note of a technique's fallback goes to stderr and the HUD
+        self.renderer.warn = self._note
         if moving_sun_shadows:
             from terrascape.render.sun_shadows import MovingSunShadows
             from terrascape.render.techniques import COMMON_PARAMS
@@ -459,11 +460,12 @@ class ViewerSession:
         """Draw one frame (LOD update, sky + terrain, HUD) into ``fbo``.
 
         ``dt`` is the time since the previous frame (seconds), for the smoothed frame rate.
-        A technique whose program or textures fail is reported once and replaced by
-        ``plain`` (Janković 2010 §2.6.4.3's "shaders disabled" fallback).
+        A technique this GL cannot run draws its fallback (the renderer decides and says
+        so once; the session reads :attr:`~terrascape.render.terrain.TerrainRenderer.drawn`
+        and takes the technique out of the Tab cycle); one whose textures or parameters
+        fail on this terrain is reported once and replaced by ``plain`` (Janković 2010
+        §2.6.4.3's "shaders disabled" fallback).
         """
-        from terrascape.render.terrain import TechniqueFallbackWarning
-
         w, h = fbo.size
         camera = replace(self.camera, aspect=w / h)
         if dt > 0:
@@ -474,21 +476,16 @@ class ViewerSession:
         while True:
             tech = self.state.technique
             try:
-                with warnings.catch_warnings(record=True) as caught:
-                    warnings.simplefilter("always", TechniqueFallbackWarning)
-                    self.stats = self.renderer.render(fbo, camera, tech,
-                                                      self.frame_params(tech))
+                self.stats = self.renderer.render(fbo, camera, tech, self.frame_params(tech))
             except TerrascapeError as exc:
                 if tech == "plain":
                     raise
                 self._fall_back(tech, exc)
                 continue
-            if self.renderer.last_technique not in (None, tech):
-                # The renderer already drew plain texturing; stop asking for tech.
-                reason = next((str(w.message) for w in caught
-                               if issubclass(w.category, TechniqueFallbackWarning)),
-                              "not available")
-                self._fall_back(tech, reason)
+            drawn = self.renderer.drawn
+            if drawn is not None and drawn.fell_back:
+                # The renderer drew the fallback and said why; stop asking for tech.
+                self._drop_technique(tech, drawn.name)
             break
         if dt > 0:
             self.frame_ms.add(dt * 1000.0, dt)
@@ -499,9 +496,12 @@ class ViewerSession:
 
     def _fall_back(self, tech: str, exc: Exception) -> None:
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        self._note(f"technique {tech!r} is unavailable on this GL ({first}); using plain")
+        self._note(f"technique {tech!r} cannot draw this terrain ({first}); using plain")
+        self._drop_technique(tech, "plain")
+
+    def _drop_technique(self, tech: str, instead: str) -> None:
         self.state.available = tuple(t for t in self.state.available if t != tech)
-        self.state.technique = "plain"
+        self.state.technique = instead
 
     # --- HUD -----------------------------------------------------------------------------
     def status_lines(self) -> list[str]:

@@ -9,17 +9,9 @@
 //
 // Every tracer returns vec3(hit uv, hit depth s). g_fetches counts texture fetches so the
 // quality benchmark can report fetches per pixel without a GPU profiler.
-
-#define TECH_PLAIN 0
-#define TECH_PARALLAX 1
-#define TECH_OFFSET_LIMITING 2
-#define TECH_STEEP 3
-#define TECH_POM 4
-#define TECH_RELIEF 5
-#define TECH_INTERVAL 6
-#define TECH_CONE 7
-#define TECH_MINMAX 8
-#define TECH_BY_DISTANCE 10
+//
+// TECH_PLAIN, TECH_RELIEF, … (the tracers' ids) are defined by the shader loader from
+// terrascape.render.techniques.RELIEF_TRACERS.
 
 uniform sampler2D u_relief;        // RGB tangent-space normal (n*0.5+0.5), A height in [0, 1]
 uniform float u_depth;             // relief depth in UV units (seed: the parallax "scale")

@@ -1,0 +1,143 @@
+"""Deferred shading of the terrain: the surface attributes into a geometry buffer first, then
+a technique's shading once per terrain pixel in a full-screen pass.
+
+A software rasteriser (llvmpipe) shades pixels in SIMD vectors per triangle: a frame of
+sub-pixel triangles wastes most lanes, and hidden surfaces are shaded too. Shaded from a
+geometry buffer, every lane is a visible pixel. :class:`~terrascape.render.terrain.
+TerrainRenderer` uses it for techniques marked ``deferred`` (heavy per-pixel shading: layer
+blending, relief marches) when its ``deferred_shading`` is on.
+
+The technique's own program is compiled a second time with ``#define DEFERRED 1``
+(``common/terrain_fragment.glsl`` then reads the interpolated attributes from the geometry
+buffer's textures instead of the vertex stage), so forward and deferred frames run the same
+shading code on the same float32 values.
+
+References
+----------
+- T. Saito and T. Takahashi, "Comprehensible rendering of 3-D shapes", SIGGRAPH 1990 (the
+  geometry buffer).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from terrascape.errors import GLUnavailableError
+from terrascape.render.shaders import load_program, set_uniforms
+from terrascape.render.techniques import Technique
+
+#: Texture units of the geometry buffer in the shading pass (below the renderer's spare
+#: units, above the daylight look's).
+GBUFFER_UNIT = 12
+
+
+class DeferredShading:
+    """The geometry buffer of one context (resized with the target) and its passes."""
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        self._gbuffer: tuple | None = None  # (size, fbo, textures) of the geometry buffer
+        self._fullscreen_vaos: dict[int, Any] = {}
+
+    def shading_program(self, technique: Technique):
+        """The technique's shading as a full-screen pass over the geometry buffer, or None
+        when this GL cannot build it (the frame is then drawn forward)."""
+        defines = {**(technique.defines or {}), "DEFERRED": 1}
+        try:
+            return load_program(self.ctx, technique.program, defines)
+        except GLUnavailableError:
+            return None
+
+    def _gbuffer_for(self, size):
+        import moderngl
+
+        if self._gbuffer is not None and self._gbuffer[0] == tuple(size):
+            return self._gbuffer
+        self._release_gbuffer()
+        ctx = self.ctx
+        # float32 attributes: the shading pass sees the values forward shading interpolates
+        colours = [ctx.texture(size, 4, dtype="f4") for _ in range(3)]
+        depth = ctx.depth_texture(size)
+        for tex in [*colours, depth]:
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        fbo = ctx.framebuffer(color_attachments=colours, depth_attachment=depth)
+        self._gbuffer = (tuple(size), fbo, [*colours, depth])
+        return self._gbuffer
+
+    def _release_gbuffer(self) -> None:
+        if self._gbuffer is not None:
+            _, fbo, textures = self._gbuffer
+            fbo.release()
+            for tex in textures:
+                tex.release()
+            self._gbuffer = None
+
+    def draw(self, fbo, shading, view_proj,
+             draw_geometry: Callable[[Any], dict[str, int]]) -> dict[str, int]:
+        """One deferred frame into ``fbo``.
+
+        ``shading`` (from :meth:`shading_program`) already holds the frame's uniforms and
+        samplers; ``draw_geometry(program)`` draws the terrain's triangles with a program
+        and returns its statistics (the renderer's chunks, culling and skirts).
+        """
+        import moderngl
+
+        ctx = self.ctx
+        tangents = "u_gbuffer_tangent" in shading
+        geometry = load_program(ctx, "terrain/gbuffer",
+                                {"TERRAIN_TANGENTS": 1} if tangents else None)
+        _, gbuf, (world, normal, tangent, depth) = self._gbuffer_for(fbo.size)
+        # --- PASS 1: surface attributes of the nearest terrain per pixel
+        gbuf.use()
+        gbuf.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        set_uniforms(geometry, u_view_proj=view_proj)
+        stats = draw_geometry(geometry)
+        # --- PASS 2: the geometry pass's depth into the target (colour masked off)
+        fbo.use()
+        ctx.disable(moderngl.CULL_FACE)
+        copy = load_program(ctx, "terrain/gbuffer_depth")
+        depth.use(location=GBUFFER_UNIT)
+        copy["u_gbuffer_depth"].value = GBUFFER_UNIT
+        ctx.depth_func = "1"
+        fbo.color_mask = (False, False, False, False)
+        try:
+            self.fullscreen(copy)
+        finally:
+            fbo.color_mask = (True, True, True, True)
+        # --- PASS 3: the technique's shading, once per terrain pixel: drawn at depth 1 with
+        # GL_GREATER and no depth writes, so sky pixels fail the early depth test
+        units = {"u_gbuffer_world": world, "u_gbuffer_normal": normal,
+                 "u_gbuffer_tangent": tangent}
+        for unit, (name, tex) in enumerate(units.items(), start=GBUFFER_UNIT):
+            if name in shading:
+                tex.use(location=unit)
+                shading[name].value = unit
+        ctx.depth_func = ">"
+        fbo.depth_mask = False
+        try:
+            self.fullscreen(shading)
+        finally:
+            fbo.depth_mask = True
+            ctx.depth_func = "<"
+        ctx.enable(moderngl.CULL_FACE)
+        stats["deferred"] = 1
+        return stats
+
+    def fullscreen(self, program) -> None:
+        """Draw one full-screen triangle with ``program`` (its vertex stage makes it)."""
+        import moderngl
+
+        vao = self._fullscreen_vaos.get(program.glo)
+        if vao is None:
+            vao = self._fullscreen_vaos[program.glo] = self.ctx.vertex_array(program, [])
+        vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def release(self) -> None:
+        for vao in self._fullscreen_vaos.values():
+            vao.release()
+        self._fullscreen_vaos.clear()
+        self._release_gbuffer()
+
+
+__all__ = ["GBUFFER_UNIT", "DeferredShading"]
