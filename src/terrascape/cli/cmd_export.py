@@ -12,7 +12,11 @@ from pathlib import Path
 import typer
 
 from terrascape.cli.app import app, console, out, timed
+from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.export import destinations
+
+#: Destinations that tile the globe: they take a map in degrees as it is.
+_GLOBE_DESTINATIONS = ("cesium", "terrain_rgb")
 
 
 def _destinations_help() -> str:
@@ -90,6 +94,7 @@ def export_command(
     sea_level: float = typer.Option(
         None, "--sea-level", help="No objects on ground below this height (world units).",
         show_default="glb and web: the shore of the baked texture's water; else none"),
+    no_reproject: bool = NO_REPROJECT,
     force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines."),
 ) -> None:
@@ -111,9 +116,13 @@ def export_command(
         hm = read_heightmap(heightmap, spacing=_parse_spacing(spacing))
     for w in caught:
         console.print(f"[yellow]warning:[/] {w.message}")
-    message = degree_warning(hm)
-    if message is not None:
-        console.print(f"[yellow]warning:[/] {message}")
+    if destination in _GLOBE_DESTINATIONS:
+        # Tile pyramids place the map on the globe from its own CRS (degrees included).
+        message = degree_warning(hm)
+        if message is not None:
+            console.print(f"[yellow]warning:[/] {message}")
+    else:
+        hm = metric_map(hm, no_reproject=no_reproject)
     from terrascape.cli.parsing import parse_floats
 
     ll = None if lonlat is None else tuple(parse_floats(lonlat, 2, name="--lonlat"))
