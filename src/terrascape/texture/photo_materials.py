@@ -117,20 +117,23 @@ def _periodic_spectrum_at(image: np.ndarray, freqs: np.ndarray) -> np.ndarray:
     """
     u = np.asarray(image, dtype=np.float64)
     m, n = u.shape
-    a = np.mod(freqs, m)[:, None]
-    b = np.mod(freqs, n)[None, :]
     half = np.fft.rfft2(u)
-    direct = b <= n // 2
-    spectrum = np.where(direct, half[a, np.minimum(b, n // 2)],
-                        np.conj(half[(-a) % m, np.minimum((-b) % n, n // 2)]))
-    del half
     jump_rows = np.fft.fft(u[-1, :] - u[0, :])
     jump_cols = np.fft.fft(u[:, -1] - u[:, 0])
-    smooth = ((1.0 - np.exp(2j * np.pi * a / m)) * jump_rows[b]
-              + jump_cols[a] * (1.0 - np.exp(2j * np.pi * b / n)))
-    denom = 2.0 * np.cos(2.0 * np.pi * a / m) + 2.0 * np.cos(2.0 * np.pi * b / n) - 4.0
-    smooth = np.where((a == 0) & (b == 0), 0.0, smooth / np.where(denom == 0.0, 1.0, denom))
-    spectrum -= smooth
+    b = np.mod(freqs, n)[None, :]
+    direct = b <= n // 2
+    spectrum = np.empty((len(freqs), len(freqs)), dtype=complex)
+    step = max(1, _BLOCK_PIXELS // (4 * max(1, len(freqs))))  # rows of a few small temporaries
+    for r0 in range(0, len(freqs), step):
+        a = np.mod(freqs[r0:r0 + step], m)[:, None]
+        block = np.where(direct, half[a, np.minimum(b, n // 2)],
+                         np.conj(half[(-a) % m, np.minimum((-b) % n, n // 2)]))
+        smooth = ((1.0 - np.exp(2j * np.pi * a / m)) * jump_rows[b]
+                  + jump_cols[a] * (1.0 - np.exp(2j * np.pi * b / n)))
+        denom = 2.0 * np.cos(2.0 * np.pi * a / m) + 2.0 * np.cos(2.0 * np.pi * b / n) - 4.0
+        smooth = np.where((a == 0) & (b == 0), 0.0,
+                          smooth / np.where(denom == 0.0, 1.0, denom))
+        spectrum[r0:r0 + step] = block - smooth
     return spectrum
 
 
@@ -373,6 +376,14 @@ def photo_material_layers(size: int = 256, *, seed: int = 0) -> MaterialLayers:
     return _cached_layers(size, int(seed))
 
 
+def layer_spectrum_bytes(size: int) -> float:
+    """Memory a photo layer of ``size``² holds besides its image: its block of Fourier
+    coefficients (at most 512 frequencies a side, the source photos' size) and the block
+    transformed along x (complex128: 16 bytes each), the largest of the layer recipes."""
+    k = min(512, int(size))
+    return 16.0 * k * (k + int(size))
+
+
 def _check_size(size: int) -> int:
     size = check_int(size, "material size", minimum=16, maximum=2048)
     if size & (size - 1):
@@ -430,6 +441,7 @@ __all__ = [
     "MaterialLayers",
     "detail_normal_height",
     "detail_normals",
+    "layer_spectrum_bytes",
     "periodic_component",
     "photo_material",
     "photo_material_layers",
