@@ -94,6 +94,10 @@ def export_command(
     sea_level: float = typer.Option(
         None, "--sea-level", help="No objects on ground below this height (world units).",
         show_default="glb and web: the shore of the baked texture's water; else none"),
+    compress: str = typer.Option(
+        None, "--compress", help="blender glb: quantize (KHR_mesh_quantization: 16-bit "
+        "positions, 8-bit normals; Blender 2.91+ imports it, about half the bytes) or none.",
+        show_default="none"),
     no_reproject: bool = NO_REPROJECT,
     force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines."),
@@ -151,7 +155,7 @@ def export_command(
     options = ExportOptions(name=name or heightmap.stem, fit=fit, tiles=tiles, flip=flip,
                             format=fmt, plugin=plugin, layers=layers, force=force, lonlat=ll,
                             min_zoom=min_zoom, max_zoom=max_zoom, max_error=max_error,
-                            objects=placed)
+                            objects=placed, compress=compress)
     with timed(f"export {destination}", quiet=quiet):
         written = module.export(hm, output, options)
     for path in written:
