@@ -182,7 +182,13 @@ PEAK_BYTES_PER_SAMPLE: dict[str, float] = {
     "shade": 13.0,
     "normalmap": 16.0,
     "texture regions": 40.0,
-    "texture material": 100.0,
+    # Photo and terrain materials are made in blocks of rows: the RGB image (3 B), Pillow's
+    # copy while encoding (4 B, RGB stored as 4 bytes) and the float32 heightmap read (4 B
+    # per sample; per pixel at --scale 1), measured 11 B at 2049² (texture material
+    # heights.npy) and 6.9 B for photo-rock at 2048² (no heightmap; its Fourier block comes
+    # on top: photo_materials.layer_spectrum_bytes), 2026-12-02.
+    "texture material": 13.0,
+    "texture photo": 8.5,
     "heightfromimage": 38.0,
     "render": 200.0,
 }

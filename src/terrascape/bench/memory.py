@@ -91,6 +91,9 @@ def run(quick: bool = False) -> list[BenchTable]:
         f"target: ≤ {TEXTURE_TARGET:g}× the result (uint8 RGB textures, float32 heights)",
         "built-in materials are cached: the cached texture and the caller's copy are 2×",
         "the input photo of height_from_image exists before the run and is not counted",
+        "photo and terrain materials are made in blocks of rows; their fixed part (the "
+        "512² source photo's Fourier block, the 256² layers) is 10–25 MiB, so the ratio "
+        "is for the full run's 2048² (at --quick's 512² the fixed part dominates)",
     ]
     return [gens, tex]
 

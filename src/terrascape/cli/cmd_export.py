@@ -12,7 +12,11 @@ from pathlib import Path
 import typer
 
 from terrascape.cli.app import app, console, out, timed
+from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.export import destinations
+
+#: Destinations that tile the globe: they take a map in degrees as it is.
+_GLOBE_DESTINATIONS = ("cesium", "terrain_rgb")
 
 
 def _destinations_help() -> str:
@@ -99,6 +103,11 @@ def export_command(
     sea_level: float = typer.Option(
         None, "--sea-level", help="No objects on ground below this height (world units).",
         show_default="glb and web: the shore of the baked texture's water; else none"),
+    compress: str = typer.Option(
+        None, "--compress", help="blender glb: quantize (KHR_mesh_quantization: 16-bit "
+        "positions, 8-bit normals; Blender 2.91+ imports it, about half the bytes) or none.",
+        show_default="none"),
+    no_reproject: bool = NO_REPROJECT,
     force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines."),
 ) -> None:
@@ -120,9 +129,13 @@ def export_command(
         hm = read_heightmap(heightmap, spacing=_parse_spacing(spacing))
     for w in caught:
         console.print(f"[yellow]warning:[/] {w.message}")
-    message = degree_warning(hm)
-    if message is not None:
-        console.print(f"[yellow]warning:[/] {message}")
+    if destination in _GLOBE_DESTINATIONS:
+        # Tile pyramids place the map on the globe from its own CRS (degrees included).
+        message = degree_warning(hm)
+        if message is not None:
+            console.print(f"[yellow]warning:[/] {message}")
+    else:
+        hm = metric_map(hm, no_reproject=no_reproject)
     from terrascape.cli.parsing import parse_floats
 
     ll = None if lonlat is None else tuple(parse_floats(lonlat, 2, name="--lonlat"))
@@ -151,7 +164,7 @@ def export_command(
     options = ExportOptions(name=name or heightmap.stem, fit=fit, tiles=tiles, flip=flip,
                             format=fmt, plugin=plugin, layers=layers, force=force, lonlat=ll,
                             min_zoom=min_zoom, max_zoom=max_zoom, max_error=max_error,
-                            objects=placed)
+                            objects=placed, compress=compress)
     with timed(f"export {destination}", quiet=quiet):
         written = module.export(hm, output, options)
     for path in written:

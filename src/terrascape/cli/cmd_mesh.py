@@ -20,7 +20,7 @@ import typer
 
 from terrascape.camera import Camera
 from terrascape.cli.app import app, out, timed
-from terrascape.cli.app import console as err
+from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
 from terrascape.lod.schemes import SCHEMES
@@ -143,6 +143,7 @@ def mesh_command(
         help="World height of full scale for unitless formats (images), else a multiplier.",
         show_default="1 / unchanged",
     ),
+    no_reproject: bool = NO_REPROJECT,
     force: bool = typer.Option(False, "--force", help="Overwrite the output file if it exists."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines."),
 ) -> None:
@@ -197,15 +198,9 @@ def mesh_command(
         )
 
     with timed("read", quiet=quiet):
-        hm = _read(heightmap, spacing, vertical_scale)
+        hm = metric_map(_read(heightmap, spacing, vertical_scale), no_reproject=no_reproject)
         if fit != "none":
             hm = hm.to_pow2_plus1(fit)
-    from terrascape.io.geotiff import degree_warning
-
-    degrees = degree_warning(hm)
-    if degrees is not None:
-        # the mesh would be a needle: heights in metres over an extent in degrees
-        err.print(f"[yellow]warning:[/] {degrees}")
 
     if mesher not in ("rtin", "greedy"):
         raise InvalidParameterError(f"--mesher must be rtin or greedy, got {mesher!r}")

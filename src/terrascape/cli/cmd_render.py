@@ -13,6 +13,7 @@ import typer
 from terrascape.camera import Camera
 from terrascape.cli.app import MAX_MEMORY, app, out, progress, timed, use_max_memory
 from terrascape.cli.app import console as err
+from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
 from terrascape.generate.registry import generator_names, names_help
@@ -22,7 +23,7 @@ MAX_TURNTABLE_FRAMES = 10_000
 
 
 def _load(heightmap: Path | None, generate: str | None, gen_size: int, seed: int,
-          gen_param: list[str] | None = None):
+          gen_param: list[str] | None = None, *, no_reproject: bool = False):
     if (heightmap is None) == (generate is None):
         raise InvalidParameterError(
             f"give either a HEIGHTMAP file or --generate {'|'.join(generator_names())} "
@@ -35,7 +36,6 @@ def _load(heightmap: Path | None, generate: str | None, gen_size: int, seed: int
         return make(generate, gen_size, seed=seed, spacing=VIEW_SPACING,
                     **parse_params(generate, gen_param))
     from terrascape.io import read_heightmap
-    from terrascape.io.geotiff import degree_warning
 
     try:
         hm = read_heightmap(heightmap)
@@ -43,11 +43,7 @@ def _load(heightmap: Path | None, generate: str | None, gen_size: int, seed: int
         raise
     except (OSError, ValueError) as exc:
         raise FileFormatError(f"cannot read heightmap {heightmap}: {exc}") from exc
-    degrees = degree_warning(hm)
-    if degrees is not None:  # render has no --spacing: the fix is a converted file
-        err.print(f"[yellow]warning:[/] {degrees}; with terrascape convert {heightmap.name} "
-                  "OUT.tif before rendering")
-    return hm
+    return metric_map(hm, no_reproject=no_reproject)
 
 
 def _clip_planes(hm, exaggeration: float, eye: np.ndarray) -> tuple[float, float]:
@@ -348,6 +344,7 @@ def render_command(
         help="Side in samples of the generated terrain (2**n + 1 for diamond-square).",
     ),
     seed: int = typer.Option(0, "--seed", help="Seed of the generator and built-in materials."),
+    no_reproject: bool = NO_REPROJECT,
     force: bool = typer.Option(False, "--force", help="Overwrite existing output files."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines or progress bar."),
     max_memory: str = MAX_MEMORY,
@@ -421,7 +418,7 @@ def render_command(
         check_grid("render", gen_size, gen_size, extra=estimate_peak(gen_name, gen_size, gen_size),
                    hint="use a smaller --gen-size (or raise --max-memory)")
     with timed("load", quiet=quiet):
-        hm = _load(heightmap, generate, gen_size, seed, gen_param)
+        hm = _load(heightmap, generate, gen_size, seed, gen_param, no_reproject=no_reproject)
     if generate is None:
         from terrascape.memory import check_grid
 

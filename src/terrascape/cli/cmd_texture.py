@@ -66,11 +66,12 @@ def _read_material_ids(path: Path) -> np.ndarray:
         raise FileFormatError(f"{path} is not a readable image file ({exc})") from None
 
 
-def _check_memory(command: str, rows: int, cols: int, max_memory: str | None, hint: str) -> None:
+def _check_memory(command: str, rows: int, cols: int, max_memory: str | None, hint: str,
+                  extra: float = 0.0) -> None:
     from terrascape.memory import check_grid
 
     use_max_memory(max_memory)
-    check_grid(command, rows, cols, hint=hint)
+    check_grid(command, rows, cols, hint=hint, extra=extra)
 
 
 def _image_format(final: Path) -> str:
@@ -313,14 +314,20 @@ def material_cmd(
     from terrascape.io import atomic_output, check_output_path
     from terrascape.texture import builtin_material
     from terrascape.texture.materials import BUILTIN_MATERIALS
-    from terrascape.texture.photo_materials import MATERIAL_LAYERS, photo_material
+    from terrascape.texture.photo_materials import (
+        MATERIAL_LAYERS,
+        layer_spectrum_bytes,
+        photo_material,
+    )
 
     check_output_path(output, force=force)
     _image_format(output)
     key = name.lower()
     if key in BUILTIN_MATERIALS or key.startswith("photo-"):
-        _check_memory("texture material", size, size, max_memory,
-                      "use a smaller --size (or raise --max-memory)")
+        photo = key.startswith("photo-")
+        _check_memory("texture photo" if photo else "texture material", size, size, max_memory,
+                      "use a smaller --size (or raise --max-memory)",
+                      extra=layer_spectrum_bytes(size) if photo else 0.0)
     if key in BUILTIN_MATERIALS:
         img = builtin_material(key, size, seed=seed)
     elif key.startswith("photo-") and key[6:] in MATERIAL_LAYERS:

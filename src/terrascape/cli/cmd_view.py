@@ -15,6 +15,7 @@ from terrascape.cli.cmd_render import (
     check_object_shadows,
     load_objects_option,
 )
+from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.errors import InvalidParameterError
 from terrascape.generate.registry import VIEW_SPACING, generator_names, get_generator, names_help
 from terrascape.lod.schemes import SCHEMES
@@ -105,6 +106,7 @@ def view_cmd(
     object_shadows: str = typer.Option(
         None, "--object-shadows", help=OBJECT_SHADOWS_HELP + " G cycles them.",
         show_default=False),
+    no_reproject: bool = NO_REPROJECT,
 ) -> None:
     """Fly over a terrain in a window: mouse look (click; Esc releases, Esc again quits),
     W A S D / arrows, Q/E down/up, Shift faster, scroll for speed; F1 or H lists every key.
@@ -178,6 +180,7 @@ def view_cmd(
 
         with timed(f"read {heightmap.name}"):
             hm = read_heightmap(heightmap, spacing=spacing, vertical_scale=vertical_scale)
+        hm = metric_map(hm, no_reproject=no_reproject)
     if pad and not hm.is_pow2_plus1:
         hm = hm.to_pow2_plus1("pad")
         console.print(f"[dim]padded to {hm.cols}×{hm.rows} for LOD[/]")

@@ -51,6 +51,9 @@ class ExportOptions:
         Meshes (blender glb; cesium tiles at the finest level): vertical error, world units.
     workers
         Tile pyramids: worker processes.
+    compress
+        Meshes (blender glb): ``None``/``"none"`` (float32 positions) or ``"quantize"``
+        (``KHR_mesh_quantization``: int16 positions, int8 normals, uint16 texture coordinates).
     objects
         Objects exported with the terrain (:mod:`terrascape.export.instances`): ``None``,
         :class:`~terrascape.objects.Instances`, or a callable placing them on the heightmap
@@ -71,6 +74,7 @@ class ExportOptions:
     max_error: float | None = None
     workers: int = 2
     objects: object = None
+    compress: str | None = None
 
 
 def _fit_axis(n: int, accepted: Sequence[int], fit: str) -> int:

@@ -18,6 +18,9 @@ from terrascape.heightmap import Heightmap
 NAME = "blender"
 SUMMARY = "Blender: float32 TIFF displacement (Displace modifier) or a textured glb."
 FORMATS = ("tiff", "glb")
+#: Mesh compressions Blender's glTF importer reads: KHR_mesh_quantization since Blender 2.91
+#: (glTF-Blender-IO pull request 1172); not EXT_meshopt_compression (issue 1460, open).
+COMPRESSIONS = ("none", "quantize")
 
 
 def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
@@ -28,6 +31,13 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
         raise InvalidParameterError(f"blender --format must be tiff or glb, got {fmt!r}")
     if options.tiles != 1:
         raise InvalidParameterError("blender takes one map (no tiles)")
+    compress = options.compress or "none"
+    if compress not in COMPRESSIONS:
+        raise InvalidParameterError(
+            f"blender --compress must be {' or '.join(COMPRESSIONS)} (Blender's glTF importer "
+            f"reads KHR_mesh_quantization, not meshopt), got {compress!r}")
+    if compress != "none" and fmt != "glb":
+        raise InvalidParameterError("--compress is for the glb: add --format glb")
     hm = heightmap
     ex, ez = hm.extent
     if fmt == "tiff":
@@ -51,12 +61,15 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
 
         max_error = 0.5 if options.max_error is None else options.max_error
         path, mesh = write_terrain_glb(hm, out / f"{name}.glb", max_error=max_error,
-                                       force=options.force, objects=objects_for(options, hm))
+                                       force=options.force, objects=objects_for(options, hm),
+                                       quantize=compress == "quantize")
         lines = [
             f"Blender glTF import for {name} (written by terrascape)",
             "",
             f"File > Import > glTF 2.0 (.glb) > {path.name}; defaults (+Y Up converted)",
             f"{len(mesh.faces)} triangles, maximum vertical error {max_error:g} world units",
+            *(["Quantized (KHR_mesh_quantization: 16-bit positions, 8-bit normals): "
+               "Blender 2.91 or newer"] if compress == "quantize" else []),
             f"Size: {ex:.6g} × {ez:.6g}, heights {hm.min:.6g} … {hm.max:.6g} (metres)",
         ]
     note = write_text(out / f"{name}_import.txt", "\n".join(lines) + "\n", force=options.force)

@@ -31,11 +31,14 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from terrascape._validate import check_int, check_positive, make_rng
 from terrascape.errors import InvalidParameterError
-from terrascape.texture._noise import periodic_fbm
+from terrascape.texture._block_percentile import block_percentiles
+from terrascape.texture._noise import PeriodicFbm
+
+#: Layer texels per block of rows (the photo layers are synthesised block by block).
+_BLOCK_PIXELS = 1 << 16
 
 #: Material layers in layer order (index = texture-array layer and weight channel).
 MATERIAL_LAYERS: tuple[str, ...] = (
@@ -103,62 +106,194 @@ def _photo(name: str) -> np.ndarray:
     return np.asarray(getattr(skimage.data, name)(), dtype=np.float64) / 255.0
 
 
-def _zoomed(photo: np.ndarray, size: int, zoom: float) -> np.ndarray:
-    """A ``size``² periodic image showing the photo's features ``zoom`` times larger."""
-    # The crop that, resampled to ``size``, gives the requested magnification relative to the
-    # photo shown at 512 px per ``size`` px (zoom 1: the whole photo).
-    side = photo.shape[0]
-    crop = round(min(side, side / zoom))
-    tile = periodic_component(photo[:crop, :crop])
-    if zoom < 1.0:
-        reps = int(np.ceil(1.0 / zoom))
-        tile = periodic_component(photo)
-        tile = np.tile(tile, (reps, reps))
-    # Periodic resampling: Fourier interpolation keeps the wrap exact.
-    return _fourier_resize(tile, size)
+def _periodic_spectrum_at(image: np.ndarray, freqs: np.ndarray) -> np.ndarray:
+    """DFT coefficients ``P[a, b]`` (``a, b`` in ``freqs``, indices mod the side) of
+    :func:`periodic_component` of a square image, without the full complex spectrum.
+
+    ``P = Û − V̂ / denom`` (Moisan 2011): ``Û`` comes from the real FFT of the image (the
+    other half by Hermitian symmetry) and the border-jump image ``v`` has a closed-form DFT,
+    ``V̂[a, b] = (1 − e^{2πia/m}) D_r[b] + D_c[a] (1 − e^{2πib/n})`` with ``D_r``, ``D_c``
+    the 1-D DFTs of the jumps across the top/bottom and left/right borders.
+    """
+    u = np.asarray(image, dtype=np.float64)
+    m, n = u.shape
+    half = np.fft.rfft2(u)
+    jump_rows = np.fft.fft(u[-1, :] - u[0, :])
+    jump_cols = np.fft.fft(u[:, -1] - u[:, 0])
+    b = np.mod(freqs, n)[None, :]
+    direct = b <= n // 2
+    spectrum = np.empty((len(freqs), len(freqs)), dtype=complex)
+    step = max(1, _BLOCK_PIXELS // (4 * max(1, len(freqs))))  # rows of a few small temporaries
+    for r0 in range(0, len(freqs), step):
+        a = np.mod(freqs[r0:r0 + step], m)[:, None]
+        block = np.where(direct, half[a, np.minimum(b, n // 2)],
+                         np.conj(half[(-a) % m, np.minimum((-b) % n, n // 2)]))
+        smooth = ((1.0 - np.exp(2j * np.pi * a / m)) * jump_rows[b]
+                  + jump_cols[a] * (1.0 - np.exp(2j * np.pi * b / n)))
+        denom = 2.0 * np.cos(2.0 * np.pi * a / m) + 2.0 * np.cos(2.0 * np.pi * b / n) - 4.0
+        smooth = np.where((a == 0) & (b == 0), 0.0,
+                          smooth / np.where(denom == 0.0, 1.0, denom))
+        spectrum[r0:r0 + step] = block - smooth
+    return spectrum
 
 
-def _fourier_resize(image: np.ndarray, size: int) -> np.ndarray:
-    """Resample a periodic image to ``size``² by truncating/zero-padding its spectrum."""
-    m = image.shape[0]
-    spec = np.fft.fftshift(np.fft.fft2(image))
-    out = np.zeros((size, size), dtype=complex)
-    k = min(m, size)
-    so, si = (size - k) // 2, (m - k) // 2
-    out[so:so + k, so:so + k] = spec[si:si + k, si:si + k]
-    if k < m:
-        # The kept Nyquist row/column has no conjugate partner: drop it (it would alias).
-        out[so, :] = 0.0
-        out[:, so] = 0.0
-    return np.real(np.fft.ifft2(np.fft.ifftshift(out))) * (size * size) / (m * m)
+def _wrapped_gaussian_response(sigma: float, freqs: np.ndarray, size: int) -> np.ndarray:
+    """What ``scipy.ndimage.gaussian_filter1d(·, sigma, mode="grid-wrap")`` does to the
+    integer frequencies ``freqs`` of a ``size``-periodic signal: the DFT of its kernel (same
+    radius and weights), wrapped around the period. A circular correlation is exactly a
+    product in the frequency domain, so filtering the spectrum equals filtering the pixels."""
+    radius = int(4.0 * float(sigma) + 0.5)
+    x = np.arange(-radius, radius + 1)
+    weights = np.exp(-0.5 / (sigma * sigma) * x**2)
+    weights /= weights.sum()
+    wrapped = np.bincount(np.mod(x, size), weights=weights, minlength=size)
+    return np.fft.fft(wrapped).real[np.mod(freqs, size)]  # an even kernel: a real response
 
 
-def _normalise(h: np.ndarray) -> np.ndarray:
-    """Zero mean, robust unit range → ``[0, 1]`` (1st/99th percentiles at 0.02/0.98)."""
-    lo, hi = np.percentile(h, [1.0, 99.0])
-    if not hi > lo:
-        return np.full_like(h, 0.5)
-    return np.clip(0.02 + 0.96 * (h - lo) / (hi - lo), 0.0, 1.0)
+class _PhotoLayerHeight:
+    """A photo layer's detail height (before its contrast normalisation) row by row.
+
+    The photo's periodic component, magnified or repeated (``zoom``) and resampled to the
+    layer's size by Fourier interpolation, then high-passed (a wrapped Gaussian of σ = size/8
+    removes the photo's illumination gradient, which would repeat with every tile) and
+    blurred against grain; plus the procedural fBm. The resampled photo is band-limited, so
+    all of it is a small block of Fourier coefficients: the filters act on those, and a block
+    of rows is a product of that block with the rows' phases. The peak memory is the block and
+    one block of rows, not the layer's float64 image and its full complex spectrum.
+    """
+
+    def __init__(self, name: str, size: int, seed: int, *, keep_whole: bool = False) -> None:
+        rec = _RECIPES[name]
+        self.size = size
+        self.recipe = rec
+        rng = np.random.default_rng(np.random.SeedSequence([seed, MATERIAL_LAYERS.index(name),
+                                                            7]))
+        photo = _photo(rec.photo)
+        side = photo.shape[0]
+        crop = round(min(side, side / rec.zoom))
+        if rec.zoom < 1.0:
+            # The photo repeated reps × reps times: its DFT is the photo's, reps² times
+            # larger, on every reps-th frequency, and zero in between.
+            reps = int(np.ceil(1.0 / rec.zoom))
+            m = side * reps
+        else:
+            reps = 1
+            photo = photo[:crop, :crop]
+            m = crop
+        # Fourier resize to size²: the centred k × k block of the m² spectrum; when it is cut
+        # (k < m) its first row and column are the unpaired Nyquist frequency: dropped.
+        k = min(m, size)
+        freqs = np.arange(k) - k // 2
+        keep = np.ones(k, dtype=bool)
+        if k < m:
+            keep[0] = False
+        keep &= freqs % reps == 0
+        f = freqs[keep]
+        block = _periodic_spectrum_at(photo, f // reps)
+        del photo
+        if reps > 1:
+            block *= float(reps * reps)
+        response = 1.0 - np.outer(*(2 * [_wrapped_gaussian_response(size / 8.0, f, size)]))
+        if rec.blur > 0.0:
+            blur = _wrapped_gaussian_response(rec.blur, f, size)
+            response *= np.outer(blur, blur)
+        block *= response
+        del response
+        # Transform along x now (rows of the block padded to the layer's width), a few rows
+        # at a time: a block of output rows is then Re(phase(rows) @ along_x). The scale is
+        # the resize's size²/m² times the inverse DFT's 1/size².
+        self._real = np.empty((len(f), size))
+        self._imag = np.empty((len(f), size))
+        step = max(1, _BLOCK_PIXELS // size)
+        for r0 in range(0, len(f), step):
+            padded = np.zeros((min(len(f), r0 + step) - r0, size), dtype=complex)
+            padded[:, f % size] = block[r0:r0 + step]
+            along_x = np.fft.ifft(padded, axis=1)
+            along_x *= size / float(m * m)
+            self._real[r0:r0 + step] = along_x.real
+            self._imag[r0:r0 + step] = along_x.imag
+        del block
+        self._freqs = f
+        self._noise = (PeriodicFbm(size, (4, 4), rng, octaves=5, gain=0.55)
+                       if rec.noise > 0.0 else None)
+        self._ridged = (PeriodicFbm(size, (3, 3), rng, octaves=3, ridged=True)
+                        if rec.ridged > 0.0 else None)
+        self._whole: tuple[np.ndarray | None, ...] | None = None
+        if keep_whole:
+            self._keep_whole()
+        # Standard deviations of the three images over the whole layer (one pass of sums
+        # and sums of squares, block by block).
+        n = float(size * size)
+        sums = np.zeros((3, 2))
+        for z0, z1 in self.blocks():
+            for i, part in enumerate(self._parts(z0, z1)):
+                if part is not None:
+                    sums[i] += float(part.sum()), float(np.square(part).sum())
+        mean = sums[:, 0] / n
+        std = np.sqrt(np.maximum(sums[:, 1] / n - mean * mean, 0.0))
+        self._stds = [max(float(v), 1e-9) for v in std]
+
+    def blocks(self) -> list[tuple[int, int]]:
+        step = max(1, min(self.size, _BLOCK_PIXELS // self.size))
+        return [(z0, min(self.size, z0 + step)) for z0 in range(0, self.size, step)]
+
+    def _keep_whole(self) -> None:
+        # The images computed once and kept (the whole layer is wanted anyway: faster than
+        # recomputing its blocks in every pass, with the same values block for block).
+        parts = [np.empty((self.size, self.size)) if p is not None else None
+                 for p in self._parts(0, 1)]
+        for z0, z1 in self.blocks():
+            for whole, part in zip(parts, self._parts(z0, z1), strict=True):
+                if whole is not None:
+                    whole[z0:z1] = part
+        self._whole = tuple(parts)
+
+    def _parts(self, z0: int, z1: int) -> tuple[np.ndarray | None, ...]:
+        """Rows ``z0:z1`` of the filtered photo, the fBm and the ridged fBm (or None)."""
+        if self._whole is not None:
+            return tuple(None if w is None else w[z0:z1] for w in self._whole)
+        phase = (2.0 * np.pi / self.size) * np.mod(np.outer(np.arange(z0, z1), self._freqs),
+                                                   self.size)
+        photo = np.cos(phase) @ self._real - np.sin(phase) @ self._imag
+        return (photo,
+                None if self._noise is None else self._noise.rows(z0, z1),
+                None if self._ridged is None else self._ridged.rows(z0, z1))
+
+    def rows(self, z0: int, z1: int) -> np.ndarray:
+        """Rows ``z0:z1`` of the height, float64 ``(z1 - z0, size)``."""
+        rec = self.recipe
+        photo, noise, ridged = self._parts(z0, z1)
+        h = photo / self._stds[0]
+        if noise is not None:
+            h = h + rec.noise * noise / self._stds[1]
+        if ridged is not None:
+            h = h - rec.ridged * np.clip(ridged, 0.0, 1.0) ** 4 / self._stds[2]
+        return h
+
+
+class _NormalisedRows:
+    """A layer's height rows scaled to [0, 1] by the whole layer's 1st/99th percentiles."""
+
+    def __init__(self, height: _PhotoLayerHeight) -> None:
+        self.height = height
+        found = block_percentiles(
+            lambda: (height.rows(z0, z1) for z0, z1 in height.blocks()), [1.0, 99.0])
+        self.lo, self.hi = found if found is not None else (0.0, 0.0)
+
+    def rows(self, z0: int, z1: int) -> np.ndarray:
+        h = self.height.rows(z0, z1)
+        if not self.hi > self.lo:
+            return np.full_like(h, 0.5)
+        return np.clip(0.02 + 0.96 * (h - self.lo) / (self.hi - self.lo), 0.0, 1.0)
 
 
 def _layer_height(name: str, size: int, seed: int) -> np.ndarray:
-    rec = _RECIPES[name]
-    rng = np.random.default_rng(np.random.SeedSequence([seed, MATERIAL_LAYERS.index(name), 7]))
-    base = _zoomed(_photo(rec.photo), size, rec.zoom)
-    # Wrapped high-pass ("grid-wrap" is scipy's exactly periodic mode): remove the photo's
-    # illumination gradient (it would repeat with every tile).
-    base = base - ndimage.gaussian_filter(base, size / 8.0, mode="grid-wrap")
-    if rec.blur > 0.0:
-        base = ndimage.gaussian_filter(base, rec.blur, mode="grid-wrap")
-    base /= max(float(base.std()), 1e-9)
-    h = base
-    if rec.noise > 0.0:
-        n = periodic_fbm(size, (4, 4), rng, octaves=5, gain=0.55)
-        h = h + rec.noise * n / max(float(n.std()), 1e-9)
-    if rec.ridged > 0.0:
-        r = periodic_fbm(size, (3, 3), rng, octaves=3, ridged=True)
-        h = h - rec.ridged * np.clip(r, 0.0, 1.0) ** 4 / max(float(r.std()), 1e-9)
-    return _normalise(h)
+    """The whole normalised detail height of a layer, float64 ``(size, size)``."""
+    layer = _NormalisedRows(_PhotoLayerHeight(name, size, seed, keep_whole=True))
+    out = np.empty((size, size))
+    for z0, z1 in layer.height.blocks():
+        out[z0:z1] = layer.rows(z0, z1)
+    return out
 
 
 def _albedo(name: str, height: np.ndarray) -> np.ndarray:
@@ -236,11 +371,24 @@ def photo_material_layers(size: int = 256, *, seed: int = 0) -> MaterialLayers:
     -------
     MaterialLayers
     """
+    size = _check_size(size)
+    make_rng(seed)  # validates the seed
+    return _cached_layers(size, int(seed))
+
+
+def layer_spectrum_bytes(size: int) -> float:
+    """Memory a photo layer of ``size``² holds besides its image: its block of Fourier
+    coefficients (at most 512 frequencies a side, the source photos' size) and the block
+    transformed along x (complex128: 16 bytes each), the largest of the layer recipes."""
+    k = min(512, int(size))
+    return 16.0 * k * (k + int(size))
+
+
+def _check_size(size: int) -> int:
     size = check_int(size, "material size", minimum=16, maximum=2048)
     if size & (size - 1):
         raise InvalidParameterError(f"material size must be a power of two, got {size}")
-    make_rng(seed)  # validates the seed
-    return _cached_layers(size, int(seed))
+    return size
 
 
 def detail_normal_height(name: str = "rock", size: int = 256, *, seed: int = 0,
@@ -269,13 +417,23 @@ def detail_normal_height(name: str = "rock", size: int = 256, *, seed: int = 0,
 
 
 def photo_material(name: str, size: int = 256, *, seed: int = 0) -> np.ndarray:
-    """One photo material's albedo, ``uint8 (size, size, 3)``, tiling seamlessly."""
+    """One photo material's albedo, ``uint8 (size, size, 3)``, tiling seamlessly.
+
+    The same texels as the layer of :func:`photo_material_layers`, made alone and in blocks
+    of rows (not cached), so the peak is a few times the image, not the whole layer set.
+    """
     if not isinstance(name, str) or name.lower() not in MATERIAL_LAYERS:
         raise InvalidParameterError(
             f"unknown photo material {name!r}; expected one of {', '.join(MATERIAL_LAYERS)}"
         )
-    layers = photo_material_layers(size, seed=seed)
-    return layers.albedo[MATERIAL_LAYERS.index(name.lower()), ..., :3].copy()
+    size = _check_size(size)
+    make_rng(seed)
+    key = name.lower()
+    layer = _NormalisedRows(_PhotoLayerHeight(key, size, int(seed)))
+    out = np.empty((size, size, 3), dtype=np.uint8)
+    for z0, z1 in layer.height.blocks():
+        out[z0:z1] = np.rint(_albedo(key, layer.rows(z0, z1))).clip(0, 255)
+    return out
 
 
 __all__ = [
@@ -283,6 +441,7 @@ __all__ = [
     "MaterialLayers",
     "detail_normal_height",
     "detail_normals",
+    "layer_spectrum_bytes",
     "periodic_component",
     "photo_material",
     "photo_material_layers",

@@ -44,6 +44,7 @@ from terrascape._numba import CACHE, FASTMATH, njit, prange
 from terrascape._validate import check_int, check_positive, check_range, make_rng
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
+from terrascape.texture._block_percentile import block_percentiles
 from terrascape.texture._noise import periodic_fbm
 from terrascape.texture.hextile import (
     HEX_CONTRAST,
@@ -124,26 +125,208 @@ def check_masks(shape: tuple[int, int], masks: dict[str, Any] | None) -> dict[st
     return out
 
 
-def _scaled(mask: np.ndarray) -> np.ndarray:
-    """Flow/deposition to [0, 1]: smoothed over about a cell (droplet erosion leaves speckled
-    deposits; a channel is a connected band), divided by the 95th percentile of the
-    positive values."""
-    mask = ndimage.gaussian_filter(mask.astype(np.float64), 1.0, mode="nearest")
-    pos = mask[mask > 0]
-    if pos.size == 0:
-        return np.zeros_like(mask, dtype=np.float64)
-    return np.clip(mask / max(float(np.percentile(pos, 95.0)), 1e-12), 0.0, 1.0)
+#: Heightmap samples per block of rows: the weights are computed block by block (with a
+#: halo), so their float64 temporaries are a few blocks, never whole maps.
+_BLOCK_SAMPLES = 1 << 15
+#: Halo rows a block needs for exact values: the Gaussian (σ 1, 4 rows) and Laplacian (1 row)
+#: of the curvature feed the rock weight, which is blurred by a Gaussian of σ 2 (8 rows).
+_HALO = 13
+#: Halo of the curvature alone, and of the smoothed flow and deposition masks.
+_CURVATURE_HALO = 5
+_MASK_HALO = 4
 
 
-def _field_noise(shape: tuple[int, int], seed: int, salt: int, cells: int) -> np.ndarray:
-    """Smooth seeded noise in about [-1, 1] on the map, resampled from a periodic fBm."""
+def _row_blocks(rows: int, cols: int) -> list[tuple[int, int]]:
+    step = max(1, min(rows, _BLOCK_SAMPLES // max(1, cols)))
+    return [(r0, min(rows, r0 + step)) for r0 in range(0, rows, step)]
+
+
+def _smoothed_mask(mask: np.ndarray, r0: int, r1: int) -> np.ndarray:
+    """Rows ``r0:r1`` of the flow/deposition mask smoothed over about a cell (droplet erosion
+    leaves speckled deposits; a channel is a connected band): the rows of the whole map's
+    Gaussian, from a block with its halo."""
+    lo, hi = max(0, r0 - _MASK_HALO), min(mask.shape[0], r1 + _MASK_HALO)
+    smooth = ndimage.gaussian_filter(mask[lo:hi].astype(np.float64), 1.0, mode="nearest")
+    return smooth[r0 - lo:r1 - lo]
+
+
+def _mask_scale(mask: np.ndarray) -> float | None:
+    """The 95th percentile of the smoothed mask's positive values (``None``: none is > 0)."""
+    def blocks():
+        for r0, r1 in _row_blocks(*mask.shape):
+            smooth = _smoothed_mask(mask, r0, r1)
+            yield smooth[smooth > 0]
+
+    found = block_percentiles(blocks, [95.0])
+    return None if found is None else found[0]
+
+
+def _scaled_rows(smooth: np.ndarray, p95: float | None) -> np.ndarray:
+    """Flow/deposition to [0, 1]: the smoothed mask divided by its 95th percentile."""
+    if p95 is None:
+        return np.zeros_like(smooth, dtype=np.float64)
+    return np.clip(smooth / max(p95, 1e-12), 0.0, 1.0)
+
+
+def _field_noise_grid(seed: int, salt: int, cells: int) -> np.ndarray:
+    """Smooth seeded periodic fBm in about [-1, 1], 256², resampled onto the map by
+    :func:`_field_noise_rows`."""
     rng = np.random.default_rng(np.random.SeedSequence([seed, salt, 31]))
-    side = 256
-    n = periodic_fbm(side, (cells, cells), rng, octaves=4, gain=0.5)
+    n = periodic_fbm(256, (cells, cells), rng, octaves=4, gain=0.5)
     n /= max(float(np.abs(n).max()), 1e-9)
-    zr = np.linspace(0, side - 1, shape[0])
+    return n
+
+
+def _field_noise_rows(grid: np.ndarray, shape: tuple[int, int], r0: int, r1: int
+                      ) -> np.ndarray:
+    """Rows ``r0:r1`` of the noise grid stretched over a map of ``shape`` (bilinear)."""
+    side = grid.shape[0]
+    zr = np.linspace(0, side - 1, shape[0])[r0:r1]
     zc = np.linspace(0, side - 1, shape[1])
-    return ndimage.map_coordinates(n, np.meshgrid(zr, zc, indexing="ij"), order=1)
+    return ndimage.map_coordinates(grid, np.meshgrid(zr, zc, indexing="ij"), order=1)
+
+
+def _curvature_rows(hm: Heightmap, r0: int, r1: int, halo: int) -> tuple[np.ndarray, slice]:
+    """The Laplacian of the smoothed heights (world units) on rows ``r0 - halo : r1 + halo``
+    (clipped to the map) and the slice of that block that holds rows ``r0:r1``."""
+    lo, hi = max(0, r0 - halo), min(hm.rows, r1 + halo)
+    h = hm.heights[lo:hi].astype(np.float64)
+    lap = ndimage.laplace(ndimage.gaussian_filter(h, 1.0, mode="nearest"), mode="nearest")
+    dx, dz = hm.spacing
+    lap /= dx * dz
+    return lap, slice(r0 - lo, r1 - lo)
+
+
+@dataclass(frozen=True)
+class _WeightContext:
+    """What every block of weights shares: the global statistics and the noise grids."""
+
+    hm: Heightmap
+    masks: dict[str, np.ndarray]
+    rules: MaterialRules
+    lo: float
+    span: float
+    line: float
+    curvature_scale: float
+    flow_scale: float | None
+    deposition_scale: float | None
+    noise1: np.ndarray
+    noise2: np.ndarray
+
+
+def _weight_context(hm: Heightmap, masks: dict[str, np.ndarray], rules: MaterialRules,
+                    seed: int) -> _WeightContext:
+    lo, hi = float(hm.heights.min()), float(hm.heights.max())
+    span = hi - lo if hi > lo else 1.0
+    if rules.snow_line is not None:
+        line = float(rules.snow_line)
+    elif span >= SNOW_RELIEF * max(hm.extent):
+        line = lo + 0.78 * span
+    else:
+        line = math.inf  # gentle country: no snow caps on its highest hillock
+
+    def curvature_blocks():
+        for r0, r1 in _row_blocks(hm.rows, hm.cols):
+            lap, inner = _curvature_rows(hm, r0, r1, _CURVATURE_HALO)
+            yield np.abs(lap[inner])
+
+    # Curvature is scaled by its spread: the 90th percentile of |Laplacian| over the map.
+    (p90,) = block_percentiles(curvature_blocks, [90.0])
+    return _WeightContext(
+        hm, masks, rules, lo, span, line, p90,
+        _mask_scale(masks["flow"]) if "flow" in masks else None,
+        _mask_scale(masks["deposition"]) if "deposition" in masks else None,
+        _field_noise_grid(seed, 1, 6), _field_noise_grid(seed, 2, 3))
+
+
+def _weight_rows(ctx: _WeightContext, r0: int, r1: int) -> np.ndarray:
+    """Rows ``r0:r1`` of :func:`material_weights`, float32 ``(L, r1 - r0, cols)``: the same
+    values as those rows of the whole map's weights (each filter gets its halo)."""
+    hm, m, rules = ctx.hm, ctx.masks, ctx.rules
+    dx, dz = hm.spacing
+    lap, inner = _curvature_rows(hm, r0, r1, _HALO)
+    lo_e = r0 - inner.start
+    hi_e = lo_e + lap.shape[0]
+    h_ext = hm.heights[lo_e:hi_e].astype(np.float64)
+    slope_ext = np.degrees(Heightmap(hm.heights[lo_e:hi_e], hm.spacing).slope()
+                           .astype(np.float64))
+    curv_ext = np.clip(lap / max(ctx.curvature_scale, 1e-12), -1.0, 1.0)
+    del lap
+    n1_ext = _field_noise_rows(ctx.noise1, hm.shape, lo_e, hi_e)
+
+    # Rock: slope ramp, shifted by curvature (convex ridges bare earlier) and noise.
+    s_rock = slope_ext + 6.0 * (-curv_ext) + 3.0 * n1_ext
+    rock_ext = _smoothstep(*rules.rock_slope, s_rock)
+    del s_rock
+    # Scree: moderately steep ground, and debris fans below nearby rock.
+    sigma = 2.0
+    near = ndimage.gaussian_filter(rock_ext, sigma, mode="nearest")[inner]
+    rock_h = (ndimage.gaussian_filter(rock_ext * h_ext, sigma, mode="nearest")[inner]
+              / np.maximum(near, 1e-6))
+    h, slope, curv, n1, rock = (a[inner] for a in (h_ext, slope_ext, curv_ext, n1_ext,
+                                                   rock_ext))
+    del h_ext, slope_ext, curv_ext, n1_ext, rock_ext
+    n2 = _field_noise_rows(ctx.noise2, hm.shape, r0, r1)
+    below = _smoothstep(0.0, 2.0 * max(dx, dz), rock_h - h)
+    scree = np.maximum(_smoothstep(*rules.scree_slope, slope + 3.0 * n1),
+                       np.clip(2.5 * near, 0.0, 1.0) * below)
+    del below, near, rock_h, n1
+    scree *= 1.0 - rock
+    # Sediment: channels (flow on gentle slopes) and deposits.
+    sediment = np.zeros_like(h)
+    if "flow" in m:
+        flow = _scaled_rows(_smoothed_mask(m["flow"], r0, r1), ctx.flow_scale)
+        sediment = np.maximum(sediment, flow * (1.0 - _smoothstep(12.0, 28.0, slope)))
+    if "deposition" in m:
+        # Thin deposits (a film in every hollow) stay grass; thick ones become sediment.
+        deposits = _scaled_rows(_smoothed_mask(m["deposition"], r0, r1), ctx.deposition_scale)
+        sediment = np.maximum(sediment, _smoothstep(0.25, 0.85, deposits))
+    sediment = np.clip(sediment, 0.0, 1.0) * (1.0 - rock)
+    # Snow: above the line only (noise raises the edge, never lowers it), on flats.
+    line = ctx.line
+    fade = 0.04 * ctx.span
+    edge = line + fade * (0.5 + 0.5 * n2)
+    snow = _smoothstep(0.0, fade, h - edge) * (1.0 - _smoothstep(*rules.snow_max_slope, slope))
+    snow = np.where(h > line, snow, 0.0)
+    del edge, slope
+    # Water: the mask, or at/below the water level.
+    water = np.zeros_like(h)
+    if "water" in m:
+        water = np.clip(m["water"][r0:r1].astype(np.float64), 0.0, 1.0)
+    if rules.water_level is not None:
+        water = np.where(h <= float(rules.water_level), 1.0, water)
+
+    w = np.zeros((len(MATERIAL_LAYERS), *h.shape))
+    w[_L["water"]] = water
+    rest = 1.0 - water
+    w[_L["snow"]] = rest * snow
+    rest = rest * (1.0 - snow)
+    w[_L["rock"]] = rest * rock
+    w[_L["scree"]] = rest * scree
+    rest = rest * (1.0 - rock - scree)
+    w[_L["sediment"]] = rest * sediment
+    rest = rest * (1.0 - sediment)
+    if "wear" in m:
+        wear = np.clip(m["wear"][r0:r1].astype(np.float64), 0.0, 1.0)
+        w[_L["scree"]] += rest * wear
+        rest = rest * (1.0 - wear)
+    meadow = rules.meadow_share * np.clip(1.0 + 1.6 * n2 - 0.4 * curv, 0.0, 2.0)
+    meadow = np.clip(meadow, 0.0, 1.0)
+    w[_L["meadow"]] = rest * meadow
+    w[_L["grass"]] = rest * (1.0 - meadow)
+    w = np.clip(w, 0.0, None)
+    w /= np.maximum(w.sum(axis=0, keepdims=True), 1e-12)
+    return w.astype(np.float32)
+
+
+def _prepare_weights(heightmap: Heightmap | Any, masks: dict[str, Any] | None,
+                     rules: MaterialRules | None, seed: int) -> _WeightContext:
+    hm = heightmap if isinstance(heightmap, Heightmap) else Heightmap(heightmap)
+    rules = MaterialRules() if rules is None else rules
+    if not isinstance(rules, MaterialRules):
+        raise InvalidParameterError(f"rules must be MaterialRules, got {type(rules).__name__}")
+    make_rng(seed)
+    return _weight_context(hm, check_masks(hm.shape, masks), rules, int(seed))
 
 
 def material_weights(
@@ -154,6 +337,9 @@ def material_weights(
     seed: int = 0,
 ) -> np.ndarray:
     """Per-vertex weights of the material layers (see the module docstring).
+
+    Computed in blocks of rows (each filter with its halo), so the peak is the weights plus
+    a few blocks of float64 temporaries.
 
     Parameters
     ----------
@@ -172,98 +358,27 @@ def material_weights(
     numpy.ndarray
         ``float32 (L, rows, cols)``, ``L = len(MATERIAL_LAYERS)``; non-negative, sum 1.
     """
-    hm = heightmap if isinstance(heightmap, Heightmap) else Heightmap(heightmap)
-    rules = MaterialRules() if rules is None else rules
-    if not isinstance(rules, MaterialRules):
-        raise InvalidParameterError(f"rules must be MaterialRules, got {type(rules).__name__}")
-    make_rng(seed)
-    seed = int(seed)
-    m = check_masks(hm.shape, masks)
-    h = hm.heights.astype(np.float64)
-    lo, hi = float(h.min()), float(h.max())
-    span = hi - lo if hi > lo else 1.0
-    slope = np.degrees(hm.slope().astype(np.float64))
-    # Curvature: Laplacian in world units, scaled by its spread (>0 concave, <0 convex).
-    dx, dz = hm.spacing
-    lap = ndimage.laplace(ndimage.gaussian_filter(h, 1.0, mode="nearest"), mode="nearest")
-    lap /= dx * dz
-    curv = np.clip(lap / max(float(np.percentile(np.abs(lap), 90.0)), 1e-12), -1.0, 1.0)
-    n1 = _field_noise(hm.shape, seed, 1, 6)
-    n2 = _field_noise(hm.shape, seed, 2, 3)
-
-    # Rock: slope ramp, shifted by curvature (convex ridges bare earlier) and noise.
-    s_rock = slope + 6.0 * (-curv) + 3.0 * n1
-    rock = _smoothstep(*rules.rock_slope, s_rock)
-    # Scree: moderately steep ground, and debris fans below nearby rock.
-    sigma = 2.0
-    near = ndimage.gaussian_filter(rock, sigma, mode="nearest")
-    rock_h = ndimage.gaussian_filter(rock * h, sigma, mode="nearest") / np.maximum(near, 1e-6)
-    below = _smoothstep(0.0, 2.0 * max(dx, dz), rock_h - h)
-    scree = np.maximum(_smoothstep(*rules.scree_slope, slope + 3.0 * n1),
-                       np.clip(2.5 * near, 0.0, 1.0) * below)
-    scree *= 1.0 - rock
-    # Sediment: channels (flow on gentle slopes) and deposits.
-    sediment = np.zeros_like(h)
-    if "flow" in m:
-        flow = _scaled(m["flow"])
-        sediment = np.maximum(sediment, flow * (1.0 - _smoothstep(12.0, 28.0, slope)))
-    if "deposition" in m:
-        # Thin deposits (a film in every hollow) stay grass; thick ones become sediment.
-        sediment = np.maximum(sediment, _smoothstep(0.25, 0.85, _scaled(m["deposition"])))
-    sediment = np.clip(sediment, 0.0, 1.0) * (1.0 - rock)
-    # Snow: above the line only (noise raises the edge, never lowers it), on flats.
-    if rules.snow_line is not None:
-        line = float(rules.snow_line)
-    elif span >= SNOW_RELIEF * max(hm.extent):
-        line = lo + 0.78 * span
-    else:
-        line = math.inf  # gentle country: no snow caps on its highest hillock
-
-    fade = 0.04 * span
-    edge = line + fade * (0.5 + 0.5 * n2)
-    snow = _smoothstep(0.0, fade, h - edge) * (1.0 - _smoothstep(*rules.snow_max_slope, slope))
-    snow = np.where(h > line, snow, 0.0)
-    # Water: the mask, or at/below the water level.
-    water = np.zeros_like(h)
-    if "water" in m:
-        water = np.clip(m["water"].astype(np.float64), 0.0, 1.0)
-    if rules.water_level is not None:
-        water = np.where(h <= float(rules.water_level), 1.0, water)
-
-    w = np.zeros((len(MATERIAL_LAYERS), *h.shape))
-    w[_L["water"]] = water
-    rest = 1.0 - water
-    w[_L["snow"]] = rest * snow
-    rest = rest * (1.0 - snow)
-    w[_L["rock"]] = rest * rock
-    w[_L["scree"]] = rest * scree
-    rest = rest * (1.0 - rock - scree)
-    w[_L["sediment"]] = rest * sediment
-    rest = rest * (1.0 - sediment)
-    if "wear" in m:
-        wear = np.clip(m["wear"].astype(np.float64), 0.0, 1.0)
-        w[_L["scree"]] += rest * wear
-        rest = rest * (1.0 - wear)
-    meadow = rules.meadow_share * np.clip(1.0 + 1.6 * n2 - 0.4 * curv, 0.0, 2.0)
-    meadow = np.clip(meadow, 0.0, 1.0)
-    w[_L["meadow"]] = rest * meadow
-    w[_L["grass"]] = rest * (1.0 - meadow)
-    w = np.clip(w, 0.0, None)
-    w /= np.maximum(w.sum(axis=0, keepdims=True), 1e-12)
-    return w.astype(np.float32)
+    ctx = _prepare_weights(heightmap, masks, rules, seed)
+    out = np.empty((len(MATERIAL_LAYERS), *ctx.hm.shape), dtype=np.float32)
+    for r0, r1 in _row_blocks(ctx.hm.rows, ctx.hm.cols):
+        out[:, r0:r1] = _weight_rows(ctx, r0, r1)
+    return out
 
 
 # --- the top-down colour image ----------------------------------------------------------------
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _material_kernel(weights, layers, lightmap, use_light, tex_per_x, tex_per_z, seed, rotation,
-                     contrast, sharpness, depth, out):
-    n_layers, rows, cols = weights.shape
-    h_out, w_out = out.shape[0], out.shape[1]
+def _material_kernel(weights, w_row0, rows, out_row0, h_out, layers, lightmap, use_light,
+                     tex_per_x, tex_per_z, seed, rotation, contrast, sharpness, depth, out):
+    # A block of output rows: ``out`` holds rows out_row0 … of the h_out-row image and
+    # ``weights`` the map rows w_row0 … of a rows-row map that they interpolate.
+    n_layers, _, cols = weights.shape
+    w_out = out.shape[1]
     sy = (rows - 1) / max(h_out - 1, 1)
     sx = (cols - 1) / max(w_out - 1, 1)
     ly = (lightmap.shape[0] - 1) / max(h_out - 1, 1)
     lx = (lightmap.shape[1] - 1) / max(w_out - 1, 1)
-    for oi in prange(h_out):
+    for bi in prange(out.shape[0]):
+        oi = out_row0 + bi
         wk = np.empty(n_layers)
         c1 = np.empty(4)
         c2 = np.empty(4)
@@ -284,10 +399,11 @@ def _material_kernel(weights, layers, lightmap, use_light, tex_per_x, tex_per_z,
             u2, v2, _, _ = _vertex_uv(g[2], g[3], u, v, seed, rotation)
             u3, v3, _, _ = _vertex_uv(g[4], g[5], u, v, seed, rotation)
             best = -1e30
+            wi = i0 - w_row0
             for k in range(n_layers):
-                a = weights[k, i0, j0] + (weights[k, i0, j0 + 1] - weights[k, i0, j0]) * fx
-                b = weights[k, i0 + 1, j0] + (weights[k, i0 + 1, j0 + 1]
-                                              - weights[k, i0 + 1, j0]) * fx
+                a = weights[k, wi, j0] + (weights[k, wi, j0 + 1] - weights[k, wi, j0]) * fx
+                b = weights[k, wi + 1, j0] + (weights[k, wi + 1, j0 + 1]
+                                              - weights[k, wi + 1, j0]) * fx
                 wk[k] = a + (b - a) * fy
                 if wk[k] <= 1e-3:
                     hk[k] = -1e30
@@ -330,9 +446,9 @@ def _material_kernel(weights, layers, lightmap, use_light, tex_per_x, tex_per_z,
                 t1 = lightmap[li + 1, lj] + (lightmap[li + 1, lj + 1] - lightmap[li + 1, lj]) * gx
                 light = t0 + (t1 - t0) * gy
             scale = light * 255.0 / total
-            out[oi, oj, 0] = np.uint8(min(max(acc0 * scale + 0.5, 0.0), 255.0))
-            out[oi, oj, 1] = np.uint8(min(max(acc1 * scale + 0.5, 0.0), 255.0))
-            out[oi, oj, 2] = np.uint8(min(max(acc2 * scale + 0.5, 0.0), 255.0))
+            out[bi, oj, 0] = np.uint8(min(max(acc0 * scale + 0.5, 0.0), 255.0))
+            out[bi, oj, 1] = np.uint8(min(max(acc1 * scale + 0.5, 0.0), 255.0))
+            out[bi, oj, 2] = np.uint8(min(max(acc2 * scale + 0.5, 0.0), 255.0))
 
 
 def material_texture(
@@ -383,9 +499,11 @@ def material_texture(
     contrast = check_range(contrast, "contrast", 0.0, 1.0)
     sharpness = check_range(sharpness, "sharpness", 1.0, 64.0)
     if weights is None:
-        w = material_weights(hm, masks=masks, rules=rules, seed=seed)
+        ctx = _prepare_weights(hm, masks, rules, seed)
+        w = None
     else:
-        w = np.ascontiguousarray(weights, dtype=np.float32)
+        ctx = None
+        w = np.asarray(weights, dtype=np.float32)
         if w.shape != (len(MATERIAL_LAYERS), *hm.shape) or not np.isfinite(w).all():
             raise InvalidParameterError(
                 f"weights must be finite (L={len(MATERIAL_LAYERS)}, rows, cols) = "
@@ -403,9 +521,24 @@ def material_texture(
                       for k in range(len(MATERIAL_LAYERS))])
     stack[..., :3] /= 255.0
     stack[..., 3] /= 255.0
+    stack = np.ascontiguousarray(stack)
     out = np.empty((h_out, w_out, 3), dtype=np.uint8)
-    _material_kernel(w, np.ascontiguousarray(stack), lm, lightmap is not None, dx / tile,
-                     dz / tile, int(seed), rotation, contrast, sharpness, BLEND_DEPTH, out)
+    # Blocks of output rows, each from the block of weights its rows interpolate (computed
+    # for it, or cut from the weights given): never the whole map's weights at once.
+    sy = (hm.rows - 1) / max(h_out - 1, 1)
+
+    def weight_row(oi: int) -> int:  # the kernel's upper interpolation row for output row oi
+        return min(int(oi * sy), hm.rows - 2)
+
+    step = max(1, min(hm.rows, _BLOCK_SAMPLES // max(1, hm.cols))) * scale
+    for o0 in range(0, h_out, step):
+        o1 = min(h_out, o0 + step)
+        r0, r1 = weight_row(o0), weight_row(o1 - 1) + 2
+        block = (_weight_rows(ctx, r0, r1) if w is None
+                 else np.ascontiguousarray(w[:, r0:r1]))
+        _material_kernel(block, r0, hm.rows, o0, h_out, stack, lm, lightmap is not None,
+                         dx / tile, dz / tile, int(seed), rotation, contrast, sharpness,
+                         BLEND_DEPTH, out[o0:o1])
     return out
 
 
