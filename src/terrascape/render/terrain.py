@@ -78,6 +78,17 @@ def _vec(value: Any, n: int, name: str) -> tuple[float, ...]:
     return tuple(float(v) for v in arr)
 
 
+def _check_finite(name: str, value: Any) -> None:
+    """A numeric technique parameter must be finite, also when this frame's program does
+    not read it (its lighting mode compiled the branch out, so no upload would check it)."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return  # not numeric: the uniform upload reports it
+    if not np.isfinite(arr).all():
+        raise InvalidParameterError(f"{name} must be finite, got {value!r}")
+
+
 def as_texture_data(value: Any, *, name: str = "texture") -> TextureData:
     """Accept a :class:`TextureData` or a bare array (2-D texture, repeat) and validate it."""
     tex = value if isinstance(value, TextureData) else TextureData(np.asarray(value))
@@ -497,6 +508,7 @@ class TerrainRenderer:
                 continue
             if isinstance(value, (bool, np.bool_)):
                 value = int(value)
+            _check_finite(key, value)
             u[f"u_{key}"] = value
         if params["lighting"] == "daylight":
             from terrascape.render.atmosphere import daylight_uniforms
@@ -597,8 +609,9 @@ class TerrainRenderer:
             raise InvalidParameterError(f"camera must be a Camera, got {type(camera).__name__}")
         tech = get_technique(technique)
         p = tech.resolve(params)
+        objects = self._objects if self._objects is not None and self._objects.enabled else None
         try:
-            samplers, program = self._prepare(tech, p)
+            samplers, program = self._prepare(tech, p, objects is not None)
         except GLUnavailableError as exc:
             # / Janković 2010 §2.6.4.3: a technique this GL cannot run (compile or
             # link failure, missing feature) degrades to plain texturing with one warning
@@ -619,7 +632,7 @@ class TerrainRenderer:
             known = tech.parameters()
             common = {k: v for k, v in (params or {}).items() if k in known}
             p = tech.resolve(common)
-            samplers, program = self._prepare(tech, p)
+            samplers, program = self._prepare(tech, p, objects is not None)
         self.last_technique = tech.name
         if p["object_shadows"] == "volumes":
             from terrascape.render.shadow_volumes import object_shadow_mode
@@ -627,7 +640,6 @@ class TerrainRenderer:
             p = object_shadow_mode(self, fbo, p)  # no stencil: shadow maps, warned once
         uniforms = self.frame_uniforms(camera, p)
         ctx = self.ctx
-        objects = self._objects if self._objects is not None and self._objects.enabled else None
         # Objects: the sun's shadow maps first (their own framebuffer), read by the terrain.
         uniforms.update(objects.begin_frame(camera, fbo.size, p, uniforms["u_sun_dir"])
                         if objects is not None else {"u_cascade_count": 0})
@@ -637,7 +649,8 @@ class TerrainRenderer:
         fbo.clear(*horizon, 1.0, depth=1.0)
         plan = self._chunk_plan(camera, fbo.size)
         # Heavy techniques on a software rasteriser: shaded once per pixel (deferred).
-        deferred = self._deferred_program(tech) if tech.deferred and self.deferred_shading else None
+        deferred = (self._deferred_program(tech, p, objects is not None)
+                    if tech.deferred and self.deferred_shading else None)
         for unit, name in enumerate(samplers):
             self._textures[name][0].use(location=unit)
         self._bind(deferred or program, uniforms, samplers)
@@ -729,13 +742,23 @@ class TerrainRenderer:
             counts[i] = kept.size
         return counts
 
-    def _prepare(self, tech: Technique, p: Mapping[str, Any]):
-        """Textures and compiled program of ``tech`` (raises GLUnavailableError if this GL
-        cannot run it)."""
+    @staticmethod
+    def _shading_defines(tech: Technique, p: Mapping[str, Any], cascades: bool) -> dict:
+        """The technique's defines plus the frame's lighting mode and whether the objects'
+        shadow cascades are read (common/terrain_fragment.glsl): one program per
+        combination, each holding only its own branches (on a software rasteriser every
+        branch of a shader costs every pixel)."""
+        return {**(tech.defines or {}), "TERRAIN_LIGHTING": LIGHTING_MODES[p["lighting"]],
+                "TERRAIN_CASCADES": int(cascades)}
+
+    def _prepare(self, tech: Technique, p: Mapping[str, Any], cascades: bool = False):
+        """Textures and compiled program of ``tech`` for this frame's lighting (raises
+        GLUnavailableError if this GL cannot run it). ``cascades``: objects are drawn, so
+        the terrain may read their shadow cascades."""
         for name, tex in (p.get("textures") or {}).items():
             self.set_texture(name, tex)
         samplers = self._ensure_textures(tech, p)
-        program = load_program(self.ctx, tech.program, tech.defines or None)
+        program = load_program(self.ctx, tech.program, self._shading_defines(tech, p, cascades))
         return samplers, program
 
     def _chunk_plan(self, camera: Camera, viewport) -> tuple[list[int], list[int]] | None:
@@ -789,10 +812,10 @@ class TerrainRenderer:
                 "chunks_small_cull": len(small_counts)}
 
     # --- deferred shading ---------------------------------------------------------------
-    def _deferred_program(self, tech: Technique):
+    def _deferred_program(self, tech: Technique, p: Mapping[str, Any], cascades: bool):
         """The technique's shading as a full-screen pass over the geometry buffer, or None
         when this GL cannot build it (the frame is then drawn forward)."""
-        defines = {**(tech.defines or {}), "DEFERRED": 1}
+        defines = {**self._shading_defines(tech, p, cascades), "DEFERRED": 1}
         try:
             return load_program(self.ctx, tech.program, defines)
         except GLUnavailableError:

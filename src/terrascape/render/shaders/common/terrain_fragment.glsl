@@ -67,6 +67,19 @@ out vec4 f_color;
 uniform vec3 u_camera_pos;
 uniform float u_exaggeration;
 uniform int u_lighting;          // 0 none, 1 Phong with the given normal, 2 lightmap, 3 daylight
+// TERRAIN_LIGHTING and TERRAIN_CASCADES: #defines each program is compiled with (the frame's
+// lighting mode; whether the objects' shadow cascades are read). A software rasteriser runs
+// every branch of a shader on every pixel, so the lighting modes a frame does not use and an
+// unused cascade lookup would cost every terrain pixel (a third of a plain daylight frame on
+// llvmpipe). Without the defines the uniforms u_lighting / u_cascade_count decide, as before.
+#ifdef TERRAIN_LIGHTING
+#define LIGHTING_MODE TERRAIN_LIGHTING
+#else
+#define LIGHTING_MODE u_lighting
+#endif
+#ifndef TERRAIN_CASCADES
+#define TERRAIN_CASCADES 1
+#endif
 uniform sampler2D u_lightmap;    // one value per vertex (terrascape.lighting.lightmap)
 // Daylight: per vertex, R = visible share of the sun's disc (soft cast shadows from the
 // terrain, terrascape.lighting.soft_shadow), G = sky-view factor; sampled bilinearly per
@@ -87,23 +100,25 @@ vec3 view_dir() {
 // shadows of the sun's cascades too (the darker of the two: both see the terrain).
 vec2 sun_sky_visibility() {
     vec2 vis = texture(u_sun_sky, grid_texcoord(vec2(textureSize(u_sun_sky, 0)))).rg;
+#if TERRAIN_CASCADES
     if (u_cascade_count > 0) {
         vis.x = min(vis.x, cascade_sun_visibility(v_world, normalize(v_normal)));
     }
+#endif
     return vis;
 }
 
 // Colour of a surface point with albedo and unit normal N under the chosen lighting mode.
 // Daylight returns linear radiance (the albedo is sRGB-decoded); finish() displays it.
 vec3 shade(vec3 albedo, vec3 N) {
-    if (u_lighting == 3) {
+    if (LIGHTING_MODE == 3) {
         vec2 vis = sun_sky_visibility();
         return daylight_radiance(srgb_to_linear(albedo), N, vis.x, vis.y);
     }
-    if (u_lighting == 1) {
+    if (LIGHTING_MODE == 1) {
         return phong(albedo, N, normalize(u_sun_dir), view_dir());
     }
-    if (u_lighting == 2) {
+    if (LIGHTING_MODE == 2) {
         vec2 uv = grid_texcoord(vec2(textureSize(u_lightmap, 0)));
         return albedo * texture(u_lightmap, uv).r;
     }
@@ -113,7 +128,7 @@ vec3 shade(vec3 albedo, vec3 N) {
 // Techniques that light with phong() themselves (bump, relief) get the daylight model too
 // when it is on: diffuse daylight with the cast shadows, plus their specular highlight.
 vec3 terrain_phong(vec3 albedo, vec3 N, vec3 L, vec3 V) {
-    if (u_lighting == 3) {
+    if (LIGHTING_MODE == 3) {
         vec2 vis = sun_sky_visibility();
         vec3 c = daylight_radiance(srgb_to_linear(albedo), N, vis.x, vis.y);
         if (u_ks > 0.0 && dot(N, L) > 0.0) {
@@ -127,7 +142,7 @@ vec3 terrain_phong(vec3 albedo, vec3 N, vec3 L, vec3 V) {
 #define phong terrain_phong
 
 vec4 finish(vec3 color) {
-    if (u_lighting == 3) {
+    if (LIGHTING_MODE == 3) {
         return vec4(display(aerial_perspective(color, v_world, u_camera_pos)), 1.0);
     }
     return vec4(apply_fog(color, distance(v_world, u_camera_pos)), 1.0);
