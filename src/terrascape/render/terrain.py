@@ -56,6 +56,7 @@ _GBUFFER_UNIT = 12
 _SUN_SKY_UNIT = 10
 _HEIGHT_UNIT = 11
 _SKY_LUT_UNIT = 15  # after the G-buffer units 12-14
+_GROUND_UNIT = 12  # the plane surround's ground; the sky pass runs after the G-buffer's use
 _FALLBACK = "plain"
 # Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
 # (129 ≢ 0, ±1 mod 256, llvmpipe's vertex-cache hash) with few draw calls (64 at 1025²).
@@ -282,6 +283,7 @@ class TerrainRenderer:
         # a render.sun_shadows.MovingSunShadows for a sun that moves (the viewer's clock)
         self.moving_sun_shadows = None
         self._edge_albedo: dict[int, np.ndarray] = {}
+        self._ground_gain = (1.0, 1.0, 1.0)  # the plane's texture mean → its edge albedo
         self._water_vao = None
         self._water_buf = None
         self._lake: tuple | None = None  # (key, vertex array, buffers) of the lakes' surface
@@ -1138,12 +1140,40 @@ class TerrainRenderer:
             prog["u_height"].value = _HEIGHT_UNIT
         if mode:
             self._use_sky_lut(prog, params)
+        if "u_ground_tex" in prog:
+            self._bind_ground(prog, params)
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.depth_func = "<="
         try:
             self._sky_vao.render(moderngl.TRIANGLES, vertices=3)
         finally:
             self.ctx.depth_func = "<"
+
+    def _bind_ground(self, program, params: Mapping[str, Any]) -> None:
+        """The plane surround's ground texture (the lowest ground's material), hex-tiled
+        like the material technique's layers."""
+        from terrascape.texture.hextile import HEX_CONTRAST, HEX_ROTATION, HEX_SHARPNESS
+        from terrascape.texture.terrain_material import lowest_ground_texture
+
+        seed = int(params.get("seed", 0))
+        data = {}
+
+        def build() -> TextureData:
+            data["rgba"] = rgba = lowest_ground_texture(self.heightmap, seed=seed)
+            return TextureData(rgba, repeat=True, mipmaps=True, mip_blend=True)
+
+        tex = self._env_texture("u_ground_tex", seed, build)
+        if "rgba" in data:
+            srgb = data["rgba"][..., :3].reshape(-1, 3) / 255.0
+            mean = np.where(srgb <= 0.04045, srgb / 12.92,
+                            ((srgb + 0.055) / 1.055) ** 2.4).mean(axis=0)
+            self._ground_gain = tuple(self._edge_albedo[seed] / np.maximum(mean, 1e-6))
+        tex.use(location=_GROUND_UNIT)
+        program["u_ground_tex"].value = _GROUND_UNIT
+        set_uniforms(program, u_ground_gain=self._ground_gain,
+                     u_ground_hex=(params.get("hex_rotation", HEX_ROTATION),
+                                   params.get("hex_contrast", HEX_CONTRAST),
+                                   params.get("hex_sharpness", HEX_SHARPNESS)))
 
     @_current
     def release(self) -> None:
