@@ -56,6 +56,7 @@ _GBUFFER_UNIT = 12
 _SUN_SKY_UNIT = 10
 _HEIGHT_UNIT = 11
 _SKY_LUT_UNIT = 15  # after the G-buffer units 12-14
+_NORMAL_UNIT = 24  # per-pixel surface normals, above the spare units
 _GROUND_UNIT = 12  # the plane surround's ground; the sky pass runs after the G-buffer's use
 _FALLBACK = "plain"
 # Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
@@ -661,6 +662,8 @@ class TerrainRenderer:
         self.draw_skirts = daylight
         if daylight:
             self._bind_environment(deferred or program, p)
+        if "u_surface_normal" in (deferred or program):
+            self._bind_surface_normals(deferred or program)
         if objects is not None:
             objects.bind_receiver(deferred or program)
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
@@ -1148,6 +1151,18 @@ class TerrainRenderer:
             self._sky_vao.render(moderngl.TRIANGLES, vertices=3)
         finally:
             self.ctx.depth_func = "<"
+
+    def _bind_surface_normals(self, program) -> None:
+        """The mesh's vertex normals as an 8-bit texture (common/terrain_fragment.glsl
+        surface_normal: per-pixel normals, bilinear over the grid's cells)."""
+        def build() -> TextureData:
+            n = self.mesh.normals.reshape(self.mesh.rows, self.mesh.cols, 3)
+            packed = np.round((np.clip(n, -1.0, 1.0) * 0.5 + 0.5) * 255.0).astype(np.uint8)
+            return TextureData(np.ascontiguousarray(packed), repeat=False, mipmaps=False)
+
+        tex = self._env_texture("u_surface_normal", "normals", build)
+        tex.use(location=_NORMAL_UNIT)
+        program["u_surface_normal"].value = _NORMAL_UNIT
 
     def _bind_ground(self, program, params: Mapping[str, Any]) -> None:
         """The plane surround's ground texture (the lowest ground's material), hex-tiled

@@ -92,6 +92,42 @@ vec2 grid_texcoord(vec2 size) {
     return (v_grid * (size - 1.0) + 0.5) / size;
 }
 
+#ifdef TERRAIN_SURFACE_NORMALS
+uniform sampler2D u_surface_normal;  // vertex normals as 0.5 + 0.5·n (RGB8), one texel each
+#endif
+
+// The surface's unit normal at this fragment. With TERRAIN_SURFACE_NORMALS (a technique's
+// define): the vertex normals filtered per pixel with a cubic B-spline over the grid
+// (four bilinear taps at shifted positions, Sigg & Hadwiger 2005), a normal field smooth
+// across cells and vertices — close up, a coarse grid's triangles otherwise show as
+// facets lit flat along their edges and diagonals. The skirts (exactly horizontal normals,
+// at the border) keep their own.
+vec3 surface_normal() {
+#ifdef TERRAIN_SURFACE_NORMALS
+    vec2 size = vec2(textureSize(u_surface_normal, 0));
+    vec2 t = v_grid * (size - 1.0);          // texel index space (texel k at k)
+    vec2 i = floor(t);
+    vec2 f = t - i;
+    vec2 f2 = f * f;
+    vec2 f3 = f2 * f;
+    vec2 w0 = (1.0 - 3.0 * f + 3.0 * f2 - f3) / 6.0;
+    vec2 w1 = (4.0 - 6.0 * f2 + 3.0 * f3) / 6.0;
+    vec2 w3 = f3 / 6.0;
+    vec2 g0 = w0 + w1;
+    vec2 g1 = 1.0 - g0;
+    vec2 h0 = (i - 1.0 + w1 / g0 + 0.5) / size;
+    vec2 h1 = (i + 1.0 + w3 / g1 + 0.5) / size;
+    vec3 n = g0.y * (g0.x * texture(u_surface_normal, h0).rgb
+                     + g1.x * texture(u_surface_normal, vec2(h1.x, h0.y)).rgb)
+           + g1.y * (g0.x * texture(u_surface_normal, vec2(h0.x, h1.y)).rgb
+                     + g1.x * texture(u_surface_normal, h1).rgb);
+    n = n * 2.0 - 1.0;
+    return normalize(abs(v_normal.y) < 1e-4 ? v_normal : n);
+#else
+    return normalize(v_normal);
+#endif
+}
+
 vec3 view_dir() {
     return normalize(u_camera_pos - v_world);
 }
