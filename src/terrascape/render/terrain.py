@@ -753,8 +753,9 @@ class TerrainRenderer:
         shadow cascades are read (common/terrain_fragment.glsl): one program per
         combination, each holding only its own branches (on a software rasteriser every
         branch of a shader costs every pixel)."""
-        return {**(tech.defines or {}), "TERRAIN_LIGHTING": LIGHTING_MODES[p["lighting"]],
-                "TERRAIN_CASCADES": int(cascades)}
+        # a technique's own defines win (TERRAIN_LIGHTING="u_lighting" compiles every mode)
+        return {"TERRAIN_LIGHTING": LIGHTING_MODES[p["lighting"]],
+                "TERRAIN_CASCADES": int(cascades), **(tech.defines or {})}
 
     def _prepare(self, tech: Technique, p: Mapping[str, Any], cascades: bool = False):
         """Textures and compiled program of ``tech`` for this frame's lighting (raises
