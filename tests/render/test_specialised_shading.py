@@ -1,6 +1,7 @@
 """Each terrain program is compiled for its frame's lighting mode and cascade use (a
-software rasteriser pays every branch on every pixel): the frames are those of the one
-program with every branch, within a level, with no band or line."""
+software rasteriser pays every branch on every pixel), with daylight's haze per vertex: the
+frames are those of the one program with every branch and the haze per pixel, within a
+level, with no band or line."""
 
 from __future__ import annotations
 
@@ -15,7 +16,8 @@ from terrascape.render.techniques import get_technique
 
 pytestmark = pytest.mark.gl
 
-EVERY_BRANCH = {"TERRAIN_LIGHTING": "u_lighting", "TERRAIN_CASCADES": 1}
+EVERY_BRANCH = {"TERRAIN_LIGHTING": "u_lighting", "TERRAIN_CASCADES": 1,
+                "TERRAIN_VERTEX_HAZE": 0}
 
 
 @pytest.fixture(scope="module")

@@ -172,7 +172,8 @@ def _measure(session, surface, cams) -> dict:
 
 # One terrain program with every lighting branch and the cascade lookup compiled in (what
 # every frame ran before each program was compiled for its frame's lighting).
-EVERY_BRANCH = {"TERRAIN_LIGHTING": "u_lighting", "TERRAIN_CASCADES": 1}
+EVERY_BRANCH = {"TERRAIN_LIGHTING": "u_lighting", "TERRAIN_CASCADES": 1,
+                "TERRAIN_VERTEX_HAZE": 0}
 
 
 def _shading_table(session, surface, cams, n: int) -> BenchTable:
@@ -182,9 +183,9 @@ def _shading_table(session, surface, cams, n: int) -> BenchTable:
     from terrascape.render.techniques import get_technique
 
     tech = get_technique("plain")
-    variants = {"compiled for its lighting mode": tech,
-                "every branch (before)": replace(tech, defines={**(tech.defines or {}),
-                                                                **EVERY_BRANCH})}
+    before = replace(tech, defines={**(tech.defines or {}), **EVERY_BRANCH})
+    variants = {"compiled for its lighting mode, haze per vertex": tech,
+                "every branch, haze per pixel (before)": before}
     times: dict[str, list[float]] = {k: [] for k in variants}
     session.state.technique, session.state.lod = "plain", "roam"
     params = session.frame_params("plain")

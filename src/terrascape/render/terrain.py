@@ -752,10 +752,13 @@ class TerrainRenderer:
         """The technique's defines plus the frame's lighting mode and whether the objects'
         shadow cascades are read (common/terrain_fragment.glsl): one program per
         combination, each holding only its own branches (on a software rasteriser every
-        branch of a shader costs every pixel)."""
+        branch of a shader costs every pixel); daylight frames' haze per vertex
+        (common/terrain_vertex.glsl)."""
         # a technique's own defines win (TERRAIN_LIGHTING="u_lighting" compiles every mode)
-        return {"TERRAIN_LIGHTING": LIGHTING_MODES[p["lighting"]],
-                "TERRAIN_CASCADES": int(cascades), **(tech.defines or {})}
+        mode = LIGHTING_MODES[p["lighting"]]
+        return {"TERRAIN_LIGHTING": mode, "TERRAIN_CASCADES": int(cascades),
+                "TERRAIN_VERTEX_HAZE": int(mode == LIGHTING_MODES["daylight"]),
+                **(tech.defines or {})}
 
     def _prepare(self, tech: Technique, p: Mapping[str, Any], cascades: bool = False):
         """Textures and compiled program of ``tech`` for this frame's lighting (raises

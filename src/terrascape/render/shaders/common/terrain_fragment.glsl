@@ -177,9 +177,20 @@ vec3 terrain_phong(vec3 albedo, vec3 N, vec3 L, vec3 V) {
 }
 #define phong terrain_phong
 
+#if defined TERRAIN_VERTEX_HAZE && !defined DEFERRED
+#if TERRAIN_VERTEX_HAZE
+#define HAZE_PER_VERTEX
+in vec3 v_haze_transmittance;   // common/terrain_vertex.glsl
+in vec3 v_haze_inscatter;
+#endif
+#endif
 vec4 finish(vec3 color) {
     if (LIGHTING_MODE == 3) {
+#ifdef HAZE_PER_VERTEX
+        return vec4(display(color * v_haze_transmittance + v_haze_inscatter), 1.0);
+#else
         return vec4(display(aerial_perspective(color, v_world, u_camera_pos)), 1.0);
+#endif
     }
     return vec4(apply_fog(color, distance(v_world, u_camera_pos)), 1.0);
 }
