@@ -85,6 +85,13 @@ def test_demo_render_stage(tmp_path, gl_ctx):
     coast = np.asarray(Image.open(tmp_path / "showcase_coast.png")).astype(int)
     forest = np.asarray(Image.open(tmp_path / "showcase_forest.png")).astype(int)
     assert (np.abs(forest - coast).max(axis=-1) > 12).mean() > 0.002
+    # dusk: the sky of that moment, its glow warm in the north-west (left), cooler in the
+    # north-east (right)
+    dusk = np.asarray(Image.open(tmp_path / "showcase_dusk.png")).astype(int)
+    assert dusk.shape == (90, 160, 3) and dusk.std() > 5
+    west, east = (dusk[:20, cols].reshape(-1, 3).mean(axis=0)
+                  for cols in (slice(0, 40), slice(-40, None)))
+    assert west[0] > west[2] + 20 and west[0] - west[2] > east[0] - east[2] + 15, (west, east)
     top = np.asarray(Image.open(tmp_path / "showcase_map.png")).astype(int)
     bluish = (top[..., 2] > top[..., 0] + 15).mean()
     assert bluish > 0.05  # the sea around and on the terrain

@@ -70,6 +70,25 @@ def test_relief_tracer_ids_come_from_the_python_table(gl_ctx):
     assert "u_cone" in cone and "u_cone" not in plain
 
 
+def test_each_stage_section_pastes_its_own_includes(shader_dir):
+    _write(shader_dir, "common/top.glsl", "float top() { return 1.0; }\n")
+    _write(shader_dir, "common/both.glsl", "float both() { return 2.0; }\n")
+    _write(shader_dir, "common/vs.glsl", '#include "common/both.glsl"\n')
+    _write(
+        shader_dir,
+        "prog.glsl",
+        '#include "common/top.glsl"\n'
+        '#if defined VERTEX_SHADER\n#include "common/vs.glsl"\nvoid main(){}\n'
+        '#elif defined FRAGMENT_SHADER\n#include "common/top.glsl"\n'
+        '#include "common/both.glsl"\nvoid main(){}\n#endif\n',
+    )
+    src = load_source("prog", "fragment")
+    # the vertex section's include is pasted again for the fragment section (only one
+    # section compiles); what came before the sections stays pasted once
+    assert src.count("float both()") == 2
+    assert src.count("float top()") == 1
+
+
 def test_missing_include_is_clear(shader_dir):
     _write(shader_dir, "prog.glsl", '#include "common/nope.glsl"\n')
     with pytest.raises(ShaderSourceError, match=r"nope\.glsl.*not found.*prog\.glsl"):

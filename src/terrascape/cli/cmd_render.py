@@ -302,7 +302,7 @@ def render_command(
     surround: str = unset_option(
         "--surround",
         help="Beyond the terrain's edge: sea (water to the horizon), plane (ground at the "
-        "lowest height, in the colour of the terrain's lowest ground) or fade (haze). "
+        "lowest height, made of the terrain's lowest ground material) or fade (haze). "
         "[default: sea with --sea-level, else fade]"),
     quality: str = typer.Option(
         "default", "--quality",

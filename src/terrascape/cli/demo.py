@@ -183,11 +183,17 @@ def _shore_camera(hm: Heightmap, sea_level: float, aspect: float) -> Camera:
                           near=0.5, far=4.0 * extent)
 
 
+DUSK_TIME = "2026-06-21T20:15"  # the showcase's time of day (local solar time)
+DUSK_LATITUDE = 45.8
+
+
 def showcase_stage(out: Path, result: DemoResult, hm: Heightmap, masks: dict[str, np.ndarray],
                    *, size: tuple[int, int], force: bool) -> None:
     """The beauty renders: the eroded terrain at golden hour (landscape view), a low coast
-    with water and shadows at midday, a top-down map, and the coast with trees, rocks and
-    houses — high quality (2×2 samples)."""
+    with water and shadows at midday, a top-down map, the coast with trees, rocks and
+    houses, and the terrain at dusk under the sky of that moment — high quality (2×2
+    samples)."""
+    from terrascape.lighting.sky_time import resolve_place, sky_for
     from terrascape.render.context import create_headless_context
     from terrascape.render.offscreen import OffscreenRenderer
 
@@ -225,6 +231,17 @@ def showcase_stage(out: Path, result: DemoResult, hm: Heightmap, masks: dict[str
         result.add(out / "showcase_forest.png",
                    f"the coast with {len(objects):,} trees, bushes, rocks and houses and "
                    "their shadows", time.perf_counter() - t0)
+        renderer.terrain.set_objects(None)
+        # The sky of a moment: dusk at midsummer, the glow over the sea in the north-west.
+        t0 = time.perf_counter()
+        state = sky_for(DUSK_TIME, resolve_place(None, DUSK_LATITUDE, None))
+        image = renderer.render(renderer.default_camera(), "material",
+                                {**material, "sun": state.sun, "sky_state": state,
+                                 "sea_level": sea})
+        _save_png(image[..., :3], out / "showcase_dusk.png", force=force)
+        result.add(out / "showcase_dusk.png",
+                   f"dusk: {DUSK_TIME.replace('T', ' ')} local solar time at {DUSK_LATITUDE}° N "
+                   f"(the sun {-state.sun[1]:.1f}° below the horizon)", time.perf_counter() - t0)
     finally:
         renderer.release()
         ctx.release()

@@ -40,10 +40,11 @@ class DeferredShading:
         self._gbuffer: tuple | None = None  # (size, fbo, textures) of the geometry buffer
         self._fullscreen_vaos: dict[int, Any] = {}
 
-    def shading_program(self, technique: Technique):
+    def shading_program(self, technique: Technique, defines: dict | None = None):
         """The technique's shading as a full-screen pass over the geometry buffer, or None
-        when this GL cannot build it (the frame is then drawn forward)."""
-        defines = {**(technique.defines or {}), "DEFERRED": 1}
+        when this GL cannot build it (the frame is then drawn forward). ``defines``: the
+        frame's program defines (default: the technique's own)."""
+        defines = {**(technique.defines if defines is None else defines or {}), "DEFERRED": 1}
         try:
             return load_program(self.ctx, technique.program, defines)
         except GLUnavailableError:

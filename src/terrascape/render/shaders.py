@@ -17,7 +17,8 @@ frame. Here:
 
 * ``#include "common/lighting.glsl"`` is resolved relative to the shader root (then to the
   including file's folder), recursively; a file included twice in one program is pasted once
-  (``#pragma once`` semantics), a cycle or a missing file is an error;
+  (``#pragma once`` semantics; each stage section of the program file counts on its own,
+  as only one of them is compiled), a cycle or a missing file is an error;
 * :func:`load_source` prepends ``#version 330 core``, the stage define, the ids of the relief
   tracers (``#define TECH_RELIEF 5`` …, from
   :data:`terrascape.render.techniques.RELIEF_TRACERS`: no ``.glsl`` file keeps the numbers)
@@ -55,6 +56,7 @@ STAGES = {
 }
 
 _INCLUDE_RE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
+_STAGE_RE = re.compile(r"^\s*#\s*(?:el)?if\s+defined\s*\(?\s*(?:VERTEX|GEOMETRY|FRAGMENT)_SHADER\b")
 _IDENT_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
@@ -116,7 +118,15 @@ def _expand(path: Path, stack: list[Path], done: set[Path], files: list[Path]) -
     index = len(files) - 1
     stack.append(path)
     out = [f"#line 1 {index}"]
+    shared: set[Path] | None = None  # pasted before the program's first stage section
     for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+        if len(stack) == 1 and _STAGE_RE.match(line):
+            # Stage sections exclude each other: a file the vertex section pasted is pasted
+            # again in the fragment section (only one of the two is compiled).
+            if shared is None:
+                shared = set(done)
+            done.clear()
+            done.update(shared)
         m = _INCLUDE_RE.match(line)
         if m:
             out.extend(_expand(_resolve(m.group(1), path), stack, done, files))

@@ -63,6 +63,8 @@ _SPARE_UNIT = 16
 _SUN_SKY_UNIT = 10
 _HEIGHT_UNIT = 11
 _SKY_LUT_UNIT = 15  # after the G-buffer units 12-14 (render.deferred.GBUFFER_UNIT)
+_NORMAL_UNIT = 24  # per-pixel surface normals, above the spare units
+_GROUND_UNIT = 12  # the plane surround's ground; the sky pass runs after the G-buffer's use
 # Full-resolution chunk side: 129² vertices keep the band-ordered indices cache-friendly
 # (129 ≢ 0, ±1 mod 256, llvmpipe's vertex-cache hash) with few draw calls (64 at 1025²).
 RENDER_CHUNK = 129
@@ -80,6 +82,17 @@ def _vec(value: Any, n: int, name: str) -> tuple[float, ...]:
     if arr.size != n or not np.isfinite(arr).all():
         raise InvalidParameterError(f"{name} must be {n} finite numbers, got {value!r}")
     return tuple(float(v) for v in arr)
+
+
+def _check_finite(name: str, value: Any) -> None:
+    """A numeric technique parameter must be finite, also when this frame's program does
+    not read it (its lighting mode compiled the branch out, so no upload would check it)."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return  # not numeric: the uniform upload reports it
+    if not np.isfinite(arr).all():
+        raise InvalidParameterError(f"{name} must be finite, got {value!r}")
 
 
 def as_texture_data(value: Any, *, name: str = "texture") -> TextureData:
@@ -285,6 +298,7 @@ class TerrainRenderer:
         # a render.sun_shadows.MovingSunShadows for a sun that moves (the viewer's clock)
         self.moving_sun_shadows = None
         self._edge_albedo: dict[int, np.ndarray] = {}
+        self._ground_gain = (1.0, 1.0, 1.0)  # the plane's texture mean → its edge albedo
         self._water_vao = None
         self._water_buf = None
         self._lake: tuple | None = None  # (key, vertex array, buffers) of the lakes' surface
@@ -502,8 +516,11 @@ class TerrainRenderer:
             "u_sun_blocked": 0,
             "u_lightmap_ambient": float(params.get("lightmap_ambient", 0.2)),
         }
-        u.update(parameter_uniforms(params) if technique is None
-                 else technique.parameter_uniforms(params))
+        from_params = (parameter_uniforms(params) if technique is None
+                       else technique.parameter_uniforms(params))
+        for key, value in from_params.items():
+            _check_finite(key[2:], value)
+        u.update(from_params)
         if params["lighting"] == "daylight":
             from terrascape.render.atmosphere import daylight_uniforms
 
@@ -563,6 +580,7 @@ class TerrainRenderer:
         if not isinstance(camera, Camera):
             raise InvalidParameterError(f"camera must be a Camera, got {type(camera).__name__}")
         requested = get_technique(technique)
+        objects = self._objects if self._objects is not None and self._objects.enabled else None
         requested_params = requested.resolve(params)
 
         def build(name: str):
@@ -574,7 +592,7 @@ class TerrainRenderer:
                 # own defaults, so the frame is exactly what the fallback draws.
                 known = tech.parameters()
                 p = tech.resolve({k: v for k, v in (params or {}).items() if k in known})
-            return (tech, p, *self._prepare(tech, p))
+            return (tech, p, *self._prepare(tech, p, objects is not None))
 
         # A technique this GL cannot run (compile or link failure, missing feature) draws
         # its fallback, decided once per context and said once.
@@ -587,7 +605,6 @@ class TerrainRenderer:
 
             p = object_shadow_mode(self, fbo, p)  # no stencil: shadow maps, warned once
         ctx = self.ctx
-        objects = self._objects if self._objects is not None and self._objects.enabled else None
         if objects is not None and p["object_shadows"] == "volumes":
             # Everitt & Kilgard's infinite far plane: the volumes' points at infinity stay
             # inside the depth range; the whole frame is drawn with it so the volumes' depth
@@ -604,7 +621,8 @@ class TerrainRenderer:
         fbo.clear(*horizon, 1.0, depth=1.0)
         plan = self._chunk_plan(camera, fbo.size)
         # Heavy techniques on a software rasteriser: shaded once per pixel (deferred).
-        deferred = (self._deferred.shading_program(tech)
+        deferred = (self._deferred.shading_program(
+                        tech, self._shading_defines(tech, p, objects is not None))
                     if tech.deferred and self.deferred_shading else None)
         for unit, name in enumerate(samplers):
             self._textures[name][0].use(location=unit)
@@ -614,6 +632,8 @@ class TerrainRenderer:
         self.draw_skirts = daylight
         if daylight:
             self._bind_environment(deferred or program, p)
+        if "u_surface_normal" in (deferred or program):
+            self._bind_surface_normals(deferred or program)
         if objects is not None:
             objects.bind_receiver(deferred or program)
         ctx.enable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
@@ -699,13 +719,27 @@ class TerrainRenderer:
             counts[i] = kept.size
         return counts
 
-    def _prepare(self, tech: Technique, p: Mapping[str, Any]):
-        """Textures and compiled program of ``tech`` (raises GLUnavailableError if this GL
-        cannot run it)."""
+    @staticmethod
+    def _shading_defines(tech: Technique, p: Mapping[str, Any], cascades: bool) -> dict:
+        """The technique's defines plus the frame's lighting mode and whether the objects'
+        shadow cascades are read (common/terrain_fragment.glsl): one program per
+        combination, each holding only its own branches (on a software rasteriser every
+        branch of a shader costs every pixel); daylight frames' haze per vertex
+        (common/terrain_vertex.glsl)."""
+        # a technique's own defines win (TERRAIN_LIGHTING="u_lighting" compiles every mode)
+        mode = LIGHTING_MODES[p["lighting"]]
+        return {"TERRAIN_LIGHTING": mode, "TERRAIN_CASCADES": int(cascades),
+                "TERRAIN_VERTEX_HAZE": int(mode == LIGHTING_MODES["daylight"]),
+                **(tech.defines or {})}
+
+    def _prepare(self, tech: Technique, p: Mapping[str, Any], cascades: bool = False):
+        """Textures and compiled program of ``tech`` for this frame's lighting (raises
+        GLUnavailableError if this GL cannot run it). ``cascades``: objects are drawn, so
+        the terrain may read their shadow cascades."""
         for name, tex in (p.get("textures") or {}).items():
             self.set_texture(name, tex)
         samplers = self._ensure_textures(tech, p)
-        program = load_program(self.ctx, tech.program, tech.defines or None)
+        program = load_program(self.ctx, tech.program, self._shading_defines(tech, p, cascades))
         return samplers, program
 
     def _chunk_plan(self, camera: Camera, viewport) -> tuple[list[int], list[int]] | None:
@@ -1018,12 +1052,52 @@ class TerrainRenderer:
             prog["u_height"].value = _HEIGHT_UNIT
         if mode:
             self._use_sky_lut(prog, params)
+        if "u_ground_tex" in prog:
+            self._bind_ground(prog, params)
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.depth_func = "<="
         try:
             self._sky_vao.render(moderngl.TRIANGLES, vertices=3)
         finally:
             self.ctx.depth_func = "<"
+
+    def _bind_surface_normals(self, program) -> None:
+        """The mesh's vertex normals as an 8-bit texture (common/terrain_fragment.glsl
+        surface_normal: per-pixel normals, bilinear over the grid's cells)."""
+        def build() -> TextureData:
+            n = self.mesh.normals.reshape(self.mesh.rows, self.mesh.cols, 3)
+            packed = np.round((np.clip(n, -1.0, 1.0) * 0.5 + 0.5) * 255.0).astype(np.uint8)
+            return TextureData(np.ascontiguousarray(packed), repeat=False, mipmaps=False)
+
+        tex = self._env_texture("u_surface_normal", "normals", build)
+        tex.use(location=_NORMAL_UNIT)
+        program["u_surface_normal"].value = _NORMAL_UNIT
+
+    def _bind_ground(self, program, params: Mapping[str, Any]) -> None:
+        """The plane surround's ground texture (the lowest ground's material), hex-tiled
+        like the material technique's layers."""
+        from terrascape.texture.hextile import HEX_CONTRAST, HEX_ROTATION, HEX_SHARPNESS
+        from terrascape.texture.terrain_material import lowest_ground_texture
+
+        seed = int(params.get("seed", 0))
+        data = {}
+
+        def build() -> TextureData:
+            data["rgba"] = rgba = lowest_ground_texture(self.heightmap, seed=seed)
+            return TextureData(rgba, repeat=True, mipmaps=True, mip_blend=True)
+
+        tex = self._env_texture("u_ground_tex", seed, build)
+        if "rgba" in data:
+            srgb = data["rgba"][..., :3].reshape(-1, 3) / 255.0
+            mean = np.where(srgb <= 0.04045, srgb / 12.92,
+                            ((srgb + 0.055) / 1.055) ** 2.4).mean(axis=0)
+            self._ground_gain = tuple(self._edge_albedo[seed] / np.maximum(mean, 1e-6))
+        tex.use(location=_GROUND_UNIT)
+        program["u_ground_tex"].value = _GROUND_UNIT
+        set_uniforms(program, u_ground_gain=self._ground_gain,
+                     u_ground_hex=(params.get("hex_rotation", HEX_ROTATION),
+                                   params.get("hex_contrast", HEX_CONTRAST),
+                                   params.get("hex_sharpness", HEX_SHARPNESS)))
 
     @_current
     def release(self) -> None:

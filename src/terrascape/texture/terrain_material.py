@@ -542,13 +542,9 @@ def material_texture(
     return out
 
 
-def lowest_ground_albedo(heightmap: Heightmap | Any, *, seed: int = 0,
-                         share: float = 0.05, material_size: int = 64) -> np.ndarray:
-    """Linear RGB albedo of the terrain's lowest ground: the material blend (mean colour of
-    each photo layer, by :func:`material_weights`) over the lowest ``share`` of the
-    samples, water left out. The colour of the plane that continues the terrain beyond its
-    edge, so the world past the edge is made of the ground the terrain ends in.
-    """
+def _lowest_ground_weights(heightmap: Heightmap | Any, seed: int, share: float) -> np.ndarray:
+    """Material layer weights (summing to 1) of the lowest ``share`` of the samples, water
+    left out (grass where nothing else is left)."""
     share = check_range(share, "share", 1e-4, 1.0)
     hm = heightmap if isinstance(heightmap, Heightmap) else Heightmap(heightmap)
     step = max(1, math.ceil(max(hm.shape) / 257))  # the weights of a coarser copy suffice
@@ -562,10 +558,42 @@ def lowest_ground_albedo(heightmap: Heightmap | Any, *, seed: int = 0,
     if w.sum() <= 0.0:
         w[:] = 0.0
         w[_L["grass"]] = 1.0
+    return w / w.sum()
+
+
+def _srgb_to_linear(srgb: np.ndarray) -> np.ndarray:
+    return np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+
+
+def lowest_ground_albedo(heightmap: Heightmap | Any, *, seed: int = 0,
+                         share: float = 0.05, material_size: int = 64) -> np.ndarray:
+    """Linear RGB albedo of the terrain's lowest ground: the material blend (mean colour of
+    each photo layer, by :func:`material_weights`) over the lowest ``share`` of the
+    samples, water left out. The colour of the plane that continues the terrain beyond its
+    edge, so the world past the edge is made of the ground the terrain ends in.
+    """
+    w = _lowest_ground_weights(heightmap, seed, share)
     layers = photo_material_layers(material_size, seed=seed).albedo[..., :3]
     srgb = layers.reshape(len(MATERIAL_LAYERS), -1, 3).astype(np.float64) / 255.0
-    linear = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
-    return (w / w.sum()) @ linear.mean(axis=1)
+    return w @ _srgb_to_linear(srgb).mean(axis=1)
+
+
+def lowest_ground_texture(heightmap: Heightmap | Any, *, seed: int = 0,
+                          share: float = 0.05, material_size: int = 256) -> np.ndarray:
+    """The lowest ground's material as a tileable texture: the photo layers blended texel
+    by texel in linear light by the weights of :func:`lowest_ground_albedo` (so its mean
+    colour is that albedo), ``uint8 (material_size, material_size, 4)``: sRGB colour and
+    the blended detail height in A (for hex-tiling's contrast weights). The ground of the
+    plane beyond the terrain's edge.
+    """
+    w = _lowest_ground_weights(heightmap, seed, share)
+    layers = photo_material_layers(material_size, seed=seed).albedo.astype(np.float64) / 255.0
+    linear = np.tensordot(w, _srgb_to_linear(layers[..., :3]), axes=1)
+    height = np.tensordot(w, layers[..., 3], axes=1)
+    srgb = np.where(linear <= 0.0031308, 12.92 * linear,
+                    1.055 * np.power(linear, 1.0 / 2.4) - 0.055)
+    out = np.concatenate([srgb, height[..., None]], axis=-1)
+    return np.round(np.clip(out, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
 def dominant_layer(weights: np.ndarray) -> np.ndarray:
@@ -580,6 +608,7 @@ __all__ = [
     "check_masks",
     "dominant_layer",
     "lowest_ground_albedo",
+    "lowest_ground_texture",
     "material_texture",
     "material_weights",
 ]

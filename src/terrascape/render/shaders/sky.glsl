@@ -49,9 +49,32 @@ out vec4 f_color;
 #define SKY_MODE 0
 #endif
 
+#if SKY_MODE == 2
+#include "common/hextile.glsl"
+// The plane's ground: the material of the terrain's lowest ground as a texture
+// (terrascape.texture.lowest_ground_texture: sRGB colour, detail height in A), hex-tiled on
+// the same grid, scale and seed as the material technique, so the land continues past the
+// edge without a visible period; u_ground_gain scales its mean to u_surround_albedo.
+uniform sampler2D u_ground_tex;
+uniform vec3 u_ground_gain;
+uniform vec3 u_ground_hex;       // hex-tiling rotation, contrast, sharpness
+uniform float u_tile_size;       // world units per material repeat
+#endif
+
 vec3 surround_radiance(vec3 p) {
     // u_surround_albedo (common/water.glsl): the terrain's edge colour
+#if SKY_MODE == 2
+    HexTile t = hex_tile(p.xz / u_tile_size, u_ground_hex.x, 0u);
+    vec4 a[3];
+    hex_fetch(u_ground_tex, t, a);
+    vec3 w = hex_blend_weights(t, vec3(a[0].a, a[1].a, a[2].a), u_ground_hex.y,
+                               u_ground_hex.z);
+    vec3 albedo = srgb_to_linear(w.x * a[0].rgb + w.y * a[1].rgb + w.z * a[2].rgb)
+                * u_ground_gain;
+    vec3 ground = daylight_radiance(albedo, vec3(0.0, 1.0, 0.0), 1.0, 1.0);
+#else
     vec3 ground = daylight_radiance(u_surround_albedo, vec3(0.0, 1.0, 0.0), 1.0, 1.0);
+#endif
 #if SKY_MODE == 3
     float depth = u_sea_level - water_floor(p.xz);
     return water_shade(p, u_camera_pos, depth, ground, true).rgb;
@@ -137,9 +160,11 @@ void main() {
     vec3 color;
 #if SKY_MODE > 1
     float t = (u_surround_height - u_camera_pos.y) / min(d.y, -1e-6);
+    // outside the branch: the plane's texture lookups take screen derivatives of p
+    vec3 p = u_camera_pos + t * d;
+    vec3 ground = surround_radiance(p);
     if (d.y < 0.0 && t > 0.0) {
-        vec3 p = u_camera_pos + t * d;
-        color = aerial_perspective(surround_radiance(p), p, u_camera_pos);
+        color = aerial_perspective(ground, p, u_camera_pos);
     } else {
         color = sky_radiance(d) + sun_disc(d, u_true_sun_dir) + night_sky(d);
     }

@@ -37,8 +37,9 @@ vec3 sun_disc(vec3 d, vec3 sun_dir) {
     return u_sun_radiance * smoothstep(u_sun_cos_radius - edge, u_sun_cos_radius + edge, c);
 }
 
-// Haze between the camera and a world point: light of the point attenuated, sky light added.
-vec3 aerial_perspective(vec3 radiance, vec3 p, vec3 eye) {
+// Haze between the camera and a world point: its transmittance and the sky light scattered
+// in along the way.
+void haze(vec3 p, vec3 eye, out vec3 transmittance, out vec3 inscatter) {
     vec3 ray = p - eye;
     float dist = length(ray);
     float ha = (eye.y - u_haze_base) / u_haze_height;
@@ -47,10 +48,17 @@ vec3 aerial_perspective(vec3 radiance, vec3 p, vec3 eye) {
     // ∫ exp(-h) along the segment / its length (the mean density)
     float mean_density = abs(dh) < 1e-3 ? exp(-0.5 * (ha + hb))
                                         : (exp(-ha) - exp(-hb)) / dh;
-    vec3 transmittance = exp(-u_haze_beta * dist * mean_density);
+    transmittance = exp(-u_haze_beta * dist * mean_density);
     vec3 d = ray / max(dist, 1e-6);
     vec3 horizon = sky_radiance(normalize(vec3(d.x, max(d.y, 0.0), d.z)));
-    return radiance * transmittance + horizon * (1.0 - transmittance);
+    inscatter = horizon * (1.0 - transmittance);
+}
+
+// Haze between the camera and a world point: light of the point attenuated, sky light added.
+vec3 aerial_perspective(vec3 radiance, vec3 p, vec3 eye) {
+    vec3 transmittance, inscatter;
+    haze(p, eye, transmittance, inscatter);
+    return radiance * transmittance + inscatter;
 }
 
 vec3 aces_filmic(vec3 x) {

@@ -67,6 +67,19 @@ out vec4 f_color;
 uniform vec3 u_camera_pos;
 uniform float u_exaggeration;
 uniform int u_lighting;          // 0 none, 1 Phong with the given normal, 2 lightmap, 3 daylight
+// TERRAIN_LIGHTING and TERRAIN_CASCADES: #defines each program is compiled with (the frame's
+// lighting mode; whether the objects' shadow cascades are read). A software rasteriser runs
+// every branch of a shader on every pixel, so the lighting modes a frame does not use and an
+// unused cascade lookup would cost every terrain pixel (a third of a plain daylight frame on
+// llvmpipe). Without the defines the uniforms u_lighting / u_cascade_count decide, as before.
+#ifdef TERRAIN_LIGHTING
+#define LIGHTING_MODE TERRAIN_LIGHTING
+#else
+#define LIGHTING_MODE u_lighting
+#endif
+#ifndef TERRAIN_CASCADES
+#define TERRAIN_CASCADES 1
+#endif
 uniform sampler2D u_lightmap;    // one value per vertex (terrascape.lighting.lightmap)
 uniform float u_lightmap_ambient;  // its value in shadow
 // Daylight: per vertex, R = visible share of the sun's disc (soft cast shadows from the
@@ -80,6 +93,42 @@ vec2 grid_texcoord(vec2 size) {
     return (v_grid * (size - 1.0) + 0.5) / size;
 }
 
+#ifdef TERRAIN_SURFACE_NORMALS
+uniform sampler2D u_surface_normal;  // vertex normals as 0.5 + 0.5·n (RGB8), one texel each
+#endif
+
+// The surface's unit normal at this fragment. With TERRAIN_SURFACE_NORMALS (a technique's
+// define): the vertex normals filtered per pixel with a cubic B-spline over the grid
+// (four bilinear taps at shifted positions, Sigg & Hadwiger 2005), a normal field smooth
+// across cells and vertices — close up, a coarse grid's triangles otherwise show as
+// facets lit flat along their edges and diagonals. The skirts (exactly horizontal normals,
+// at the border) keep their own.
+vec3 surface_normal() {
+#ifdef TERRAIN_SURFACE_NORMALS
+    vec2 size = vec2(textureSize(u_surface_normal, 0));
+    vec2 t = v_grid * (size - 1.0);          // texel index space (texel k at k)
+    vec2 i = floor(t);
+    vec2 f = t - i;
+    vec2 f2 = f * f;
+    vec2 f3 = f2 * f;
+    vec2 w0 = (1.0 - 3.0 * f + 3.0 * f2 - f3) / 6.0;
+    vec2 w1 = (4.0 - 6.0 * f2 + 3.0 * f3) / 6.0;
+    vec2 w3 = f3 / 6.0;
+    vec2 g0 = w0 + w1;
+    vec2 g1 = 1.0 - g0;
+    vec2 h0 = (i - 1.0 + w1 / g0 + 0.5) / size;
+    vec2 h1 = (i + 1.0 + w3 / g1 + 0.5) / size;
+    vec3 n = g0.y * (g0.x * texture(u_surface_normal, h0).rgb
+                     + g1.x * texture(u_surface_normal, vec2(h1.x, h0.y)).rgb)
+           + g1.y * (g0.x * texture(u_surface_normal, vec2(h0.x, h1.y)).rgb
+                     + g1.x * texture(u_surface_normal, h1).rgb);
+    n = n * 2.0 - 1.0;
+    return normalize(abs(v_normal.y) < 1e-4 ? v_normal : n);
+#else
+    return normalize(v_normal);
+#endif
+}
+
 vec3 view_dir() {
     return normalize(u_camera_pos - v_world);
 }
@@ -88,23 +137,25 @@ vec3 view_dir() {
 // shadows of the sun's cascades too (the darker of the two: both see the terrain).
 vec2 sun_sky_visibility() {
     vec2 vis = texture(u_sun_sky, grid_texcoord(vec2(textureSize(u_sun_sky, 0)))).rg;
+#if TERRAIN_CASCADES
     if (u_cascade_count > 0) {
         vis.x = min(vis.x, cascade_sun_visibility(v_world, normalize(v_normal), 0.0));
     }
+#endif
     return vis;
 }
 
 // Colour of a surface point with albedo and unit normal N under the chosen lighting mode.
 // Daylight returns linear radiance (the albedo is sRGB-decoded); finish() displays it.
 vec3 shade(vec3 albedo, vec3 N) {
-    if (u_lighting == 3) {
+    if (LIGHTING_MODE == 3) {
         vec2 vis = sun_sky_visibility();
         return daylight_radiance(srgb_to_linear(albedo), N, vis.x, vis.y);
     }
-    if (u_lighting == 1) {
+    if (LIGHTING_MODE == 1) {
         return phong(albedo, N, normalize(u_sun_dir), view_dir());
     }
-    if (u_lighting == 2) {
+    if (LIGHTING_MODE == 2) {
         if (u_sun_blocked != 0) {  // in an object's shadow: what the lightmap has in shade
             return albedo * u_lightmap_ambient;
         }
@@ -117,7 +168,7 @@ vec3 shade(vec3 albedo, vec3 N) {
 // Techniques that light with phong() themselves (bump, relief) get the daylight model too
 // when it is on: diffuse daylight with the cast shadows, plus their specular highlight.
 vec3 terrain_phong(vec3 albedo, vec3 N, vec3 L, vec3 V) {
-    if (u_lighting == 3) {
+    if (LIGHTING_MODE == 3) {
         vec2 vis = sun_sky_visibility();
         vec3 c = daylight_radiance(srgb_to_linear(albedo), N, vis.x, vis.y);
         if (u_ks > 0.0 && dot(N, L) > 0.0) {
@@ -130,9 +181,20 @@ vec3 terrain_phong(vec3 albedo, vec3 N, vec3 L, vec3 V) {
 }
 #define phong terrain_phong
 
+#if defined TERRAIN_VERTEX_HAZE && !defined DEFERRED
+#if TERRAIN_VERTEX_HAZE
+#define HAZE_PER_VERTEX
+in vec3 v_haze_transmittance;   // common/terrain_vertex.glsl
+in vec3 v_haze_inscatter;
+#endif
+#endif
 vec4 finish(vec3 color) {
-    if (u_lighting == 3) {
+    if (LIGHTING_MODE == 3) {
+#ifdef HAZE_PER_VERTEX
+        return vec4(display(color * v_haze_transmittance + v_haze_inscatter), 1.0);
+#else
         return vec4(display(aerial_perspective(color, v_world, u_camera_pos)), 1.0);
+#endif
     }
     return vec4(apply_fog(color, distance(v_world, u_camera_pos)), 1.0);
 }

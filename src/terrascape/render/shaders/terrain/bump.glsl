@@ -31,7 +31,7 @@ void main() {
     n.z = n.z * 2.0 - 1.0;
     vec3 Nw = normalize(T * n.x + B * n.y + N * n.z);
     vec3 albedo = texture(u_color_tex, grid_texcoord(vec2(textureSize(u_color_tex, 0)))).rgb;
-    vec3 color = u_lighting == 0 ? unlit(albedo) : phong(albedo, Nw, normalize(u_sun_dir), view_dir());
+    vec3 color = LIGHTING_MODE == 0 ? unlit(albedo) : phong(albedo, Nw, normalize(u_sun_dir), view_dir());
     f_color = finish(color);
 }
 #endif

@@ -8,6 +8,7 @@
 // perturb the vertex normal in its tangent frame before shade(). Only a pixel's three
 // heaviest layers are sampled (MATERIAL_TOP_LAYERS; the CPU blends all of them).
 #define TERRAIN_TANGENTS
+#define TERRAIN_SURFACE_NORMALS
 #if defined VERTEX_SHADER
 #include "common/terrain_vertex.glsl"
 #elif defined FRAGMENT_SHADER
@@ -30,7 +31,7 @@ uniform float u_blend_depth;         // height-blend transition (detail height u
 uniform float u_detail_strength;     // scales the detail normals' tilt (0: vertex normal)
 
 void main() {
-    vec3 N = normalize(v_normal);
+    vec3 N = surface_normal();
     vec3 T = normalize(v_tangent.xyz - N * dot(N, v_tangent.xyz));
     vec3 B = v_tangent.w * cross(N, T);
     vec2 guv = grid_texcoord(vec2(textureSize(u_weights0, 0)));
