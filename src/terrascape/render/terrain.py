@@ -1095,9 +1095,9 @@ class TerrainRenderer:
         tex.use(location=_GROUND_UNIT)
         program["u_ground_tex"].value = _GROUND_UNIT
         set_uniforms(program, u_ground_gain=self._ground_gain,
-                     u_ground_hex=(params.get("hex_rotation", HEX_ROTATION),
-                                   params.get("hex_contrast", HEX_CONTRAST),
-                                   params.get("hex_sharpness", HEX_SHARPNESS)))
+                     # the surround is no technique: the default hex-tiling, whatever the
+                     # terrain's technique tiles with
+                     u_ground_hex=(HEX_ROTATION, HEX_CONTRAST, HEX_SHARPNESS))
 
     @_current
     def release(self) -> None:
