@@ -1,0 +1,263 @@
+"""A world's terrain drawn by streamed tiles (:mod:`terrascape.world.chunked_lod`): the GPU
+side — tile buffers in a bounded least-recently-used cache, uploaded a few per frame from
+the background loader, drawn with the frame's technique program.
+
+:class:`TiledGeometry` replaces the mesh of a :class:`~terrascape.render.terrain.
+TerrainRenderer` (set ``renderer.geometry``): the renderer keeps a small overview of the
+world (the "proxy" heightmap) for its textures, shadows, sky and water — all sampled by
+world position — while the tiles give the surface its detail, each at the pyramid level
+its screen-space error allows. The frame never waits for a load: a tile not yet uploaded
+is drawn by its finest loaded ancestor (:func:`~terrascape.world.chunked_lod.draw_set`),
+and the roots are loaded before the first frame.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from terrascape.camera import Camera
+from terrascape.errors import MemoryLimitError
+from terrascape.memory import format_bytes
+from terrascape.world.chunked_lod import (
+    StoreReader,
+    TileCache,
+    TileKey,
+    TileLoader,
+    TileMesh,
+    TilePyramid,
+    TileSelection,
+    draw_set,
+    select_tiles,
+    tile_indices,
+    tile_mesh,
+    world_pyramid,
+)
+
+#: Screen error (pixels) of the streaming viewer and of a world render.
+VIEW_TOLERANCE = 1.5
+RENDER_TOLERANCE = 0.5
+
+
+@dataclass
+class _GpuTile:
+    key: TileKey
+    buffers: list[Any]
+    shape: tuple[int, int]
+    nbytes: int
+    box: np.ndarray
+    vaos: dict[int, Any] = field(default_factory=dict)
+
+    def release(self) -> None:
+        for vao in self.vaos.values():
+            vao.release()
+        self.vaos.clear()
+        for buf in self.buffers:
+            buf.release()
+        self.buffers = []
+
+
+def _in_frustum(planes: np.ndarray, box: np.ndarray) -> bool:
+    p = np.where(planes[:, :3] >= 0, box[3:], box[:3])
+    return bool(np.all(np.einsum("ij,ij->i", planes[:, :3], p) + planes[:, 3] >= 0))
+
+
+class TiledGeometry:
+    """Streamed tiles as a terrain renderer's geometry.
+
+    Parameters
+    ----------
+    ctx
+        moderngl context (the renderer's).
+    pyramid
+        The world's :class:`~terrascape.world.chunked_lod.TilePyramid`.
+    build
+        Makes one tile's mesh (:func:`~terrascape.world.chunked_lod.tile_mesh` over the
+        store); called on the loader thread when ``background``.
+    budget_bytes
+        Bytes the tile buffers may hold (the cache's bound). The view selects at most half
+        as many tiles as fit, so a frame's tiles and the parents drawn while they load fit
+        together.
+    tolerance
+        Screen-space error of a tile (pixels).
+    background
+        Load on a thread and never wait (the viewer); False: :meth:`update` loads every
+        selected tile before returning (a still render).
+    upload_ms
+        Time per frame spent uploading finished tiles (at least one is uploaded).
+    """
+
+    def __init__(self, ctx, pyramid: TilePyramid, build: Callable[[TileKey], TileMesh], *,
+                 budget_bytes: int, tolerance: float = VIEW_TOLERANCE, exaggeration: float = 1.0,
+                 background: bool = True, upload_ms: float = 4.0) -> None:
+        self.ctx = ctx
+        self.pyramid = pyramid
+        self.grid = pyramid.grid
+        self.tolerance = float(tolerance)
+        self.exaggeration = float(exaggeration)
+        self.upload_ms = float(upload_ms)
+        self._build = build
+        self.cache = TileCache(int(budget_bytes), size_of=lambda t: t.nbytes,
+                               release=lambda t: t.release())
+        per_tile = self.grid.max_tile_bytes()
+        roots = self.grid.roots()
+        if len(roots) * per_tile > budget_bytes:
+            raise MemoryLimitError(
+                f"the world's {len(roots)} coarsest tiles need "
+                f"{format_bytes(len(roots) * per_tile)}, over the tile budget of "
+                f"{format_bytes(budget_bytes)}; raise --max-memory")
+        self.max_tiles = max(len(roots), int(budget_bytes // (2 * per_tile)))
+        self._ibos: dict[tuple[int, int], tuple[Any, int]] = {}
+        self.drawn: list[TileKey] = []
+        self.selection: TileSelection | None = None
+        self.uploaded = 0
+        self.last_update_ms = 0.0
+        for key in roots:  # something to draw from the first frame on
+            self._upload(build(key), pinned=set(roots))
+        self.loader = TileLoader(build) if background else None
+
+    # --- streaming ---------------------------------------------------------------------
+    def _ibo(self, shape: tuple[int, int]) -> tuple[Any, int]:
+        have = self._ibos.get(shape)
+        if have is None:
+            idx = tile_indices(shape)
+            have = self._ibos[shape] = (self.ctx.buffer(idx.tobytes()), idx.size)
+        return have
+
+    def _upload(self, mesh: TileMesh, *, pinned) -> bool:
+        bufs = [self.ctx.buffer(np.ascontiguousarray(a).tobytes())
+                for a in (mesh.positions, mesh.normals, mesh.tangents)]
+        tile = _GpuTile(mesh.key, bufs, mesh.shape, mesh.nbytes,
+                        self.pyramid.box(mesh.key, self.exaggeration))
+        ok = self.cache.put(mesh.key, tile, pinned=pinned)
+        self.uploaded += ok
+        return ok
+
+    def update(self, camera: Camera, viewport: tuple[int, int]) -> dict[str, Any]:
+        """Select the tiles of this view, take in the loaded ones (within ``upload_ms``, or
+        all of them when not streaming) and decide what the frame draws."""
+        t0 = time.perf_counter()
+        sel = select_tiles(self.pyramid, camera, viewport, tolerance=self.tolerance,
+                           max_tiles=self.max_tiles, exaggeration=self.exaggeration)
+        self.selection = sel
+        keep = set(self.drawn) | {k for k in sel.visible if k in self.cache}
+        keep.update(self.grid.roots())
+        missing = [k for k in sel.visible if k not in self.cache]
+        if self.loader is None:
+            for key in missing:
+                if not self._upload(self._build(key), pinned=keep | {key}):
+                    raise MemoryLimitError("the view's tiles do not fit the tile budget")
+                keep.add(key)
+        else:
+            self.loader.request(missing)
+            deadline = t0 + self.upload_ms / 1000.0
+            for mesh in self.loader.finished():
+                # late arrivals of an earlier view are still kept while there is room
+                if self._upload(mesh, pinned=keep):
+                    keep.add(mesh.key)
+                if time.perf_counter() > deadline:
+                    break  # the rest waits in the loader's queue for the next frame
+        self.drawn = draw_set(self.grid, sel.visible, self.cache.__contains__)
+        for key in self.drawn:
+            self.cache.get(key)  # most recently used
+        self.last_update_ms = (time.perf_counter() - t0) * 1000.0
+        return self.stats()
+
+    def stats(self) -> dict[str, Any]:
+        sel = self.selection
+        waiting = 0 if self.loader is None else self.loader.pending()
+        return {"tiles_selected": 0 if sel is None else len(sel.visible),
+                "tiles_drawn": len(self.drawn), "tiles_loading": waiting,
+                "tiles_resident": len(self.cache), "tile_bytes": self.cache.bytes,
+                "tile_bytes_peak": self.cache.peak_bytes, "tiles_uploaded": self.uploaded,
+                "max_pixels": 0.0 if sel is None else sel.max_pixels,
+                "complete": sel is not None and len(self.drawn) == len(sel.visible)
+                and set(self.drawn) == set(sel.visible)}
+
+    def loading(self) -> bool:
+        """Whether selected tiles are still on their way."""
+        return not self.stats()["complete"]
+
+    # --- drawing -----------------------------------------------------------------------
+    def draw(self, program, camera: Camera, viewport) -> dict[str, int]:
+        """Draw the frame's tiles with ``program`` (called by the terrain renderer for every
+        geometry pass: forward, geometry buffer, wireframe)."""
+        import moderngl
+
+        planes = camera.frustum_planes()
+        tris = drawn = 0
+        for key in self.drawn:
+            tile = self.cache.get(key)
+            if tile is None or not _in_frustum(planes, tile.box):
+                continue
+            vao = tile.vaos.get(program.glo)
+            if vao is None:
+                ibo, _ = self._ibo(tile.shape)
+                pos, nor, tan = tile.buffers
+                vao = tile.vaos[program.glo] = self.ctx.vertex_array(
+                    program, [(pos, "3f", "in_position"), (nor, "3f", "in_normal"),
+                              (tan, "4f", "in_tangent")], ibo, 4, skip_errors=True)
+            vao.render(moderngl.TRIANGLES)
+            n = self._ibo(tile.shape)[1] // 3
+            tris += n
+            drawn += 1
+        return {"triangles": tris, "triangles_drawn": tris, "chunks": drawn,
+                "chunks_culled": len(self.drawn) - drawn, "chunks_small_cull": 0}
+
+    def release(self) -> None:
+        if self.loader is not None:
+            self.loader.close()
+            self.loader = None
+        self.cache.clear()
+        for ibo, _ in self._ibos.values():
+            ibo.release()
+        self._ibos.clear()
+
+
+@dataclass(frozen=True)
+class WorldBudget:
+    """How a memory budget is shared by the overview (proxy) terrain and the tiles."""
+
+    proxy_level: int
+    proxy_bytes: float
+    reader_bytes: int
+    tile_bytes: int
+
+
+def split_budget(path, budget: int, *, proxy_side: int = 1025) -> tuple[Any, WorldBudget]:
+    """The overview window of the world (at most ``proxy_side`` samples a side and half the
+    budget) and the bytes left for the tiles and the store reader's chunk cache."""
+    from terrascape.world.window import overview_window
+
+    win = overview_window(path, budget=budget // 2, max_side=proxy_side)
+    rest = budget - win.estimate_bytes
+    reader = int(min(64 << 20, max(rest // 4, 0)))
+    tiles = int(rest - reader)
+    return win, WorldBudget(win.level, win.estimate_bytes, reader, tiles)
+
+
+def stream_world(ctx, path, *, budget_bytes: int, reader_bytes: int = 64 << 20,
+                 tolerance: float = VIEW_TOLERANCE, exaggeration: float = 1.0,
+                 background: bool = True, tile: int | None = None) -> TiledGeometry:
+    """:class:`TiledGeometry` over the world store at ``path`` (its tile table built or read
+    from the store's cache)."""
+    from terrascape.world.chunked_lod import DEFAULT_TILE
+
+    if budget_bytes <= 0:
+        raise MemoryLimitError("no memory is left for the world's tiles; raise --max-memory")
+    reader = StoreReader(path, cache_bytes=reader_bytes)
+    pyramid = world_pyramid(path, tile=tile or DEFAULT_TILE, reader=reader)
+
+    def build(key: TileKey) -> TileMesh:
+        return tile_mesh(reader, pyramid, key, exaggeration=exaggeration)
+
+    return TiledGeometry(ctx, pyramid, build, budget_bytes=budget_bytes, tolerance=tolerance,
+                         exaggeration=exaggeration, background=background)
+
+
+__all__ = ["RENDER_TOLERANCE", "VIEW_TOLERANCE", "TiledGeometry", "WorldBudget",
+           "split_budget", "stream_world"]
