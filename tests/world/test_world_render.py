@@ -201,8 +201,10 @@ def test_view_a_world_in_a_window(world, tmp_path):
         xvfb.terminate()
         xvfb.wait(5)
     assert res.returncode == 0, res.stderr
-    # 8 MiB: the 257² world (13 MB to draw) is shown at level 1, 129² samples.
+    # 8 MiB: the 257² world (13 MB to draw) has its overview at level 1, 129² samples, and
+    # its tiles stream in within what is left
     assert "world at level 1" in res.stderr and "129×129" in res.stderr
+    assert "tiles of levels 0–2 stream in within" in res.stderr
     assert "after 3 frames" in res.stderr
 
 

@@ -114,6 +114,7 @@ class TiledGeometry:
         self._ibos: dict[tuple[int, int], tuple[Any, int]] = {}
         self.drawn: list[TileKey] = []
         self.selection: TileSelection | None = None
+        self._view: tuple | None = None  # the camera the selection was made for
         self.uploaded = 0
         self.last_update_ms = 0.0
         for key in roots:  # something to draw from the first frame on
@@ -141,9 +142,14 @@ class TiledGeometry:
         """Select the tiles of this view, take in the loaded ones (within ``upload_ms``, or
         all of them when not streaming) and decide what the frame draws."""
         t0 = time.perf_counter()
-        sel = select_tiles(self.pyramid, camera, viewport, tolerance=self.tolerance,
-                           max_tiles=self.max_tiles, exaggeration=self.exaggeration)
-        self.selection = sel
+        view = (camera.position, camera.yaw, camera.pitch, camera.fov_y, camera.aspect,
+                camera.near, camera.far, tuple(viewport))
+        if view != self._view or self.selection is None:
+            self.selection = select_tiles(self.pyramid, camera, viewport,
+                                          tolerance=self.tolerance, max_tiles=self.max_tiles,
+                                          exaggeration=self.exaggeration)
+            self._view = view
+        sel = self.selection
         keep = set(self.drawn) | {k for k in sel.visible if k in self.cache}
         keep.update(self.grid.roots())
         missing = [k for k in sel.visible if k not in self.cache]
@@ -242,15 +248,17 @@ def split_budget(path, budget: int, *, proxy_side: int = 1025) -> tuple[Any, Wor
 
 def stream_world(ctx, path, *, budget_bytes: int, reader_bytes: int = 64 << 20,
                  tolerance: float = VIEW_TOLERANCE, exaggeration: float = 1.0,
-                 background: bool = True, tile: int | None = None) -> TiledGeometry:
-    """:class:`TiledGeometry` over the world store at ``path`` (its tile table built or read
-    from the store's cache)."""
+                 background: bool = True, tile: int | None = None,
+                 pyramid: TilePyramid | None = None) -> TiledGeometry:
+    """:class:`TiledGeometry` over the world store at ``path`` (its tile table ``pyramid``,
+    by default built or read from the store's cache)."""
     from terrascape.world.chunked_lod import DEFAULT_TILE
 
     if budget_bytes <= 0:
         raise MemoryLimitError("no memory is left for the world's tiles; raise --max-memory")
     reader = StoreReader(path, cache_bytes=reader_bytes)
-    pyramid = world_pyramid(path, tile=tile or DEFAULT_TILE, reader=reader)
+    if pyramid is None:
+        pyramid = world_pyramid(path, tile=tile or DEFAULT_TILE, reader=reader)
 
     def build(key: TileKey) -> TileMesh:
         return tile_mesh(reader, pyramid, key, exaggeration=exaggeration)
@@ -259,5 +267,39 @@ def stream_world(ctx, path, *, budget_bytes: int, reader_bytes: int = 64 << 20,
                          exaggeration=exaggeration, background=background)
 
 
+def seeded_flight(heightmap, n_frames: int, *, seed: int = 0, size=(1280, 720),
+                  fps: float = 30.0, crossing_s: float = 20.0,
+                  height: float = 0.03) -> list[Camera]:
+    """A reproducible low flight over a terrain (an overview heightmap of the world): from
+    a random point, heading inward, turning smoothly, ``height`` × the extent above the
+    ground, looking ahead and slightly down; crossing the terrain in ``crossing_s``.
+    The same seed gives the same cameras."""
+    from terrascape.viewer.session import ground_height
+
+    rng = np.random.default_rng(seed)
+    ex, ez = heightmap.extent
+    diag = float(np.hypot(ex, ez))
+    speed = diag / crossing_s / fps  # world units per frame
+    x, z = ex * rng.uniform(0.15, 0.35), ez * rng.uniform(0.15, 0.35)
+    yaw = float(np.degrees(np.arctan2(ex / 2 - x, -(ez / 2 - z))))  # toward the centre
+    turn = rng.normal(0.0, 0.6, size=n_frames)  # degrees per frame, smoothed below
+    turn = np.convolve(turn, np.ones(15) / 15.0, mode="same")
+    cams = []
+    lift = height * diag
+    for k in range(n_frames):
+        ground = ground_height(heightmap.heights, heightmap.spacing, x, z)
+        cams.append(Camera(position=(x, ground + lift, z), yaw=yaw, pitch=-12.0, fov_y=60.0,
+                           aspect=size[0] / size[1], near=diag * 2e-4, far=diag * 5.0))
+        yaw += float(turn[k])
+        f = np.radians(yaw)
+        x += speed * float(np.sin(f))
+        z -= speed * float(np.cos(f))
+        if not (0.05 * ex < x < 0.95 * ex and 0.05 * ez < z < 0.95 * ez):
+            yaw += 180.0  # at the edge: turn back
+            x = float(np.clip(x, 0.05 * ex, 0.95 * ex))
+            z = float(np.clip(z, 0.05 * ez, 0.95 * ez))
+    return cams
+
+
 __all__ = ["RENDER_TOLERANCE", "VIEW_TOLERANCE", "TiledGeometry", "WorldBudget",
-           "split_budget", "stream_world"]
+           "seeded_flight", "split_budget", "stream_world"]
