@@ -65,6 +65,7 @@ def test_flight_streams_tiles_without_waiting(world, gl_ctx):
             update_ms.append(geometry.last_update_ms)
             st = session.tile_stats
             assert st["tiles_drawn"] > 0 and st["tile_bytes"] <= budget
+            assert st["tile_bytes"] == sum(t.nbytes for t in geometry.cache.values())
             peak = max(peak, st["tile_bytes_peak"])
             if not st["complete"]:
                 loading_frames += 1

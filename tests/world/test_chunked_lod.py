@@ -260,6 +260,10 @@ def test_cache_is_bounded_and_keeps_the_pinned():
     assert not cache.put(TileKey(1, 0, 0), "y" * 90, pinned={TileKey(0, 0, 0),
                                                              TileKey(0, 0, 3), TileKey(0, 0, 4)})
     assert released[-1] == "y" * 90
+    # the same tile twice (loaded again while the first was on its way): counted once
+    before = cache.bytes
+    assert cache.put(TileKey(0, 0, 4), "z" * 30) and cache.bytes == before
+    assert cache.get(TileKey(0, 0, 4)) == "x" * 30 and released[-1] == "z" * 30
 
 
 def test_loader_builds_on_a_background_thread(heights, pyramid):

@@ -125,7 +125,7 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
 def run(quick: bool = False) -> list[BenchTable]:
     side = 2049 if quick else int(os.environ.get("TERRASCAPE_BENCH_WORLD_SIDE", "4097"))
     chunk = 512 if side <= 2049 else 1024
-    frames = 90 if quick else 300
+    frames = 60 if quick else 150
     path, build_s = ensure_world(side, chunk=chunk)
     table = BenchTable(
         f"streaming world viewer {side}² at {SIZE[0]}×{SIZE[1]}, seeded flight of {frames} "

@@ -153,6 +153,23 @@ class TiledGeometry:
         keep = set(self.drawn) | {k for k in sel.visible if k in self.cache}
         keep.update(self.grid.roots())
         missing = [k for k in sel.visible if k not in self.cache]
+        if missing and self.loader is not None:
+            # the missing tiles' ancestors first, coarse to fine: a missing tile is then
+            # drawn by its parent, not by a root over the whole map (a draw set never
+            # overlaps, so one tile without a loaded parent sends its whole group up)
+            order = {k: n for n, k in enumerate(missing)}
+            parents: dict[TileKey, int] = {}
+            for key in missing:
+                p = self.grid.parent(key)
+                while p is not None and p not in self.cache and p not in parents:
+                    parents[p] = order[key]
+                    p = self.grid.parent(p)
+            first = sorted(parents, key=lambda k: (-k.level, parents[k]))
+            room = self.cache.max_bytes // self.grid.max_tile_bytes() - len(self.cache)
+            if len(first) + len(missing) <= room:
+                # (a cache too small for both would evict the parents for the children
+                # and reload them for the next child: the selection alone, then)
+                missing = first + missing
         if self.loader is None:
             for key in missing:
                 if not self._upload(self._build(key), pinned=keep | {key}):
@@ -161,12 +178,15 @@ class TiledGeometry:
         else:
             self.loader.request(missing)
             deadline = t0 + self.upload_ms / 1000.0
-            for mesh in self.loader.finished():
+            while True:
+                got = self.loader.finished(1)
+                if not got:
+                    break
                 # late arrivals of an earlier view are still kept while there is room
-                if self._upload(mesh, pinned=keep):
-                    keep.add(mesh.key)
+                if self._upload(got[0], pinned=keep):
+                    keep.add(got[0].key)
                 if time.perf_counter() > deadline:
-                    break  # the rest waits in the loader's queue for the next frame
+                    break  # the rest waits in the loader for the next frame
         self.drawn = draw_set(self.grid, sel.visible, self.cache.__contains__)
         for key in self.drawn:
             self.cache.get(key)  # most recently used

@@ -91,18 +91,27 @@ class TileGrid:
     tile: int
     top: int
 
+    def __post_init__(self) -> None:
+        counts = []
+        for k in range(self.top + 1):
+            cr, cc = (self.shape[0] - 1) >> k, (self.shape[1] - 1) >> k
+            counts.append((-(-cr // self.tile), -(-cc // self.tile)))
+        object.__setattr__(self, "_counts", tuple(counts))  # looked up per tile per frame
+
     def cells(self, level: int) -> tuple[int, int]:
         """Cells of pyramid ``level`` along rows and columns."""
         return (self.shape[0] - 1) >> level, (self.shape[1] - 1) >> level
 
     def count(self, level: int) -> tuple[int, int]:
         """Tiles of ``level`` along rows and columns."""
-        cr, cc = self.cells(level)
-        return -(-cr // self.tile), -(-cc // self.tile)
+        return self._counts[level]
 
     def exists(self, key: TileKey) -> bool:
-        nr, nc = self.count(key.level)
-        return 0 <= key.level <= self.top and 0 <= key.row < nr and 0 <= key.col < nc
+        k, i, j = key
+        if not 0 <= k <= self.top:
+            return False
+        nr, nc = self._counts[k]
+        return 0 <= i < nr and 0 <= j < nc
 
     def samples(self, key: TileKey) -> tuple[int, int, int, int]:
         """Level-``key.level`` sample range ``a0, a1, b0, b1`` (inclusive ends) of a tile."""
@@ -121,16 +130,16 @@ class TileGrid:
         return [TileKey(self.top, i, j) for i in range(nr) for j in range(nc)]
 
     def children(self, key: TileKey) -> list[TileKey]:
-        if key.level == 0:
+        k, i, j = key
+        if k == 0:
             return []
-        out = [TileKey(key.level - 1, 2 * key.row + di, 2 * key.col + dj)
-               for di in (0, 1) for dj in (0, 1)]
-        return [k for k in out if self.exists(k)]
+        nr, nc = self._counts[k - 1]
+        return [TileKey(k - 1, 2 * i + di, 2 * j + dj) for di in (0, 1) for dj in (0, 1)
+                if 2 * i + di < nr and 2 * j + dj < nc]
 
     def parent(self, key: TileKey) -> TileKey | None:
-        if key.level >= self.top:
-            return None
-        return TileKey(key.level + 1, key.row >> 1, key.col >> 1)
+        k, i, j = key
+        return None if k >= self.top else TileKey(k + 1, i >> 1, j >> 1)
 
     def vertex_count(self, key: TileKey) -> int:
         a0, a1, b0, b1 = self.samples(key)
@@ -698,6 +707,9 @@ class TileCache:
     def __len__(self) -> int:
         return len(self._items)
 
+    def values(self) -> list:
+        return list(self._items.values())
+
     def get(self, key: TileKey):
         value = self._items.get(key)
         if value is not None:
@@ -707,6 +719,10 @@ class TileCache:
     def put(self, key: TileKey, value, *, pinned: frozenset | set = frozenset()) -> bool:
         """Insert ``value``; False (and ``value`` released) when the pinned entries leave no
         room for it."""
+        if key in self._items:  # already here (loaded twice): keep the one in use
+            self._items.move_to_end(key)
+            self._release(value)
+            return True
         size = self._size_of(value)
         for old in list(self._items):
             if self.bytes + size <= self.max_bytes:
@@ -754,16 +770,20 @@ class TileLoader:
 
     def request(self, keys: Iterable[TileKey]) -> None:
         with self._cond:
-            self._queue = [k for k in keys if k != self._busy]
+            made = {m.key for m in self._done}
+            self._queue = [k for k in dict.fromkeys(keys) if k != self._busy and k not in made]
             self._cond.notify_all()
 
     def pending(self) -> int:
         with self._cond:
             return len(self._queue) + (self._busy is not None) + len(self._done)
 
-    def finished(self) -> list[TileMesh]:
+    def finished(self, limit: int | None = None) -> list[TileMesh]:
+        """The meshes made since the last call, oldest first (at most ``limit``; the rest
+        wait for the next call)."""
         with self._cond:
-            out, self._done = self._done, []
+            n = len(self._done) if limit is None else max(0, int(limit))
+            out, self._done = self._done[:n], self._done[n:]
             self._cond.notify_all()
         if self.error is not None:
             err, self.error = self.error, None
