@@ -74,9 +74,11 @@ def test_flight_streams_tiles_without_waiting(world, gl_ctx):
         assert loading_frames >= 5
         # the frames never waited for the 30 ms loads: selecting, uploading a few tiles
         assert np.median(update_ms) < 30.0
-        assert peak <= budget and geometry.cache.evicted > 0  # bounded: old tiles dropped
+        # bounded: at most 30 tiles' bytes; every upload beyond them dropped an old tile
+        assert peak <= budget and len(geometry.cache) <= 30
+        assert len(geometry.cache) + geometry.cache.evicted == geometry.uploaded
         # the root before the first frame, then what the flight asked for, on the thread
-        assert built[0] == pyramid.grid.roots()[0] and len(built) > 30
+        assert built[0] == pyramid.grid.roots()[0] and len(built) > 10
         # hold the last view: the loads finish, and the frame draws exactly the selection
         deadline = time.monotonic() + 60
         while not session.tile_stats["complete"] and time.monotonic() < deadline:
@@ -108,7 +110,7 @@ def test_streamed_view_matches_the_whole_map(world, gl_ctx):
     proxy = overview_window(world, budget=1 << 30).heightmap  # the whole 257² world
     frames = {}
     for name in ("tiles", "whole"):
-        geometry = (stream_world(gl_ctx, world, budget_bytes=64 << 20, tolerance=0.5)
+        geometry = (stream_world(gl_ctx, world, budget_bytes=64 << 20, tolerance=0.2)
                     if name == "tiles" else None)
         s = ViewerSession(gl_ctx, proxy if geometry else Heightmap(h, (4.0, 4.0)), size=SIZE,
                           hud=False, technique="plain", geometry=geometry,
@@ -121,6 +123,13 @@ def test_streamed_view_matches_the_whole_map(world, gl_ctx):
                 time.sleep(0.05)
                 s.render(fbo, 0.0)
             frames[name] = _frame(fbo)
+            if geometry is not None:  # built in the loader process, drawn here
+                from terrascape.world.chunked_lod import ProcessTileLoader
+
+                assert isinstance(geometry.loader, ProcessTileLoader)
+                assert len(geometry.selection.visible) > 1 and not geometry.loading()
+                assert geometry.loader.loaded >= len(geometry.selection.visible) - 1
+                assert geometry.loader.peak_rss() > 0
         finally:
             fbo.release()
             s.release()

@@ -24,6 +24,7 @@ from terrascape.camera import Camera
 from terrascape.errors import MemoryLimitError
 from terrascape.memory import format_bytes
 from terrascape.world.chunked_lod import (
+    ProcessTileLoader,
     StoreReader,
     TileCache,
     TileKey,
@@ -89,11 +90,16 @@ class TiledGeometry:
         selected tile before returning (a still render).
     upload_ms
         Time per frame spent uploading finished tiles (at least one is uploaded).
+    loader
+        What builds the tiles in the background (default: a
+        :class:`~terrascape.world.chunked_lod.TileLoader` thread over ``build``;
+        :func:`stream_world` uses a :class:`~terrascape.world.chunked_lod.ProcessTileLoader`).
+        The geometry closes it.
     """
 
     def __init__(self, ctx, pyramid: TilePyramid, build: Callable[[TileKey], TileMesh], *,
                  budget_bytes: int, tolerance: float = VIEW_TOLERANCE, exaggeration: float = 1.0,
-                 background: bool = True, upload_ms: float = 4.0) -> None:
+                 background: bool = True, upload_ms: float = 4.0, loader=None) -> None:
         self.ctx = ctx
         self.pyramid = pyramid
         self.grid = pyramid.grid
@@ -119,7 +125,10 @@ class TiledGeometry:
         self.last_update_ms = 0.0
         for key in roots:  # something to draw from the first frame on
             self._upload(build(key), pinned=set(roots))
-        self.loader = TileLoader(build) if background else None
+        if loader is not None:
+            self.loader = loader
+        else:
+            self.loader = TileLoader(build) if background else None
 
     # --- streaming ---------------------------------------------------------------------
     def _ibo(self, shape: tuple[int, int]) -> tuple[Any, int]:
@@ -130,6 +139,8 @@ class TiledGeometry:
         return have
 
     def _upload(self, mesh: TileMesh, *, pinned) -> bool:
+        if mesh.key in self.cache:  # loaded twice (asked again while on its way)
+            return True
         bufs = [self.ctx.buffer(np.ascontiguousarray(a).tobytes())
                 for a in (mesh.positions, mesh.normals, mesh.tangents)]
         tile = _GpuTile(mesh.key, bufs, mesh.shape, mesh.nbytes,
@@ -276,15 +287,27 @@ def stream_world(ctx, path, *, budget_bytes: int, reader_bytes: int = 64 << 20,
 
     if budget_bytes <= 0:
         raise MemoryLimitError("no memory is left for the world's tiles; raise --max-memory")
-    reader = StoreReader(path, cache_bytes=reader_bytes)
+    # streaming, this process reads only the roots: the loader process has the chunk cache
+    reader = StoreReader(path, cache_bytes=(8 << 20) if background else reader_bytes)
     if pyramid is None:
         pyramid = world_pyramid(path, tile=tile or DEFAULT_TILE, reader=reader)
 
     def build(key: TileKey) -> TileMesh:
         return tile_mesh(reader, pyramid, key, exaggeration=exaggeration)
 
-    return TiledGeometry(ctx, pyramid, build, budget_bytes=budget_bytes, tolerance=tolerance,
-                         exaggeration=exaggeration, background=background)
+    loader = None
+    if background:
+        # the loader process has its own chunk cache: this process's is only for the roots
+        loader = ProcessTileLoader(path, tile=pyramid.grid.tile, exaggeration=exaggeration,
+                                   reader_bytes=reader_bytes)
+    try:
+        return TiledGeometry(ctx, pyramid, build, budget_bytes=budget_bytes,
+                             tolerance=tolerance, exaggeration=exaggeration,
+                             background=background, loader=loader)
+    except BaseException:
+        if loader is not None:
+            loader.close()
+        raise
 
 
 def seeded_flight(heightmap, n_frames: int, *, seed: int = 0, size=(1280, 720),

@@ -46,6 +46,7 @@ References
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import heapq
 import io
@@ -816,7 +817,96 @@ class TileLoader:
         self._thread.join(timeout=5.0)
 
 
-__all__ = ["DEFAULT_TILE", "VERTEX_BYTES", "LevelReader", "StoreReader", "TileCache",
-           "TileGrid", "TileKey", "TileLoader", "TileMesh", "TilePyramid", "TileSelection",
-           "array_reader", "build_pyramid", "draw_set", "select_tiles", "tile_grid",
-           "tile_indices", "tile_mesh", "world_pyramid"]
+def _loader_process(conn, path: str, tile: int, exaggeration: float, reader_bytes: int) -> None:
+    """The tile loader process: builds the meshes it is asked for, newest request first."""
+    try:
+        reader = StoreReader(path, cache_bytes=reader_bytes)
+        pyramid = world_pyramid(path, tile=tile, reader=reader, cache=False)
+    except Exception as exc:  # reported to the viewer, which stops with it
+        conn.send(("error", f"{type(exc).__name__}: {exc}"))
+        return
+    queue: list[TileKey] = []
+    while True:
+        while conn.poll(0 if queue else None):
+            msg = conn.recv()
+            if msg[0] == "stop":
+                return
+            queue = list(msg[1])
+        key = queue.pop(0)
+        try:
+            conn.send(("tile", tile_mesh(reader, pyramid, key, exaggeration=exaggeration)))
+        except Exception as exc:
+            conn.send(("error", f"tile {tuple(key)}: {type(exc).__name__}: {exc}"))
+
+
+class ProcessTileLoader:
+    """:class:`TileLoader`'s interface over a separate process that reads the world store
+    and builds the meshes. A thread is not enough while the frame draws: moderngl keeps
+    Python's global interpreter lock during GL calls (measured: a spinning thread got 4 % of
+    its idle rate during a frame), so a loader thread would barely run. The process sends
+    each mesh through a pipe; a full pipe makes it wait, so at most a few meshes are ever in
+    flight. Its memory is its reader's chunk cache plus one mesh."""
+
+    def __init__(self, path, *, tile: int = DEFAULT_TILE, exaggeration: float = 1.0,
+                 reader_bytes: int = 64 << 20) -> None:
+        import multiprocessing
+
+        ctx = multiprocessing.get_context("spawn")  # no fork of a process holding GL state
+        self._conn, child = ctx.Pipe()
+        self._proc = ctx.Process(target=_loader_process, name="terrascape-tiles", daemon=True,
+                                 args=(child, str(path), int(tile), float(exaggeration),
+                                       int(reader_bytes)))
+        self._proc.start()
+        child.close()
+        self._asked: set[TileKey] = set()
+        self._last: list[TileKey] = []
+        self.loaded = 0
+
+    def request(self, keys: Iterable[TileKey]) -> None:
+        keys = list(dict.fromkeys(keys))
+        if keys != self._last:
+            self._conn.send(("want", keys))
+            self._last = keys
+        self._asked.update(keys)
+
+    def pending(self) -> int:
+        return len(self._asked)
+
+    def finished(self, limit: int | None = None) -> list[TileMesh]:
+        out: list[TileMesh] = []
+        while (limit is None or len(out) < limit) and self._conn.poll(0):
+            kind, value = self._conn.recv()
+            if kind == "error":
+                raise InvalidParameterError(f"loading the world's tiles failed: {value}")
+            self._asked.discard(value.key)
+            self.loaded += 1
+            out.append(value)
+        if not out and not self._proc.is_alive():
+            raise InvalidParameterError("the tile loader process ended unexpectedly")
+        return out
+
+    def peak_rss(self) -> int:
+        """The loader process's peak resident memory (bytes; 0 where /proc is missing)."""
+        try:
+            with open(f"/proc/{self._proc.pid}/status", encoding="ascii") as fh:
+                for line in fh:
+                    if line.startswith("VmHWM:"):
+                        return int(line.split()[1]) * 1024
+        except OSError:
+            pass
+        return 0
+
+    def close(self) -> None:
+        with contextlib.suppress(OSError):
+            self._conn.send(("stop",))
+        self._proc.join(timeout=5.0)
+        if self._proc.is_alive():
+            self._proc.terminate()
+            self._proc.join(timeout=5.0)
+        self._conn.close()
+
+
+__all__ = ["DEFAULT_TILE", "VERTEX_BYTES", "LevelReader", "ProcessTileLoader", "StoreReader",
+           "TileCache", "TileGrid", "TileKey", "TileLoader", "TileMesh", "TilePyramid",
+           "TileSelection", "array_reader", "build_pyramid", "draw_set", "select_tiles",
+           "tile_grid", "tile_indices", "tile_mesh", "world_pyramid"]
