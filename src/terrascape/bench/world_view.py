@@ -10,8 +10,10 @@ resident memory (``ru_maxrss``: the viewer, its overview terrain, the tile cache
 store reader), and the tiles loaded. Targets: ≥ 15 frames/s median, no frame over 100 ms
 while tiles load, ≤ 1.5 GB resident.
 
-Sizes: a 4097² world (full; ``TERRASCAPE_BENCH_WORLD_SIDE=8193`` for a larger one), 2049²
-(quick). With a display the frames go to a real window, otherwise to an off-screen
+Sizes: a 4097² world and 150 frames (full; ``TERRASCAPE_BENCH_WORLD_SIDE=8193`` for a larger
+one, ``TERRASCAPE_BENCH_FRAMES`` for another flight length), 2049² and 60 frames (quick).
+The tiles are loaded by a separate process (its peak memory is added to the viewer's).
+With a display the frames go to a real window, otherwise to an off-screen
 framebuffer of a headless EGL context (noted under the table).
 """
 
@@ -67,6 +69,12 @@ def _rss_now() -> int:
         return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
 
+def _peak_gb(stats: dict) -> float:
+    """This process's peak resident memory so far plus the flight's loader process's."""
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    return (own + stats.get("loader_rss", 0)) / 1e9
+
+
 def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
         surface=None) -> dict:
     """One seeded flight of ``frames`` frames over the world at ``path``: per-frame times,
@@ -107,8 +115,10 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
             drawn.append(st["tiles_drawn"])
             rss.append(_rss_now())
         stats = dict(session.tile_stats)
-        stats.update(uploaded=geometry.uploaded, evicted=geometry.cache.evicted,
-                     tile_peak=geometry.cache.peak_bytes, max_tiles=geometry.max_tiles,
+        loader_rss = geometry.loader.peak_rss() if hasattr(geometry.loader, "peak_rss") else 0
+        stats.update(loader_rss=loader_rss, uploaded=geometry.uploaded,
+                     evicted=geometry.cache.evicted, tile_peak=geometry.cache.peak_bytes,
+                     max_tiles=geometry.max_tiles,
                      triangles=session.stats.get("triangles", 0))
     finally:
         session.release()
@@ -125,14 +135,14 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
 def run(quick: bool = False) -> list[BenchTable]:
     side = 2049 if quick else int(os.environ.get("TERRASCAPE_BENCH_WORLD_SIDE", "4097"))
     chunk = 512 if side <= 2049 else 1024
-    frames = 60 if quick else 150
+    frames = int(os.environ.get("TERRASCAPE_BENCH_FRAMES", 60 if quick else 150))
     path, build_s = ensure_world(side, chunk=chunk)
     table = BenchTable(
         f"streaming world viewer {side}² at {SIZE[0]}×{SIZE[1]}, seeded flight of {frames} "
         "frames",
         ["technique", "median fps", "median ms", "p95 ms", "worst ms", "worst ms loading",
          "frames loading", "tiles drawn (median)", "tiles loaded", "tiles evicted",
-         "peak tile MB", "peak RSS GB"])
+         "peak tile MB", "peak RSS GB (viewer + loader)"])
     results = {}
     for technique in ("plain", "material"):
         r = fly(path, frames, technique=technique)
@@ -145,16 +155,15 @@ def run(quick: bool = False) -> list[BenchTable]:
             round(sorted(t)[int(0.95 * (len(t) - 1))], 1), round(max(t), 1),
             round(max(load_t), 1) if load_t else "-", sum(r["loading"]),
             int(statistics.median(r["drawn"])), st["uploaded"], st["evicted"],
-            round(st["tile_peak"] / 2**20, 1),
-            round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9, 3)])
+            round(st["tile_peak"] / 2**20, 1), round(_peak_gb(st), 3)])
     plain = results["plain"]
     load_t = [x for x, busy in zip(plain["times"], plain["loading"], strict=True) if busy]
     table.check_target("median frame rate (plain)", table.value("plain", "median fps"),
                        at_least=FPS_TARGET, unit=" fps")
     table.check_target("worst frame while tiles load (plain)",
                        max(load_t) if load_t else None, at_most=WORST_MS_TARGET, unit=" ms")
-    table.check_target("peak resident memory",
-                       resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9,
+    table.check_target("peak resident memory (viewer + loader process)",
+                       max(_peak_gb(r["stats"]) for r in results.values()),
                        at_most=MEMORY_TARGET_GB, unit=" GB")
     r = plain
     share, proxy, pyr = r["share"], r["proxy"], r["pyramid"]
@@ -170,7 +179,8 @@ def run(quick: bool = False) -> list[BenchTable]:
         f"tile table + overview read in {r['setup_s']:.1f} s (the table is cached in the store "
         "after its first build)",
         "frames while tiles load draw their loaded parents; the worst frame includes the "
-        "uploads of that frame (at most 4 ms of them, at least one tile)",
+        "uploads of that frame (at most 4 ms of them, at least one tile); a loader process "
+        "reads the store and builds the tile meshes",
         r["note"] + f"; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; figures from a "
         "loaded 2-core machine shared with other jobs",
     ]
