@@ -52,6 +52,7 @@ import heapq
 import io
 import math
 import threading
+import time
 from collections import OrderedDict
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -899,7 +900,13 @@ class ProcessTileLoader:
     def close(self) -> None:
         with contextlib.suppress(OSError):
             self._conn.send(("stop",))
-        self._proc.join(timeout=5.0)
+        # a mesh the process is sending blocks it until read: drain until it has stopped
+        deadline = time.monotonic() + 5.0
+        while self._proc.is_alive() and time.monotonic() < deadline:
+            with contextlib.suppress(OSError, EOFError):
+                while self._conn.poll(0.05):
+                    self._conn.recv()
+            self._proc.join(timeout=0.05)
         if self._proc.is_alive():
             self._proc.terminate()
             self._proc.join(timeout=5.0)
