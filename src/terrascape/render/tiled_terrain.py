@@ -188,7 +188,7 @@ class TiledGeometry:
                 keep.add(key)
         else:
             self.loader.request(missing)
-            deadline = t0 + self.upload_ms / 1000.0
+            deadline = time.perf_counter() + self.upload_ms / 1000.0  # after the selection
             while True:
                 got = self.loader.finished(1)
                 if not got:
