@@ -110,10 +110,29 @@ def test_render_from_world_equals_whole_map(world, gl_ctx, tmp_path):
         expected = whole.render(cam, "material", params)
     finally:
         whole.release()
-    # Everything fits: the window is the whole map at level 0, the same pixels.
-    img, win = render_world(world, cam, size=SIZE, params=params, ctx=gl_ctx,
-                            budget=1 << 30)
-    assert win.level == 0 and np.array_equal(img, expected)
+    # Everything fits: every tile the view needs at level 0, over the whole map's
+    # overview: the same pixels (a rounding step at most where triangles meet differently).
+    img, frame = render_world(world, cam, size=SIZE, params=params, ctx=gl_ctx,
+                              budget=1 << 30)
+    assert frame.proxy_level == 0 and frame.levels == {0: frame.tiles}
+    assert frame.max_pixels == 0.0 and not frame.budget_bound
+    diff = np.abs(img.astype(int) - expected)
+    assert diff.max() <= 2 and diff.mean() < 0.01
+    # A far camera: the tiles take coarser levels, within the tolerance of half a pixel,
+    # and the picture still matches the whole map's.
+    far = Camera.look_at((256.0, 700.0, 1500.0), (256.0, 30.0, 256.0), fov_y=40.0,
+                         aspect=SIZE[0] / SIZE[1], near=1.0, far=20000.0)
+    whole = OffscreenRenderer(gl_ctx, Heightmap(_heights(world), (2.0, 2.0)), size=SIZE)
+    try:
+        expected_far = whole.render(far, "material", params)
+    finally:
+        whole.release()
+    img, frame = render_world(world, far, size=SIZE, params=params, ctx=gl_ctx,
+                              budget=1 << 30)
+    assert max(frame.levels) >= 1 and 0 < frame.max_pixels <= 0.5
+    assert frame.tiles < 16  # fewer, coarser tiles than the 16 of level 0
+    diff = np.abs(img[..., :3].astype(int) - expected_far[..., :3])
+    assert diff.mean() < 1.0 and np.percentile(diff, 99) < 24
     # --max-memory below the full-resolution render's need: the CLI reads level 1 and
     # the picture matches the whole map's within a tolerance (4×4 block means).
     np.save(tmp_path / "h.npy", _heights(world))
@@ -125,7 +144,7 @@ def test_render_from_world_equals_whole_map(world, gl_ctx, tmp_path):
     res = runner.invoke(app, ["render", str(world), "-o", str(tmp_path / "w.png"), "--size",
                               "192x108", "--max-memory", "8M", "--sun", "135,45"])
     assert res.exit_code == 0, res.output
-    assert "level 1" in res.output
+    assert "overview level 1 (129×129)" in res.output and "tiles (" in res.output
     got = np.asarray(Image.open(tmp_path / "w.png"))
     assert got.shape == (108, 192, 3)
     diff = np.abs(_block_means(got) - _block_means(expected))
@@ -182,6 +201,39 @@ def test_view_a_world_in_a_window(world, tmp_path):
         xvfb.terminate()
         xvfb.wait(5)
     assert res.returncode == 0, res.stderr
-    # 8 MiB: the 257² world (13 MB to draw) is shown at level 1, 129² samples.
+    # 8 MiB: the 257² world (13 MB to draw) has its overview at level 1, 129² samples, and
+    # its tiles stream in within what is left
     assert "world at level 1" in res.stderr and "129×129" in res.stderr
+    assert "tiles of levels 0–2 stream in within" in res.stderr
     assert "after 3 frames" in res.stderr
+
+
+def test_tile_table_of_a_store_is_cached_and_exact(world):
+    from terrascape.world.chunked_lod import (
+        StoreReader,
+        TileKey,
+        array_reader,
+        build_pyramid,
+        tile_mesh,
+        world_pyramid,
+    )
+
+    h = _heights(world)
+    cache = world / "terrascape_lod_32.npz"
+    cache.unlink(missing_ok=True)
+    reader = StoreReader(world, cache_bytes=3 * 64 * 64 * 4)  # three zarr chunks
+    built = world_pyramid(world, tile=32, reader=reader)
+    assert cache.is_file()
+    again = world_pyramid(world, tile=32)  # read from the cache
+    mem = build_pyramid(array_reader(h), h.shape, 2.0, tile=32)
+    assert built.grid == again.grid == mem.grid and built.grid.top == 3
+    for k in range(built.grid.top + 1):
+        for table in ("error", "low", "high", "skirt"):
+            assert np.array_equal(getattr(built, table)[k], getattr(mem, table)[k])
+            assert np.array_equal(getattr(again, table)[k], getattr(mem, table)[k])
+    # tiles read through the chunk cache equal those of the map in memory
+    for key in ((0, 3, 5), (2, 1, 1), (3, 0, 0)):
+        a = tile_mesh(reader, built, TileKey(*key))
+        b = tile_mesh(array_reader(h), mem, TileKey(*key))
+        assert np.array_equal(a.positions, b.positions)
+        assert np.array_equal(a.normals, b.normals)

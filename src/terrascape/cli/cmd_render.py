@@ -193,8 +193,8 @@ def check_object_shadows(value: str | None) -> str | None:
 def _render_world_cmd(store: Path, output: Path, wh, technique: str, params: dict, *,
                       camera, target, orbit, camera_height, exaggeration, quality, force,
                       quiet) -> None:
-    """``render world.zarr``: read only the part of the world the camera sees, at the
-    pyramid level it needs, within --max-memory (:mod:`terrascape.world.window`)."""
+    """``render world.zarr``: draw the world by tiles, each at the pyramid level its
+    screen error needs, within --max-memory (:mod:`terrascape.world.chunked_lod`)."""
     from PIL import Image
 
     from terrascape.heightmap import Heightmap
@@ -215,12 +215,10 @@ def _render_world_cmd(store: Path, output: Path, wh, technique: str, params: dic
         proxy = Heightmap(read_level(group, k, 0, lr, 0, lc), (step, step))
         cam = build_camera(proxy, wh, exaggeration, camera, target, orbit, camera_height)
     with timed("render world", quiet=quiet), headless_context() as ctx:
-        img, window = render_world(store, cam, size=wh, technique=technique, params=params,
-                                   exaggeration=exaggeration, quality=quality, ctx=ctx)
+        img, frame = render_world(store, cam, size=wh, technique=technique, params=params,
+                                  exaggeration=exaggeration, quality=quality, ctx=ctx)
     if not quiet:
-        err.print(f"[dim]world window: level {window.level} (spacing × {1 << window.level}), "
-                  f"{window.heightmap.cols}×{window.heightmap.rows} samples, "
-                  f"{window.visible_chunks} of {window.total_chunks} chunks in view[/]")
+        err.print(f"[dim]world: {frame.summary()}[/]")
     with atomic_output(output, force=force) as tmp:
         Image.fromarray(img[..., :3]).save(tmp, format="PNG")
     out.print(str(output))

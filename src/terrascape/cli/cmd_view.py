@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 
 from terrascape._validate import check_int, check_positive
-from terrascape.cli.app import app, console, timed
+from terrascape.cli.app import MAX_MEMORY, app, console, timed, use_max_memory
 from terrascape.cli.cmd_render import (
     OBJECT_SHADOWS_HELP,
     OBJECTS_HELP,
@@ -44,7 +44,8 @@ def _is_world(path: Path) -> bool:
 def view_cmd(
     heightmap: Path = typer.Argument(
         None, help="Heightmap file (.png/.bmp/.jpg, .r16/.raw/.r32, .tif, .npy, .ter) or a "
-        "world store (world.zarr: the whole world at the finest level that fits memory).",
+        "world store (world.zarr: streamed by tiles, each at the level the view needs, within "
+        "--max-memory).",
         show_default="none: use --generate"),
     generate: str = typer.Option(
         None, "--generate", help=f"Generate the terrain instead: {names_help()}.",
@@ -107,6 +108,7 @@ def view_cmd(
         None, "--object-shadows", help=OBJECT_SHADOWS_HELP + " G cycles them.",
         show_default=False),
     no_reproject: bool = NO_REPROJECT,
+    max_memory: str = MAX_MEMORY,
 ) -> None:
     """Fly over a terrain in a window: mouse look (click; Esc releases, Esc again quits),
     W A S D / arrows, Q/E down/up, Shift faster, scroll for speed; F1 or H lists every key.
@@ -117,6 +119,7 @@ def view_cmd(
     from terrascape.render.techniques import technique_names
     from terrascape.viewer.app import check_display, run_viewer
 
+    use_max_memory(max_memory)
     # Cheap checks first, so a wrong option never waits for a terrain to be generated.
     if (heightmap is None) == (generate is None):
         raise InvalidParameterError(
@@ -162,26 +165,32 @@ def view_cmd(
         raise InvalidParameterError("--object-shadows needs --objects")
     check_display()
 
+    world = None
     if generate is not None:
         with timed(f"generate {generate} {gen_size}×{gen_size}"):
             hm = generate_terrain(generate, gen_size, seed, params=gen_params,
                                   spacing=VIEW_SPACING if spacing is None else check_positive(
                                       spacing, "--spacing"))
     elif _is_world(heightmap):
-        from terrascape.world.window import overview_window
+        from terrascape.memory import format_bytes, memory_limit
+        from terrascape.render.tiled_terrain import split_budget
+        from terrascape.world.chunked_lod import world_pyramid
 
         with timed(f"read world {heightmap.name}"):
-            win = overview_window(heightmap)
+            win, share = split_budget(heightmap, memory_limit())
+            pyramid = world_pyramid(heightmap)  # the tiles' error table, once per world
         hm = win.heightmap
+        world = (heightmap, share, pyramid)
         console.print(f"[dim]world at level {win.level} (spacing × {1 << win.level}): "
-                      f"{hm.cols}×{hm.rows}[/]")
+                      f"{hm.cols}×{hm.rows}; tiles of levels 0–{pyramid.grid.top} stream in "
+                      f"within {format_bytes(share.tile_bytes)}[/]")
     else:
         from terrascape.io import read_heightmap
 
         with timed(f"read {heightmap.name}"):
             hm = read_heightmap(heightmap, spacing=spacing, vertical_scale=vertical_scale)
         hm = metric_map(hm, no_reproject=no_reproject)
-    if pad and not hm.is_pow2_plus1:
+    if pad and world is None and not hm.is_pow2_plus1:
         hm = hm.to_pow2_plus1("pad")
         console.print(f"[dim]padded to {hm.cols}×{hm.rows} for LOD[/]")
     if sea_level is not None:
@@ -211,5 +220,5 @@ def view_cmd(
                               exaggeration=exaggeration, screenshot_dir=screenshot_dir,
                               max_frames=frames, hud=not no_hud, sea_level=sea_level,
                               sky_clock=sky_clock, objects=instances,
-                              object_shadows=object_shadows)
+                              object_shadows=object_shadows, world=world)
     console.print(f"[dim]viewer closed after {frames_drawn} frames[/]")

@@ -327,6 +327,9 @@ class TerrainRenderer:
         # shadow volumes): the one its depth buffer is in
         self.last_camera: Camera | None = None
         self._objects = None  # terrascape.render.objects.ObjectRenderer, set_objects()
+        # streamed tiles drawn instead of this heightmap's mesh (render.tiled_terrain): the
+        # heightmap then only feeds the textures, shadows, sky and water
+        self.geometry = None
 
     # --- geometry ------------------------------------------------------------------------
     def _upload_chunks(self):
@@ -745,7 +748,7 @@ class TerrainRenderer:
     def _chunk_plan(self, camera: Camera, viewport) -> tuple[list[int], list[int]] | None:
         """Visible chunks front to back, and those of them whose cells are sub-pixel (to be
         culled for small triangles); None when a custom triangulation is drawn."""
-        if self._custom_count:
+        if self._custom_count or self.geometry is not None:
             return None
         planes = camera.frustum_planes()
         eye = camera.eye
@@ -767,6 +770,11 @@ class TerrainRenderer:
         ``plan`` (:meth:`_chunk_plan`), its sub-pixel ones culled for small triangles."""
         import moderngl
 
+        if self.geometry is not None:
+            stats = self.geometry.draw(program, camera, viewport)
+            if self.draw_skirts:
+                self._draw_skirts(program)
+            return stats
         if self._custom_count:
             if self._custom_count > 0:
                 self._vao(program, "custom").render(moderngl.TRIANGLES, vertices=self._custom_count)

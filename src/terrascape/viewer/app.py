@@ -207,7 +207,7 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
                texture: np.ndarray | None = None, exaggeration: float = 1.0,
                screenshot_dir: str | os.PathLike | None = None, max_frames: int = 0,
                hud: bool = True, sea_level: float | None = None, sky_clock=None,
-               objects=None, object_shadows: str | None = None) -> int:
+               objects=None, object_shadows: str | None = None, world=None) -> int:
     """Open the viewer window and fly over ``heightmap`` until Esc / the window is closed.
 
     Parameters
@@ -228,6 +228,9 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
     objects, object_shadows
         :class:`~terrascape.objects.model.Instances` on the terrain (B shows/hides them)
         and their start shadow mode (G cycles cascades / volumes / none).
+    world
+        ``(store path, WorldBudget, TilePyramid)`` of a world streamed by tiles
+        (:mod:`terrascape.render.tiled_terrain`); ``heightmap`` is then its overview.
 
     Returns
     -------
@@ -253,9 +256,18 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
     session = None
     try:
         moderngl_window.activate_context(window=wnd)
+        geometry = None
+        if world is not None:
+            from terrascape.render.tiled_terrain import stream_world
+
+            path, share, pyramid = world
+            geometry = stream_world(wnd.ctx, path, budget_bytes=share.tile_bytes,
+                                    reader_bytes=share.reader_bytes, exaggeration=exaggeration,
+                                    pyramid=pyramid)
         session = ViewerSession(wnd.ctx, heightmap, size=wnd.buffer_size, technique=technique,
                                 lod=lod, texture=texture, exaggeration=exaggeration, hud=hud,
-                                sea_level=sea_level, sky_clock=sky_clock, objects=objects)
+                                sea_level=sea_level, sky_clock=sky_clock, objects=objects,
+                                geometry=geometry)
         if object_shadows is not None:
             session.state.object_shadows = object_shadows
         cls = make_window_config()

@@ -328,6 +328,11 @@ class ViewerSession:
         Shadows of a moved sun without a stall (coarse at once, exact from a worker
         process: :class:`~terrascape.render.sun_shadows.MovingSunShadows`); False: every sun
         change waits for the exact sweep.
+    geometry
+        A world streamed by tiles (:class:`~terrascape.render.tiled_terrain.TiledGeometry`,
+        :func:`~terrascape.render.tiled_terrain.stream_world`) drawn instead of
+        ``heightmap``'s mesh; ``heightmap`` is then the world's overview (textures,
+        shadows, camera, ground). The session releases it. The LOD schemes stay off.
     """
 
     def __init__(self, ctx, heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
@@ -336,7 +341,7 @@ class ViewerSession:
                  lod_time_budget_ms: float | None = 12.0,
                  warn: Callable[[str], None] | None = None,
                  sea_level: float | None = None, sky_clock=None, objects=None,
-                 moving_sun_shadows: bool = True) -> None:
+                 moving_sun_shadows: bool = True, geometry=None) -> None:
         from terrascape.render.techniques import TextureData, technique_names
         from terrascape.render.terrain import TerrainRenderer
 
@@ -402,6 +407,11 @@ class ViewerSession:
             self.state.set_clock(when, lat, 0.0 if lon is None else lon, running=True)
         if lod != "none" and not self.lod.available:
             self._note(self.lod.why_unavailable())
+            self.state.lod = "none"
+        self.geometry = geometry
+        self.tile_stats: dict[str, Any] = {}
+        if geometry is not None:
+            self.renderer.geometry = geometry
             self.state.lod = "none"
 
     # --- messages ------------------------------------------------------------------------
@@ -470,7 +480,19 @@ class ViewerSession:
         camera = replace(self.camera, aspect=w / h)
         if dt > 0:
             self.state.advance_time(dt)
-        self._update_lod(camera, (w, h))
+        if self.geometry is not None:
+            if self.state.lod != "none":
+                self._note("a streamed world has its own level of detail (tiles); "
+                           "the LOD schemes stay off")
+                self.state.lod = "none"
+            from terrascape.render.context import current
+
+            # never waits: tiles still loading are drawn by their loaded parents
+            with current(self.ctx):
+                self.tile_stats = self.geometry.update(camera, (w, h))
+            self.lod_ms.add(self.geometry.last_update_ms, dt)
+        else:
+            self._update_lod(camera, (w, h))
         if self.state.lod != "none":
             self.lod_ms.add(self.lod.last_ms, dt)
         while True:
@@ -510,6 +532,12 @@ class ViewerSession:
         fps = f"{1000.0 / fm:6.1f} fps  {fm:6.2f} ms/frame" if fm else "  -- fps"
         tris = self.stats.get("triangles", 0)
         lines = [fps, f"triangles {tris:,}"]
+        if self.geometry is not None and self.tile_stats:
+            t = self.tile_stats
+            lines.append(f"tiles {t['tiles_drawn']} drawn, {t['tiles_loading']} loading, "
+                         f"{t['tiles_resident']} resident ({t['tile_bytes'] / 2**20:.0f} MiB)  "
+                         f"error ≤ {t['max_pixels']:.1f} px  update "
+                         f"{self.lod_ms.value or 0.0:.1f} ms")
         if self.state.lod != "none":
             lm = self.lod_ms.value or 0.0
             lines[-1] += f"  LOD update {lm:.2f} ms  {self.lod.last_detail}"
@@ -561,6 +589,13 @@ class ViewerSession:
         return path
 
     def release(self) -> None:
+        if self.geometry is not None:
+            from terrascape.render.context import current
+
+            self.renderer.geometry = None
+            with current(self.ctx):
+                self.geometry.release()
+            self.geometry = None
         if self.renderer.moving_sun_shadows is not None:
             self.renderer.moving_sun_shadows.close()
         if self.hud is not None:

@@ -1,0 +1,348 @@
+"""A world's terrain drawn by streamed tiles (:mod:`terrascape.world.chunked_lod`): the GPU
+side — tile buffers in a bounded least-recently-used cache, uploaded a few per frame from
+the background loader, drawn with the frame's technique program.
+
+:class:`TiledGeometry` replaces the mesh of a :class:`~terrascape.render.terrain.
+TerrainRenderer` (set ``renderer.geometry``): the renderer keeps a small overview of the
+world (the "proxy" heightmap) for its textures, shadows, sky and water — all sampled by
+world position — while the tiles give the surface its detail, each at the pyramid level
+its screen-space error allows. The frame never waits for a load: a tile not yet uploaded
+is drawn by its finest loaded ancestor (:func:`~terrascape.world.chunked_lod.draw_set`),
+and the roots are loaded before the first frame.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from terrascape.camera import Camera
+from terrascape.errors import MemoryLimitError
+from terrascape.memory import format_bytes
+from terrascape.world.chunked_lod import (
+    ProcessTileLoader,
+    StoreReader,
+    TileCache,
+    TileKey,
+    TileLoader,
+    TileMesh,
+    TilePyramid,
+    TileSelection,
+    draw_set,
+    select_tiles,
+    tile_indices,
+    tile_mesh,
+    world_pyramid,
+)
+
+#: Screen error (pixels) of the streaming viewer and of a world render.
+VIEW_TOLERANCE = 1.5
+RENDER_TOLERANCE = 0.5
+
+
+@dataclass
+class _GpuTile:
+    key: TileKey
+    buffers: list[Any]
+    shape: tuple[int, int]
+    nbytes: int
+    box: np.ndarray
+    vaos: dict[int, Any] = field(default_factory=dict)
+
+    def release(self) -> None:
+        for vao in self.vaos.values():
+            vao.release()
+        self.vaos.clear()
+        for buf in self.buffers:
+            buf.release()
+        self.buffers = []
+
+
+def _in_frustum(planes: np.ndarray, box: np.ndarray) -> bool:
+    p = np.where(planes[:, :3] >= 0, box[3:], box[:3])
+    return bool(np.all(np.einsum("ij,ij->i", planes[:, :3], p) + planes[:, 3] >= 0))
+
+
+class TiledGeometry:
+    """Streamed tiles as a terrain renderer's geometry.
+
+    Parameters
+    ----------
+    ctx
+        moderngl context (the renderer's).
+    pyramid
+        The world's :class:`~terrascape.world.chunked_lod.TilePyramid`.
+    build
+        Makes one tile's mesh (:func:`~terrascape.world.chunked_lod.tile_mesh` over the
+        store); called on the loader thread when ``background``.
+    budget_bytes
+        Bytes the tile buffers may hold (the cache's bound). The view selects at most half
+        as many tiles as fit, so a frame's tiles and the parents drawn while they load fit
+        together.
+    tolerance
+        Screen-space error of a tile (pixels).
+    background
+        Load on a thread and never wait (the viewer); False: :meth:`update` loads every
+        selected tile before returning (a still render).
+    upload_ms
+        Time per frame spent uploading finished tiles (at least one is uploaded).
+    loader
+        What builds the tiles in the background (default: a
+        :class:`~terrascape.world.chunked_lod.TileLoader` thread over ``build``;
+        :func:`stream_world` uses a :class:`~terrascape.world.chunked_lod.ProcessTileLoader`).
+        The geometry closes it.
+    """
+
+    def __init__(self, ctx, pyramid: TilePyramid, build: Callable[[TileKey], TileMesh], *,
+                 budget_bytes: int, tolerance: float = VIEW_TOLERANCE, exaggeration: float = 1.0,
+                 background: bool = True, upload_ms: float = 4.0, loader=None) -> None:
+        self.ctx = ctx
+        self.pyramid = pyramid
+        self.grid = pyramid.grid
+        self.tolerance = float(tolerance)
+        self.exaggeration = float(exaggeration)
+        self.upload_ms = float(upload_ms)
+        self._build = build
+        self.cache = TileCache(int(budget_bytes), size_of=lambda t: t.nbytes,
+                               release=lambda t: t.release())
+        per_tile = self.grid.max_tile_bytes()
+        roots = self.grid.roots()
+        if len(roots) * per_tile > budget_bytes:
+            raise MemoryLimitError(
+                f"the world's {len(roots)} coarsest tiles need "
+                f"{format_bytes(len(roots) * per_tile)}, over the tile budget of "
+                f"{format_bytes(budget_bytes)}; raise --max-memory")
+        self.max_tiles = max(len(roots), int(budget_bytes // (2 * per_tile)))
+        self._ibos: dict[tuple[int, int], tuple[Any, int]] = {}
+        self.drawn: list[TileKey] = []
+        self.selection: TileSelection | None = None
+        self._view: tuple | None = None  # the camera the selection was made for
+        self.uploaded = 0
+        self.last_update_ms = 0.0
+        for key in roots:  # something to draw from the first frame on
+            self._upload(build(key), pinned=set(roots))
+        if loader is not None:
+            self.loader = loader
+        else:
+            self.loader = TileLoader(build) if background else None
+
+    # --- streaming ---------------------------------------------------------------------
+    def _ibo(self, shape: tuple[int, int]) -> tuple[Any, int]:
+        have = self._ibos.get(shape)
+        if have is None:
+            idx = tile_indices(shape)
+            have = self._ibos[shape] = (self.ctx.buffer(idx.tobytes()), idx.size)
+        return have
+
+    def _upload(self, mesh: TileMesh, *, pinned) -> bool:
+        if mesh.key in self.cache:  # loaded twice (asked again while on its way)
+            return True
+        bufs = [self.ctx.buffer(np.ascontiguousarray(a).tobytes())
+                for a in (mesh.positions, mesh.normals, mesh.tangents)]
+        tile = _GpuTile(mesh.key, bufs, mesh.shape, mesh.nbytes,
+                        self.pyramid.box(mesh.key, self.exaggeration))
+        ok = self.cache.put(mesh.key, tile, pinned=pinned)
+        self.uploaded += ok
+        return ok
+
+    def update(self, camera: Camera, viewport: tuple[int, int]) -> dict[str, Any]:
+        """Select the tiles of this view, take in the loaded ones (within ``upload_ms``, or
+        all of them when not streaming) and decide what the frame draws."""
+        t0 = time.perf_counter()
+        view = (camera.position, camera.yaw, camera.pitch, camera.fov_y, camera.aspect,
+                camera.near, camera.far, tuple(viewport))
+        if view != self._view or self.selection is None:
+            self.selection = select_tiles(self.pyramid, camera, viewport,
+                                          tolerance=self.tolerance, max_tiles=self.max_tiles,
+                                          exaggeration=self.exaggeration)
+            self._view = view
+        sel = self.selection
+        keep = set(self.drawn) | {k for k in sel.visible if k in self.cache}
+        keep.update(self.grid.roots())
+        missing = [k for k in sel.visible if k not in self.cache]
+        if missing and self.loader is not None:
+            # the missing tiles' ancestors first, coarse to fine: a missing tile is then
+            # drawn by its parent, not by a root over the whole map (a draw set never
+            # overlaps, so one tile without a loaded parent sends its whole group up)
+            order = {k: n for n, k in enumerate(missing)}
+            parents: dict[TileKey, int] = {}
+            for key in missing:
+                p = self.grid.parent(key)
+                while p is not None and p not in self.cache and p not in parents:
+                    parents[p] = order[key]
+                    p = self.grid.parent(p)
+            first = sorted(parents, key=lambda k: (-k.level, parents[k]))
+            room = self.cache.max_bytes // self.grid.max_tile_bytes() - len(self.cache)
+            if len(first) + len(missing) <= room:
+                # (a cache too small for both would evict the parents for the children
+                # and reload them for the next child: the selection alone, then)
+                missing = first + missing
+        if self.loader is None:
+            for key in missing:
+                if not self._upload(self._build(key), pinned=keep | {key}):
+                    raise MemoryLimitError("the view's tiles do not fit the tile budget")
+                keep.add(key)
+        else:
+            self.loader.request(missing)
+            deadline = time.perf_counter() + self.upload_ms / 1000.0  # after the selection
+            while True:
+                got = self.loader.finished(1)
+                if not got:
+                    break
+                # late arrivals of an earlier view are still kept while there is room
+                if self._upload(got[0], pinned=keep):
+                    keep.add(got[0].key)
+                if time.perf_counter() > deadline:
+                    break  # the rest waits in the loader for the next frame
+        self.drawn = draw_set(self.grid, sel.visible, self.cache.__contains__)
+        for key in self.drawn:
+            self.cache.get(key)  # most recently used
+        self.last_update_ms = (time.perf_counter() - t0) * 1000.0
+        return self.stats()
+
+    def stats(self) -> dict[str, Any]:
+        sel = self.selection
+        waiting = 0 if self.loader is None else self.loader.pending()
+        return {"tiles_selected": 0 if sel is None else len(sel.visible),
+                "tiles_drawn": len(self.drawn), "tiles_loading": waiting,
+                "tiles_resident": len(self.cache), "tile_bytes": self.cache.bytes,
+                "tile_bytes_peak": self.cache.peak_bytes, "tiles_uploaded": self.uploaded,
+                "max_pixels": 0.0 if sel is None else sel.max_pixels,
+                "complete": sel is not None and len(self.drawn) == len(sel.visible)
+                and set(self.drawn) == set(sel.visible)}
+
+    def loading(self) -> bool:
+        """Whether selected tiles are still on their way."""
+        return not self.stats()["complete"]
+
+    # --- drawing -----------------------------------------------------------------------
+    def draw(self, program, camera: Camera, viewport) -> dict[str, int]:
+        """Draw the frame's tiles with ``program`` (called by the terrain renderer for every
+        geometry pass: forward, geometry buffer, wireframe)."""
+        import moderngl
+
+        planes = camera.frustum_planes()
+        tris = drawn = 0
+        for key in self.drawn:
+            tile = self.cache.get(key)
+            if tile is None or not _in_frustum(planes, tile.box):
+                continue
+            vao = tile.vaos.get(program.glo)
+            if vao is None:
+                ibo, _ = self._ibo(tile.shape)
+                pos, nor, tan = tile.buffers
+                vao = tile.vaos[program.glo] = self.ctx.vertex_array(
+                    program, [(pos, "3f", "in_position"), (nor, "3f", "in_normal"),
+                              (tan, "4f", "in_tangent")], ibo, 4, skip_errors=True)
+            vao.render(moderngl.TRIANGLES)
+            n = self._ibo(tile.shape)[1] // 3
+            tris += n
+            drawn += 1
+        return {"triangles": tris, "triangles_drawn": tris, "chunks": drawn,
+                "chunks_culled": len(self.drawn) - drawn, "chunks_small_cull": 0}
+
+    def release(self) -> None:
+        if self.loader is not None:
+            self.loader.close()
+            self.loader = None
+        self.cache.clear()
+        for ibo, _ in self._ibos.values():
+            ibo.release()
+        self._ibos.clear()
+
+
+@dataclass(frozen=True)
+class WorldBudget:
+    """How a memory budget is shared by the overview (proxy) terrain and the tiles."""
+
+    proxy_level: int
+    proxy_bytes: float
+    reader_bytes: int
+    tile_bytes: int
+
+
+def split_budget(path, budget: int, *, proxy_side: int = 1025) -> tuple[Any, WorldBudget]:
+    """The overview window of the world (at most ``proxy_side`` samples a side and half the
+    budget) and the bytes left for the tiles and the store reader's chunk cache."""
+    from terrascape.world.window import overview_window
+
+    win = overview_window(path, budget=budget // 2, max_side=proxy_side)
+    rest = budget - win.estimate_bytes
+    reader = int(min(64 << 20, max(rest // 4, 0)))
+    tiles = int(rest - reader)
+    return win, WorldBudget(win.level, win.estimate_bytes, reader, tiles)
+
+
+def stream_world(ctx, path, *, budget_bytes: int, reader_bytes: int = 64 << 20,
+                 tolerance: float = VIEW_TOLERANCE, exaggeration: float = 1.0,
+                 background: bool = True, tile: int | None = None,
+                 pyramid: TilePyramid | None = None) -> TiledGeometry:
+    """:class:`TiledGeometry` over the world store at ``path`` (its tile table ``pyramid``,
+    by default built or read from the store's cache)."""
+    from terrascape.world.chunked_lod import DEFAULT_TILE
+
+    if budget_bytes <= 0:
+        raise MemoryLimitError("no memory is left for the world's tiles; raise --max-memory")
+    # streaming, this process reads only the roots: the loader process has the chunk cache
+    reader = StoreReader(path, cache_bytes=(8 << 20) if background else reader_bytes)
+    if pyramid is None:
+        pyramid = world_pyramid(path, tile=tile or DEFAULT_TILE, reader=reader)
+
+    def build(key: TileKey) -> TileMesh:
+        return tile_mesh(reader, pyramid, key, exaggeration=exaggeration)
+
+    loader = None
+    if background:
+        # the loader process has its own chunk cache: this process's is only for the roots
+        loader = ProcessTileLoader(path, tile=pyramid.grid.tile, exaggeration=exaggeration,
+                                   reader_bytes=reader_bytes)
+    try:
+        return TiledGeometry(ctx, pyramid, build, budget_bytes=budget_bytes,
+                             tolerance=tolerance, exaggeration=exaggeration,
+                             background=background, loader=loader)
+    except BaseException:
+        if loader is not None:
+            loader.close()
+        raise
+
+
+def seeded_flight(heightmap, n_frames: int, *, seed: int = 0, size=(1280, 720),
+                  fps: float = 30.0, crossing_s: float = 20.0,
+                  height: float = 0.03) -> list[Camera]:
+    """A reproducible low flight over a terrain (an overview heightmap of the world): from
+    a random point, heading inward, turning smoothly, ``height`` × the extent above the
+    ground, looking ahead and slightly down; crossing the terrain in ``crossing_s``.
+    The same seed gives the same cameras."""
+    from terrascape.viewer.session import ground_height
+
+    rng = np.random.default_rng(seed)
+    ex, ez = heightmap.extent
+    diag = float(np.hypot(ex, ez))
+    speed = diag / crossing_s / fps  # world units per frame
+    x, z = ex * rng.uniform(0.15, 0.35), ez * rng.uniform(0.15, 0.35)
+    yaw = float(np.degrees(np.arctan2(ex / 2 - x, -(ez / 2 - z))))  # toward the centre
+    turn = rng.normal(0.0, 0.6, size=n_frames)  # degrees per frame, smoothed below
+    turn = np.convolve(turn, np.ones(15) / 15.0, mode="same")
+    cams = []
+    lift = height * diag
+    for k in range(n_frames):
+        ground = ground_height(heightmap.heights, heightmap.spacing, x, z)
+        cams.append(Camera(position=(x, ground + lift, z), yaw=yaw, pitch=-12.0, fov_y=60.0,
+                           aspect=size[0] / size[1], near=diag * 2e-4, far=diag * 5.0))
+        yaw += float(turn[k])
+        f = np.radians(yaw)
+        x += speed * float(np.sin(f))
+        z -= speed * float(np.cos(f))
+        if not (0.05 * ex < x < 0.95 * ex and 0.05 * ez < z < 0.95 * ez):
+            yaw += 180.0  # at the edge: turn back
+            x = float(np.clip(x, 0.05 * ex, 0.95 * ex))
+            z = float(np.clip(z, 0.05 * ez, 0.95 * ez))
+    return cams
+
+
+__all__ = ["RENDER_TOLERANCE", "VIEW_TOLERANCE", "TiledGeometry", "WorldBudget",
+           "seeded_flight", "split_budget", "stream_world"]

@@ -1,0 +1,297 @@
+"""The chunked LOD over a pyramid: tiles cover the map once, their error bounds hold and the
+screen error stays within the tolerance, no cracks between levels, memory bounded."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+from scipy.ndimage import gaussian_filter
+
+from terrascape.camera import Camera
+from terrascape.errors import MemoryLimitError
+from terrascape.heightmap import Heightmap
+from terrascape.mesh.terrain_mesh import terrain_mesh
+from terrascape.world.chunked_lod import (
+    TileCache,
+    TileKey,
+    TileLoader,
+    array_reader,
+    build_pyramid,
+    draw_set,
+    select_tiles,
+    tile_grid,
+    tile_indices,
+    tile_mesh,
+)
+
+SPACING = 2.0
+VIEW = (320, 180)
+
+
+def _map(n: int = 257, seed: int = 5) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    h = sum(gaussian_filter(rng.standard_normal((n, n)), s) * s * 4.0 for s in (2, 6, 20))
+    return (h - h.min()).astype(np.float32)
+
+
+@pytest.fixture(scope="module")
+def heights() -> np.ndarray:
+    return _map()
+
+
+@pytest.fixture(scope="module")
+def pyramid(heights):
+    return build_pyramid(array_reader(heights), heights.shape, SPACING, tile=16, block=40)
+
+
+def _surface(h: np.ndarray, grid, key: TileKey) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+    """The tile's interpolant at every full-resolution sample of its ground (the anti-
+    diagonal split of the render mesh)."""
+    a0, a1, b0, b1 = grid.samples(key)
+    s = 1 << key.level
+    c = h[a0 * s:a1 * s + 1:s, b0 * s:b1 * s + 1:s].astype(np.float64)
+    r0, r1, c0, c1 = grid.span(key)
+    rr, cc = np.meshgrid(np.arange(r0, r1 + 1), np.arange(c0, c1 + 1), indexing="ij")
+    v, u = (rr - r0) / s, (cc - c0) / s
+    i = np.minimum(np.floor(v).astype(int), c.shape[0] - 2)
+    j = np.minimum(np.floor(u).astype(int), c.shape[1] - 2)
+    fv, fu = v - i, u - j
+    h00, h01, h10, h11 = c[i, j], c[i, j + 1], c[i + 1, j], c[i + 1, j + 1]
+    lower = h00 + fu * (h01 - h00) + fv * (h10 - h00)
+    upper = h11 + (1 - fu) * (h10 - h11) + (1 - fv) * (h01 - h11)
+    return np.where(fu + fv <= 1.0, lower, upper), (r0, r1, c0, c1)
+
+
+def _low_camera() -> Camera:
+    return Camera.look_at((30.0, 60.0, 30.0), (300.0, 0.0, 300.0), fov_y=60.0,
+                          aspect=VIEW[0] / VIEW[1], near=0.5, far=5000.0)
+
+
+def test_grid_levels_and_tiles(pyramid):
+    g = pyramid.grid
+    assert g.top == 4 and g.roots() == [TileKey(4, 0, 0)]  # 256 cells = 16 · 2**4
+    assert g.count(0) == (16, 16) and g.span(TileKey(1, 3, 2)) == (96, 128, 64, 96)
+    assert g.children(TileKey(1, 3, 2)) == [TileKey(0, 6, 4), TileKey(0, 6, 5),
+                                            TileKey(0, 7, 4), TileKey(0, 7, 5)]
+    # a map whose side is not 2**n + 1 keeps its last row: fewer levels, more roots
+    odd = tile_grid((201, 161), SPACING, 16)
+    assert odd.top == 3 and odd.count(3) == (2, 2)
+    assert odd.span(TileKey(3, 1, 1))[1::2] == (200, 160)
+
+
+def test_error_bound_holds_for_every_tile(heights, pyramid):
+    g = pyramid.grid
+    tight = []
+    for k in range(g.top + 1):
+        nr, nc = g.count(k)
+        for i in range(nr):
+            for j in range(nc):
+                key = TileKey(k, i, j)
+                surf, (r0, r1, c0, c1) = _surface(heights, g, key)
+                true = np.abs(surf - heights[r0:r1 + 1, c0:c1 + 1]).max()
+                bound = pyramid.error[k][i, j]
+                assert true <= bound + 1e-4, (key, true, bound)
+                ground = heights[r0:r1 + 1, c0:c1 + 1]
+                assert pyramid.low[k][i, j] == ground.min()
+                assert pyramid.high[k][i, j] == ground.max()
+                if k:
+                    tight.append(true / bound)
+    assert g.top >= 3 and np.median(tight) > 0.4  # a bound, not a blanket
+
+
+def test_selection_covers_once_within_tolerance(heights, pyramid):
+    g = pyramid.grid
+    cam = _low_camera()
+    for tol in (0.5, 2.0, 8.0):
+        sel = select_tiles(pyramid, cam, VIEW, tolerance=tol)
+        cover = np.zeros((256, 256), int)
+        for key in sel.leaves:
+            r0, r1, c0, c1 = g.span(key)
+            cover[r0:r1, c0:c1] += 1
+        assert (cover == 1).all()
+        assert not sel.budget_bound and sel.max_pixels <= tol
+        assert sel.culled and len(sel.levels()) >= 2  # far tiles coarser, unseen ones culled
+        # every visible tile's real error, projected from its nearest point, is in tolerance
+        kpx = cam.pixels_per_radian(VIEW[1])
+        for key in sel.visible:
+            surf, (r0, r1, c0, c1) = _surface(heights, g, key)
+            true = np.abs(surf - heights[r0:r1 + 1, c0:c1 + 1]).max()
+            box = pyramid.box(key)
+            d = np.linalg.norm(np.clip(cam.eye, box[:3], box[3:]) - cam.eye)
+            assert true * kpx / d <= tol + 1e-6
+    coarse = select_tiles(pyramid, cam, VIEW, tolerance=8.0)
+    fine = select_tiles(pyramid, cam, VIEW, tolerance=0.5)
+    assert len(fine.visible) > len(coarse.visible)
+    # culled tiles are out of view: none of their ground projects into the image
+    for key in fine.culled:
+        r0, r1, c0, c1 = g.span(key)
+        rr, cc = np.meshgrid(np.arange(r0, r1 + 1), np.arange(c0, c1 + 1), indexing="ij")
+        pts = np.c_[cc.ravel() * SPACING, heights[rr, cc].ravel(), rr.ravel() * SPACING]
+        px = cam.project(pts, VIEW)
+        inside = ((px[:, 0] >= 0) & (px[:, 0] <= VIEW[0]) & (px[:, 1] >= 0)
+                  & (px[:, 1] <= VIEW[1]) & (px[:, 2] > cam.near))
+        assert not inside.any(), key
+
+
+def test_no_cracks_between_tiles_of_different_levels(heights, pyramid):
+    g = pyramid.grid
+    sel = select_tiles(pyramid, _low_camera(), VIEW, tolerance=1.0)
+    leaves = sel.leaves
+    assert len({k.level for k in leaves}) >= 3
+    surfaces = {k: _surface(heights, g, k) for k in leaves}
+    pairs = same_level = 0
+    for a in leaves:
+        sa, (ar0, ar1, ac0, ac1) = surfaces[a]
+        for b in leaves:
+            sb, (br0, br1, bc0, bc1) = surfaces[b]
+            assert abs(a.level - b.level) <= 1 or not _touch(g.span(a), g.span(b))
+            if ac1 == bc0:  # b east of a: shared column, overlapping rows
+                r0, r1 = max(ar0, br0), min(ar1, br1)
+                if r1 <= r0:
+                    continue
+                ea = sa[r0 - ar0:r1 - ar0 + 1, -1]
+                eb = sb[r0 - br0:r1 - br0 + 1, 0]
+            elif ar1 == br0:  # b south of a
+                c0, c1 = max(ac0, bc0), min(ac1, bc1)
+                if c1 <= c0:
+                    continue
+                ea = sa[-1, c0 - ac0:c1 - ac0 + 1]
+                eb = sb[0, c0 - bc0:c1 - bc0 + 1]
+            else:
+                continue
+            pairs += 1
+            if a.level == b.level:
+                same_level += 1
+                assert np.array_equal(ea, eb)
+            # the higher edge's skirt reaches below the lower one: the gap is closed
+            skirt_a = pyramid.skirt[a.level][a.row, a.col]
+            skirt_b = pyramid.skirt[b.level][b.row, b.col]
+            assert np.all(np.where(ea > eb, skirt_a <= eb, skirt_b <= ea))
+    assert pairs > 20 and same_level > 0
+    mesh = tile_mesh(array_reader(heights), pyramid, leaves[0])
+    n = mesh.shape[0] * mesh.shape[1]
+    assert len(mesh.positions) > n  # the skirt's ring
+    assert np.allclose(mesh.positions[n:, 1], pyramid.skirt[leaves[0].level][leaves[0][1:]])
+    idx = tile_indices(mesh.shape)
+    assert idx.max() == len(mesh.positions) - 1 and idx.size % 3 == 0
+
+
+def _touch(a, b) -> bool:
+    ar0, ar1, ac0, ac1 = a
+    br0, br1, bc0, bc1 = b
+    rows = min(ar1, br1) > max(ar0, br0)
+    cols = min(ac1, bc1) > max(ac0, bc0)
+    return (rows and (ac1 == bc0 or bc1 == ac0)) or (cols and (ar1 == br0 or br1 == ar0))
+
+
+def test_level_zero_tile_is_the_render_mesh(heights, pyramid):
+    whole = terrain_mesh(Heightmap(heights, (SPACING, SPACING)), exaggeration=1.5)
+    for key in (TileKey(0, 0, 0), TileKey(0, 7, 9), TileKey(0, 15, 15)):
+        mesh = tile_mesh(array_reader(heights), pyramid, key, exaggeration=1.5)
+        r0, r1, c0, c1 = pyramid.grid.span(key)
+        n = mesh.shape[0] * mesh.shape[1]
+        sel = (slice(r0, r1 + 1), slice(c0, c1 + 1))
+        for mine, theirs, w in ((mesh.positions, whole.positions, 3),
+                                (mesh.normals, whole.normals, 3),
+                                (mesh.tangents, whole.tangents, 4)):
+            assert np.array_equal(mine[:n], theirs.reshape(257, 257, w)[sel].reshape(-1, w))
+    coarse = tile_mesh(array_reader(heights), pyramid, TileKey(2, 1, 2))
+    assert coarse.shape == (17, 17)
+    assert np.array_equal(coarse.positions[:17 * 17, 1],
+                          heights[64:129:4, 128:193:4].reshape(-1))
+
+
+def test_tile_budget_bounds_memory(pyramid):
+    cam = _low_camera()
+    free = select_tiles(pyramid, cam, VIEW, tolerance=0.25)
+    capped = select_tiles(pyramid, cam, VIEW, tolerance=0.25, max_tiles=12)
+    assert len(free.visible) > 12 >= len(capped.visible)
+    assert capped.budget_bound and capped.max_pixels > 0.25
+    # the largest errors went first: the capped view is still finer than the roots
+    assert len(capped.visible) > 3
+    # four roots in view and a budget of one tile: refused, with what to do
+    h = _map(201)[:, :161]
+    odd = build_pyramid(array_reader(h), h.shape, SPACING, tile=16)
+    assert len(odd.grid.roots()) == 4
+    above = Camera.look_at((160.0, 900.0, 200.0), (160.0, 0.0, 201.0), aspect=1.0, far=5000.0)
+    assert len(select_tiles(odd, above, VIEW, tolerance=50.0).visible) == 4
+    with pytest.raises(MemoryLimitError, match="raise --max-memory"):
+        select_tiles(odd, above, VIEW, tolerance=0.25, max_tiles=1)
+
+
+def test_draw_set_falls_back_to_loaded_parents(pyramid):
+    g = pyramid.grid
+    sel = select_tiles(pyramid, _low_camera(), VIEW, tolerance=1.0)
+    everything = set(sel.visible)
+    assert sorted(draw_set(g, sel.visible, everything.__contains__)) == sorted(sel.visible)
+    # only the coarse levels loaded yet: the parents are drawn, never overlapping
+    loaded = {k for k in _all_tiles(g) if k.level >= 2}
+    drawn = draw_set(g, sel.visible, loaded.__contains__)
+    assert drawn and all(k in loaded for k in drawn)
+    cover = np.zeros((256, 256), int)
+    for key in drawn:
+        r0, r1, c0, c1 = g.span(key)
+        cover[r0:r1, c0:c1] += 1
+    assert cover.max() == 1
+    for key in sel.visible:  # every selected tile's ground is drawn by one tile
+        r0, r1, c0, c1 = g.span(key)
+        assert (cover[r0:r1, c0:c1] == 1).all()
+    assert draw_set(g, sel.visible, lambda k: False) == []
+
+
+def _all_tiles(g):
+    for k in range(g.top + 1):
+        nr, nc = g.count(k)
+        for i in range(nr):
+            for j in range(nc):
+                yield TileKey(k, i, j)
+
+
+def test_cache_is_bounded_and_keeps_the_pinned():
+    released = []
+    cache = TileCache(100, size_of=len, release=released.append)
+    for i in range(5):
+        assert cache.put(TileKey(0, 0, i), "x" * 30, pinned={TileKey(0, 0, 0)})
+        assert cache.bytes <= 100
+    assert TileKey(0, 0, 0) in cache and len(cache) == 3 and cache.evicted == 2
+    assert cache.peak_bytes <= 100
+    assert not cache.put(TileKey(1, 0, 0), "y" * 90, pinned={TileKey(0, 0, 0),
+                                                             TileKey(0, 0, 3), TileKey(0, 0, 4)})
+    assert released[-1] == "y" * 90
+    # the same tile twice (loaded again while the first was on its way): counted once
+    before = cache.bytes
+    assert cache.put(TileKey(0, 0, 4), "z" * 30) and cache.bytes == before
+    assert cache.get(TileKey(0, 0, 4)) == "x" * 30 and released[-1] == "z" * 30
+
+
+def test_loader_builds_on_a_background_thread(heights, pyramid):
+    import threading
+
+    main = threading.get_ident()
+    threads = set()
+
+    def build(key):
+        threads.add(threading.get_ident())
+        return tile_mesh(array_reader(heights), pyramid, key)
+
+    loader = TileLoader(build, max_pending=2)
+    try:
+        keys = [TileKey(0, 0, j) for j in range(6)]
+        loader.request(keys)
+        got = []
+        deadline = time.monotonic() + 20
+        while len(got) < 6 and time.monotonic() < deadline:
+            got += loader.finished()
+            assert loader.pending() <= 6
+            time.sleep(0.01)
+        assert sorted(m.key for m in got) == keys and main not in threads
+        loader.request([TileKey(9, 9, 9)])  # a tile that does not exist: the error surfaces
+        deadline = time.monotonic() + 10
+        with pytest.raises(Exception, match="no tile"):
+            while time.monotonic() < deadline:
+                loader.finished()
+                time.sleep(0.01)
+    finally:
+        loader.close()
