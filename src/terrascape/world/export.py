@@ -182,6 +182,21 @@ def _rgb_tiles(path: str, geo, tiles: list, fmt: str, out_dir: str, force: bool
     return [str(p) for p in write_many(items, force=force)]
 
 
+def _level_window(recipe, group, row, col, pixel: float):
+    """The coarsest pyramid level whose samples are no larger than ``pixel`` full-resolution
+    samples: its window around the (full-resolution) ``row``/``col`` positions, and those
+    positions in the window's own samples. Division by a power of two and subtraction of
+    whole numbers are exact, so bilinear weights are those of the whole map."""
+    level = max(0, math.floor(math.log2(pixel))) if pixel > 1 else 0
+    step = 1 << level
+    lrows, lcols = level_shape(recipe.shape, level)
+    lr = np.clip(row / step, 0, lrows - 1)
+    lc = np.clip(col / step, 0, lcols - 1)
+    a0, b0 = int(np.floor(lr.min())), int(np.floor(lc.min()))
+    a1, b1 = min(lrows, int(np.floor(lr.max())) + 2), min(lcols, int(np.floor(lc.max())) + 2)
+    return read_level(group, level, a0, a1, b0, b1), lr - a0, lc - b0
+
+
 def _rgb_tile(group, recipe, geo, z: int, x: int, y: int, fmt: str) -> bytes:
     """The PNG bytes of tile ``z/x/y``."""
     from PIL import Image
@@ -203,19 +218,12 @@ def _rgb_tile(group, recipe, geo, z: int, x: int, y: int, fmt: str) -> bytes:
     pixel = max(float(np.ptp(col[0])), float(np.ptp(row[:, 0]))) / (TILE - 1)
     row = np.clip(row, 0, rows - 1)
     col = np.clip(col, 0, cols - 1)
-    level = max(0, math.floor(math.log2(pixel))) if pixel > 1 else 0
-    step = 1 << level
-    lrows, lcols = level_shape(recipe.shape, level)
-    lr = np.clip(row / step, 0, lrows - 1)
-    lc = np.clip(col / step, 0, lcols - 1)
-    a0, b0 = int(np.floor(lr.min())), int(np.floor(lc.min()))
-    a1, b1 = min(lrows, int(np.floor(lr.max())) + 2), min(lcols, int(np.floor(lc.max())) + 2)
-    window = read_level(group, level, a0, a1, b0, b1)
+    window, lr, lc = _level_window(recipe, group, row, col, pixel)
     from scipy import ndimage
 
     # Whole numbers subtracted from the coordinates: exact, so the bilinear weights are
     # those of the whole map.
-    h = ndimage.map_coordinates(window, np.stack([lr - a0, lc - b0]).reshape(2, -1), order=1,
+    h = ndimage.map_coordinates(window, np.stack([lr, lc]).reshape(2, -1), order=1,
                                 mode="nearest", output=np.float64).reshape(lr.shape)
     encoder = encode_mapbox if fmt == "mapbox" else encode_terrarium
     rgba = np.zeros((TILE, TILE, 4), np.uint8)
@@ -321,17 +329,8 @@ def _quantized_mesh_tile(group, recipe, lonlat, z: int, x: int, y: int, error: f
     col = np.clip(col, 0, cols - 1)
     n = len(row) - 1
     pixel = max(float(np.ptp(row)), float(np.ptp(col))) / n
-    level = max(0, math.floor(math.log2(pixel))) if pixel > 1 else 0
-    step = 1 << level
-    lrows, lcols = level_shape(recipe.shape, level)
-    # Division by a power of two and subtraction of whole numbers are exact: the bilinear
-    # weights are those of the whole map.
-    lr = np.clip(row / step, 0, lrows - 1)
-    lc = np.clip(col / step, 0, lcols - 1)
-    a0, b0 = int(np.floor(lr.min())), int(np.floor(lc.min()))
-    a1, b1 = min(lrows, int(np.floor(lr.max())) + 2), min(lcols, int(np.floor(lc.max())) + 2)
-    window = read_level(group, level, a0, a1, b0, b1)
-    h = np.where(inside, bilinear_separable(window, lr - a0, lc - b0), 0.0)
+    window, lr, lc = _level_window(recipe, group, row, col, pixel)
+    h = np.where(inside, bilinear_separable(window, lr, lc), 0.0)
     size = len(lon_1d)
     lon = np.broadcast_to(lon_1d, (size, size))
     lat = np.broadcast_to(lat_1d[:, None], (size, size))
