@@ -303,13 +303,38 @@ def bisect_tau(mesh_for, measure, target: float, steps: int = BISECT_STEPS):
     return best
 
 
+def _bisected_ours(heightmap, camera, block: int, measure, target: float, roam, *,
+                   cull: bool, from_scratch: bool):
+    """ROAM's and our geomipmapping's ``(τ, triangles, measured error)`` at the largest τ
+    whose measured worst error is ≤ ``target``. Both return their whole mesh (callers count
+    what they compare); geomipmap patches are ``block + 1`` samples and culling does not
+    change their levels. ``from_scratch``: ROAM rebuilds for every τ (so the mesh depends on
+    τ alone) instead of adapting its previous mesh."""
+    from terrascape.lod import Geomipmap
+
+    def roam_mesh_for(tau):
+        if from_scratch:
+            roam.reset()
+        roam.update(camera, VIEWPORT, tolerance_px=tau, cull=cull)
+        return roam.triangles()
+
+    gm = Geomipmap(heightmap, block + 1)
+
+    def gm_mesh_for(tau):
+        gm.update(camera, VIEWPORT, tau)
+        return gm.triangles()
+
+    return (bisect_tau(roam_mesh_for, measure, target),
+            bisect_tau(gm_mesh_for, measure, target))
+
+
 def compare_at_camera(core, heightmap, camera, setting, roam=None):
     """One comparison row: GeoMipTerrain with ``setting`` vs our ROAM and geomipmapping.
 
     Returns a dict with the measured counts, errors and ratios (see :func:`run`) and, under
     ``"meshes"``, the three compared triangle arrays (``panda``, ``roam``, ``geomipmap``).
     """
-    from terrascape.lod import Geomipmap, Roam, conformity_report
+    from terrascape.lod import Roam, conformity_report
     from terrascape.lod.mesh_checks import frustum_mask
 
     label, block, near_m, far_m, factor_m = setting
@@ -332,19 +357,8 @@ def compare_at_camera(core, heightmap, camera, setting, roam=None):
     r_direct = roam.triangles()
     r_direct_err = measure(r_direct)
 
-    def roam_mesh_for(tau):
-        roam.update(camera, VIEWPORT, tolerance_px=tau)
-        return roam.triangles()
-
-    r_tau, r_tris, r_err = bisect_tau(roam_mesh_for, measure, eps)
-
-    gm = Geomipmap(heightmap, block + 1)
-
-    def gm_mesh_for(tau):
-        gm.update(camera, VIEWPORT, tau)
-        return gm.triangles()
-
-    g_tau, g_tris, g_err = bisect_tau(gm_mesh_for, measure, eps)
+    (r_tau, r_tris, r_err), (g_tau, g_tris, g_err) = _bisected_ours(
+        heightmap, camera, block, measure, eps, roam, cull=True, from_scratch=False)
     n_p = len(p_tris)
     v_p = max(in_view_count(p_tris, mask), 1)
     return {
@@ -487,7 +501,7 @@ def fair_compare(core, heightmap, setting, yaw: float, *, cull: bool, roam=None)
     culled to the view; the in-view samples are measured and the triangles with a corner in
     view counted. Our τ is bisected so the measured worst error is ≤ GeoMipTerrain's.
     """
-    from terrascape.lod import Geomipmap, Roam
+    from terrascape.lod import Roam
     from terrascape.lod.mesh_checks import frustum_mask, screen_errors
 
     label, block, near_m, far_m, factor_m = setting
@@ -508,21 +522,8 @@ def fair_compare(core, heightmap, setting, yaw: float, *, cull: bool, roam=None)
     eps = measure(p_tris)
     roam = roam if roam is not None else Roam(heightmap)
 
-    def roam_mesh_for(tau):
-        roam.reset()
-        roam.update(cam, VIEWPORT, tolerance_px=tau, cull=cull)
-        return roam.triangles()  # whole mesh: measured everywhere, counted by `count`
-
-    r_tau, r_tris, r_err = bisect_tau(roam_mesh_for, measure, eps)
-    gm = Geomipmap(heightmap, block + 1)
-
-    def gm_mesh_for(tau):
-        # culling does not change the levels, only which patches are drawn: `count`
-        # keeps the in-view ones, as for the other two meshes
-        gm.update(cam, VIEWPORT, tau)
-        return gm.triangles()
-
-    _, g_tris, g_err = bisect_tau(gm_mesh_for, measure, eps)
+    (r_tau, r_tris, r_err), (_, g_tris, g_err) = _bisected_ours(
+        heightmap, cam, block, measure, eps, roam, cull=cull, from_scratch=True)
     n_p = max(count(p_tris), 1)
     return {
         "setting": label, "panda_triangles": n_p, "panda_error": eps,
