@@ -384,8 +384,10 @@ class Geomipmap:
         self._base = np.zeros((npr, npc), np.int64)
         self._visible = np.ones((npr, npc), np.bool_)
         self._culled = False
-        self._planes: np.ndarray | None = None
-        self._visible_for: np.ndarray | None = None  # the planes self._visible was culled for
+        # The last update's camera; its frustum is computed only when something culls with it
+        # (computing the planes costs several times the level selection itself).
+        self._view_camera: Camera | None = None
+        self._visible_current = False  # self._visible holds the last update's frustum test
         self._updated = False
         self.last_rounds = 0
 
@@ -448,11 +450,10 @@ class Geomipmap:
             self._base, self._p, self.heightmap.cols,
         ))
         self._culled = bool(cull)
-        self._planes = camera.frustum_planes()
-        self._visible_for = None
+        self._view_camera = camera
+        self._visible_current = False
         if cull:
-            self.quadtree.visible(self._planes, out=self._visible)
-            self._visible_for = self._planes
+            self._cull_to_last_view()
         self._updated = True
         return GeomipmapStats(
             triangles=self.triangle_count(),
@@ -460,6 +461,11 @@ class Geomipmap:
             min_level=int(self._lev.min()),
             max_level=int(self._lev.max()),
         )
+
+    def _cull_to_last_view(self) -> None:
+        if not self._visible_current:
+            self.quadtree.visible(self._view_camera.frustum_planes(), out=self._visible)
+            self._visible_current = True
 
     def _require_update(self) -> None:
         if not self._updated:
@@ -507,9 +513,7 @@ class Geomipmap:
         self._require_update()
         culled = self._culled
         if visible_only and not culled:
-            if self._visible_for is not self._planes:
-                self.quadtree.visible(self._planes, out=self._visible)
-                self._visible_for = self._planes
+            self._cull_to_last_view()
             culled = True
         count = int(self._count[self._visible].sum()) if culled else int(self._count.sum())
         out = np.empty((count, 3), np.uint32)
