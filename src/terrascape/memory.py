@@ -189,7 +189,11 @@ PEAK_BYTES_PER_SAMPLE: dict[str, float] = {
     # on top: photo_materials.layer_spectrum_bytes), 2026-12-02.
     "texture material": 13.0,
     "texture photo": 8.5,
-    "heightfromimage": 38.0,
+    # The photo read (3–4 B a pixel for 8-bit RGB(A), 8 B for a float TIFF), its float64
+    # luminance (8 B, blurred in place and high-passed in strips) and the float32 result
+    # (4 B): measured 14–18 B (16-bit grey, RGB, RGBA PNG; --blur 2, --highpass 64) and 22 B
+    # (float TIFF, --highpass 64) at 4097², 2026-12-02.
+    "heightfromimage": 27.0,
     "render": 200.0,
 }
 

@@ -94,6 +94,37 @@ def _brightness(rgb: Any) -> np.ndarray:
     return y
 
 
+#: Gaussian radius in samples, as :func:`scipy.ndimage.gaussian_filter` truncates it.
+_TRUNCATE = 4.0
+
+
+def _subtract_blur_in_strips(y: np.ndarray, sigma: float) -> None:
+    """``y -= G_σ * y`` in place, a strip of rows at a time (mode ``reflect``).
+
+    Each strip's blur is taken over the strip and ``radius`` rows either side (the rows above
+    from a copy kept before they were overwritten), which are all the taps of its rows, so
+    every value is the one the whole-image filter gives, bit for bit; at the image's first
+    and last rows the strip's edge is the image's, reflected the same way. Extra memory: a
+    strip with its halo and one halo copy, instead of a second whole image; a radius close to
+    the image's height gains nothing and filters the whole image at once.
+    """
+    rows = y.shape[0]
+    radius = int(_TRUNCATE * sigma + 0.5)
+    step = max(radius, -(-rows // 8))
+    if step + 3 * radius >= rows:
+        y -= ndimage.gaussian_filter(y, sigma, mode="reflect", truncate=_TRUNCATE)
+        return
+    above = y[:0].copy()  # original rows [r0 - radius, r0): already overwritten in y
+    for r0 in range(0, rows, step):
+        r1 = min(rows, r0 + step)
+        below = min(rows, r1 + radius)
+        strip = np.concatenate((above, y[r0:below]))
+        ndimage.gaussian_filter(strip, sigma, mode="reflect", truncate=_TRUNCATE, output=strip)
+        top = len(above)
+        above = y[max(0, r1 - radius):r1].copy()
+        y[r0:r1] -= strip[top:top + r1 - r0]
+
+
 def height_from_image(
     rgb: Any,
     *,
@@ -127,14 +158,17 @@ def height_from_image(
     gamma = check_positive(contrast, "contrast")
     hp = None if highpass_sigma is None else check_positive(highpass_sigma, "highpass_sigma")
     y = _brightness(rgb)  # a new array: the steps below work in place
-    # Peak: this float64 image and one filter output (4× the float32 result); the
-    # normalisation runs over row blocks straight into the result.
+    # Peak: this float64 image (2× the float32 result) and the result (1×) while it is
+    # normalised; the blur runs in place and the high-pass in strips of rows, so neither
+    # holds a second whole float64 image.
     if invert:
         np.subtract(1.0, y, out=y)
     if blur > 0.0:
-        y = ndimage.gaussian_filter(y, blur, mode="reflect")
+        # scipy filters a line at a time through its own line buffers, so the output may be
+        # the input (gaussian_filter does the same between its two axes): identical values.
+        ndimage.gaussian_filter(y, blur, mode="reflect", output=y)
     if hp is not None:
-        y -= ndimage.gaussian_filter(y, hp, mode="reflect")
+        _subtract_blur_in_strips(y, hp)
     lo, hi = float(y.min()), float(y.max())
     # Relative threshold: a constant image blurred in float64 is not exactly constant.
     if hi - lo <= 1e-9 * max(1.0, abs(hi)):
