@@ -32,14 +32,30 @@ from terrascape.objects.model import Instances
 # lies up to a quantum off its surface (behind it, inside the object) and must not shadow
 # itself.
 _START_QUANTA = 4.0
+# ... and a triangle whose plane passes within this many depth quanta of the ray's start is
+# the surface the point lies on: it cannot shadow the point. A start point a fraction of a
+# quantum behind a face the sun grazes (N·L ≈ 0.07) leaves through that face at t = δ / N·L,
+# beyond any start offset along the ray. On the quick bench scene the points that shadowed
+# themselves so lay −6.3 to +0.5 quanta from the plane they hit (5th-95th percentile); the
+# stencil count's agreement plateaus from 4 to 16 quanta (99.93-99.94 %) and falls beyond.
+_PLANE_QUANTA = 8.0
 _DEPTH_BITS = 24
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _hit_triangle(ox, oy, oz, dx, dy, dz, ax, ay, az, bx, by, bz, cx, cy, cz, t_min, t_max):
-    """Möller-Trumbore: does the ray o + t·d hit triangle abc for t in (t_min, t_max)?"""
+def _hit_triangle(ox, oy, oz, dx, dy, dz, ax, ay, az, bx, by, bz, cx, cy, cz, t_min, t_max,
+                  plane_tol):
+    """Möller-Trumbore: does the ray o + t·d hit triangle abc for t in (t_min, t_max)? Not
+    when o lies within ``plane_tol`` of the triangle's plane (the triangle o lies on)."""
     e1x, e1y, e1z = bx - ax, by - ay, bz - az
     e2x, e2y, e2z = cx - ax, cy - ay, cz - az
+    if plane_tol > 0.0:
+        nx = e1y * e2z - e1z * e2y
+        ny = e1z * e2x - e1x * e2z
+        nz = e1x * e2y - e1y * e2x
+        dist = (ox - ax) * nx + (oy - ay) * ny + (oz - az) * nz
+        if dist * dist < plane_tol * plane_tol * (nx * nx + ny * ny + nz * nz):
+            return False
     px = dy * e2z - dz * e2y
     py = dz * e2x - dx * e2z
     pz = dx * e2y - dy * e2x
@@ -85,9 +101,10 @@ def _cell_walk_start(o, d, x0, z0, cell, nx, nz):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _ray_hits_objects(o, d, t_min, y_top, tris, cell_start, cell_tris, x0, z0, cell, nx, nz):
-    """Does the ray o + t·d (t > t_min, d pointing up) hit a triangle before rising above
-    y_top or leaving the grid?"""
+def _ray_hits_objects(o, d, t_min, plane_tol, y_top, tris, cell_start, cell_tris, x0, z0, cell,
+                      nx, nz):
+    """Does the ray o + t·d (t > t_min, d pointing up) hit a triangle (not one whose plane
+    passes within plane_tol of o) before rising above y_top or leaving the grid?"""
     t_exit = (y_top - o[1]) / d[1] if d[1] > 0.0 else np.inf
     # clip the ray to the grid's footprint (slabs in x and z): it may start outside it
     t_in, t_out = 0.0, t_exit
@@ -113,7 +130,8 @@ def _ray_hits_objects(o, d, t_min, y_top, tris, cell_start, cell_tris, x0, z0, c
             if _hit_triangle(o[0], o[1], o[2], d[0], d[1], d[2],
                              tris[j, 0, 0], tris[j, 0, 1], tris[j, 0, 2],
                              tris[j, 1, 0], tris[j, 1, 1], tris[j, 1, 2],
-                             tris[j, 2, 0], tris[j, 2, 1], tris[j, 2, 2], t_min, np.inf):
+                             tris[j, 2, 0], tris[j, 2, 1], tris[j, 2, 2], t_min, np.inf,
+                             plane_tol):
                 return True
         if t_next > t_out:
             return False
@@ -159,10 +177,10 @@ def _ray_hits_terrain(o, d, t_min, h, dx, dz, y_top):
         h00, h01 = h[iz, ix], h[iz, ix + 1]
         h10, h11 = h[iz + 1, ix], h[iz + 1, ix + 1]
         if _hit_triangle(o[0], o[1], o[2], d[0], d[1], d[2], x0, h00, z0, x0, h10, z1,
-                         x1, h01, z0, t_min, np.inf):
+                         x1, h01, z0, t_min, np.inf, 0.0):
             return True
         if _hit_triangle(o[0], o[1], o[2], d[0], d[1], d[2], x1, h01, z0, x0, h10, z1,
-                         x1, h11, z1, t_min, np.inf):
+                         x1, h11, z1, t_min, np.inf, 0.0):
             return True
         if min(tx, tz) > t_exit:
             return False
@@ -177,8 +195,8 @@ def _ray_hits_terrain(o, d, t_min, h, dx, dz, y_top):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _occlusion_kernel(points, valid, t_start, sun, tris, cell_start, cell_tris, x0, z0, cell,
-                      nx, nz, y_obj, h, dx, dz, y_ter, use_objects, use_terrain,
+def _occlusion_kernel(points, valid, t_start, plane_tol, sun, tris, cell_start, cell_tris, x0,
+                      z0, cell, nx, nz, y_obj, h, dx, dz, y_ter, use_objects, use_terrain,
                       obj_out, ter_out):
     n = points.shape[0]
     for i in prange(n):
@@ -186,8 +204,8 @@ def _occlusion_kernel(points, valid, t_start, sun, tris, cell_start, cell_tris, 
             continue
         o = points[i]
         if use_objects:
-            obj_out[i] = _ray_hits_objects(o, sun, t_start[i], y_obj, tris, cell_start,
-                                           cell_tris, x0, z0, cell, nx, nz)
+            obj_out[i] = _ray_hits_objects(o, sun, t_start[i], plane_tol[i], y_obj, tris,
+                                           cell_start, cell_tris, x0, z0, cell, nx, nz)
         if use_terrain:
             ter_out[i] = _ray_hits_terrain(o, sun, t_start[i], h, dx, dz, y_ter)
 
@@ -251,7 +269,7 @@ def _sun_vector(sun) -> np.ndarray:
 
 def sun_occlusion(points: np.ndarray, sun, *, triangles: np.ndarray | None = None,
                   heightmap: Heightmap | None = None, exaggeration: float = 1.0,
-                  start: np.ndarray | float = 0.0,
+                  start: np.ndarray | float = 0.0, plane: np.ndarray | float = 0.0,
                   grid: TriangleGrid | None = None) -> tuple[np.ndarray, np.ndarray]:
     """For world points ``(N, 3)`` (NaN rows are skipped): does the ray toward the sun hit
     an object triangle, and does it hit the terrain?
@@ -267,6 +285,12 @@ def sun_occlusion(points: np.ndarray, sun, *, triangles: np.ndarray | None = Non
         The terrain as drawn (heights × exaggeration); ``None``: objects only.
     start
         Distance along each ray before which hits do not count (per point or one value).
+    plane
+        An object triangle whose plane passes within this distance of a point is the
+        surface the point lies on and does not count (per point or one value; 0: every
+        triangle counts). A point read from a depth buffer lies a little off its surface,
+        and behind a face the sun grazes its ray leaves through that face far beyond any
+        ``start``.
 
     Returns
     -------
@@ -278,6 +302,9 @@ def sun_occlusion(points: np.ndarray, sun, *, triangles: np.ndarray | None = Non
     d = _sun_vector(sun)
     n = len(pts)
     t0 = np.ascontiguousarray(np.broadcast_to(np.asarray(start, np.float64), (n,)))
+    tol = np.ascontiguousarray(np.broadcast_to(np.asarray(plane, np.float64), (n,)))
+    if not (np.isfinite(t0).all() and np.isfinite(tol).all() and (tol >= 0).all()):
+        raise InvalidParameterError("start and plane must be finite, plane ≥ 0")
     if grid is None:
         grid = TriangleGrid.build(np.zeros((0, 3, 3)) if triangles is None else triangles)
     use_terrain = heightmap is not None
@@ -296,7 +323,7 @@ def sun_occlusion(points: np.ndarray, sun, *, triangles: np.ndarray | None = Non
         ter[valid] = use_terrain
         return obj, ter
     pts_safe = np.where(valid[:, None], pts, 0.0)
-    _occlusion_kernel(pts_safe, valid, t0, d, grid.triangles, grid.cell_start, grid.cell_tris,
+    _occlusion_kernel(pts_safe, valid, t0, tol, d, grid.triangles, grid.cell_start, grid.cell_tris,
                       grid.origin[0], grid.origin[1], grid.cell, grid.shape[0], grid.shape[1],
                       grid.top, h, hdx, hdz, float(h.max()), len(grid.triangles) > 0,
                       use_terrain, obj, ter)
@@ -373,10 +400,12 @@ def shadow_reference(camera: Camera, depth: np.ndarray, sun, *,
     pts = surface_points(camera, depth)
     h, w = pts.shape[:2]
     flat = pts.reshape(-1, 3)
-    start = np.nan_to_num(_START_QUANTA * depth_quantum(camera, flat)) + 1e-6
+    quantum = np.nan_to_num(depth_quantum(camera, flat))
+    start = _START_QUANTA * quantum + 1e-6
     tris = instances.world_triangles() if instances is not None else None
     obj, ter = sun_occlusion(flat, sun, triangles=tris, heightmap=heightmap,
-                             exaggeration=exaggeration, start=start)
+                             exaggeration=exaggeration, start=start,
+                             plane=_PLANE_QUANTA * quantum + 1e-6)
     valid = np.isfinite(flat).all(axis=1)
     return ShadowReference(pts, (obj & valid).reshape(h, w), (ter & valid).reshape(h, w))
 
