@@ -175,7 +175,7 @@ def _add_triangle(tris, half, qidx, pending, state, a, b, c, ab, bc, ca, e):
     return e
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, start):
     """Restore the Delaunay condition around halfedge ``start`` by flips (depth first)."""
     top = 0
@@ -238,7 +238,7 @@ _TILE = 16
 _TILED_SEARCH = 8 * _TILE * _TILE
 
 
-@njit(cache=CACHE, fastmath=_RASTER_MATH)
+@njit(cache=CACHE, fastmath=_RASTER_MATH, _nrt=False)
 def _scan_rows(h, y0, y1, x_lo, x_hi, min_x, min_y, w00, w01, w02, a12, a20, a01, b12, b20,
                b01, z0, z1, z2, dz_dx, best, bx, by):
     """Scan rows ``y0 … y1`` of a triangle, columns ``x_lo … x_hi`` only; return the best
@@ -254,14 +254,13 @@ def _scan_rows(h, y0, y1, x_lo, x_hi, min_x, min_y, w00, w01, w02, a12, a20, a01
         lo, hi = _span(w2r, a01, lo, hi)
         if lo <= hi:
             zr = z0 * w0r + z1 * w1r + z2 * w2r
-            row = h[y]
             row_max = 0.0
             for dx in range(lo, hi + 1):
-                d = abs(zr + dz_dx * dx - float(row[min_x + dx]))
+                d = abs(zr + dz_dx * dx - float(h[y, min_x + dx]))
                 row_max = max(row_max, d)
             if row_max > best or (row_max == best and best > 0.0 and y < by):
                 for dx in range(lo, hi + 1):
-                    if abs(zr + dz_dx * dx - float(row[min_x + dx])) == row_max:
+                    if abs(zr + dz_dx * dx - float(h[y, min_x + dx])) == row_max:
                         x = min_x + dx
                         if row_max > best or y < by or x < bx:
                             best = row_max
@@ -273,7 +272,7 @@ def _scan_rows(h, y0, y1, x_lo, x_hi, min_x, min_y, w00, w01, w02, a12, a20, a01
                     x = min_x + dx
                     if x >= bx:
                         break
-                    if abs(zr + dz_dx * dx - float(row[x])) == row_max:
+                    if abs(zr + dz_dx * dx - float(h[y, x])) == row_max:
                         bx = x
                         break
         w0r += b12
@@ -282,8 +281,26 @@ def _scan_rows(h, y0, y1, x_lo, x_hi, min_x, min_y, w00, w01, w02, a12, a20, a01
     return best, bx, by
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _rasterise(h, tmin, tmax, coords, tris, t, cand, cerr):
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+def _tile_sift(bound, order, i, n):
+    """Sift slot ``i`` down the max-heap ``order[:n]`` keyed by ``bound``."""
+    k = order[i]
+    key = bound[k]
+    while True:
+        j = 2 * i + 1
+        if j >= n:
+            break
+        if j + 1 < n and bound[order[j + 1]] > bound[order[j]]:
+            j += 1
+        if not bound[order[j]] > key:
+            break
+        order[i] = order[j]
+        i = j
+    order[i] = k
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+def _rasterise(h, tmin, tmax, bound, order, coords, tris, t, cand, cerr):
     """Largest |h − plane| over the samples of triangle ``t``, and where it is.
 
     The samples inside are those where the three edge functions are ≥ 0; on each row they
@@ -335,7 +352,6 @@ def _rasterise(h, tmin, tmax, coords, tris, t, cand, cerr):
         ty0, ty1 = min_y // _TILE, max_y // _TILE
         ntx = tx1 - tx0 + 1
         n = ntx * (ty1 - ty0 + 1)
-        bound = np.empty(n)
         for k in range(n):
             ty = ty0 + k // ntx
             tx = tx0 + k % ntx
@@ -351,10 +367,21 @@ def _rasterise(h, tmin, tmax, coords, tris, t, cand, cerr):
             pmin = min(min(c00, c10), min(c01, c11))
             pmax = max(max(c00, c10), max(c01, c11))
             bound[k] = max(pmax - tmin[ty, tx], tmax[ty, tx] - pmin) + slack
-        order = np.argsort(-bound)
-        for k in order:
+            order[k] = k
+        # tiles in decreasing bound from a max-heap built in place (usually only a few are
+        # popped before the bound drops below the best error, so no full sort); ties in
+        # bound are taken in any order, which cannot change the result: the scan keeps the
+        # largest error and, among equal errors, the first sample in row-major order
+        for i in range(n // 2 - 1, -1, -1):
+            _tile_sift(bound, order, i, n)
+        m = n
+        while m > 0:
+            k = order[0]
             if bound[k] < best:
                 break
+            m -= 1
+            order[0] = order[m]
+            _tile_sift(bound, order, 0, m)
             ty = ty0 + k // ntx
             tx = tx0 + k % ntx
             best, bx, by = _scan_rows(
@@ -385,11 +412,12 @@ def _tile_ranges(h, tmin, tmax):
             tmax[ty, tx] = hi
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _flush(h, tmin, tmax, coords, tris, cand, cerr, queue, qerr, qidx, pending, state):
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always", _nrt=False)
+def _flush(h, tmin, tmax, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
+           state):
     for k in range(state[_N_PENDING]):
         t = pending[k]
-        _rasterise(h, tmin, tmax, coords, tris, t, cand, cerr)
+        _rasterise(h, tmin, tmax, bound, order, coords, tris, t, cand, cerr)
         _q_push(queue, qerr, qidx, state, t, cerr[t])
     state[_N_PENDING] = 0
 
@@ -403,7 +431,7 @@ def _add_point(coords, state, x, y):
     return i
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, a):
     """Insert point ``pn`` lying on halfedge ``a``: split the edge's one or two triangles."""
     a0 = a - a % 3
@@ -415,12 +443,11 @@ def _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack,
     hal = half[al]
     har = half[ar]
     b = half[a]
-    args = (tris, half, coords, queue, qerr, qidx, pending, state, stack)
     if b < 0:
         t0 = _add_triangle(tris, half, qidx, pending, state, pn, p0, pr, -1, har, -1, a0)
         t1 = _add_triangle(tris, half, qidx, pending, state, p0, pn, pl, t0, -1, hal, -1)
-        _legalize(*args, t0 + 1)
-        _legalize(*args, t1 + 2)
+        _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t0 + 1)
+        _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t1 + 2)
         return
     b0 = b - b % 3
     bl = b0 + (b + 2) % 3
@@ -433,15 +460,15 @@ def _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack,
     t1 = _add_triangle(tris, half, qidx, pending, state, pr, p1, pn, hbr, -1, t0 + 1, b0)
     t2 = _add_triangle(tris, half, qidx, pending, state, p1, pl, pn, hbl, -1, t1 + 1, -1)
     t3 = _add_triangle(tris, half, qidx, pending, state, pl, p0, pn, hal, t0 + 2, t2 + 1, -1)
-    _legalize(*args, t0)
-    _legalize(*args, t1)
-    _legalize(*args, t2)
-    _legalize(*args, t3)
+    _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t0)
+    _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t1)
+    _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t2)
+    _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t3)
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _refine(h, tmin, tmax, max_error, max_tris, coords, tris, half, cand, cerr, queue, qerr, qidx,
-            pending, stack, state):
+@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
+def _refine(h, tmin, tmax, bound, order, max_error, max_tris, coords, tris, half, cand, cerr,
+            queue, qerr, qidx, pending, stack, state):
     """Insert worst candidates until the error is met, the budget is reached, or the arrays
     are full (then return ``_FULL`` so the caller grows them and calls again)."""
     cap_tris = tris.shape[0] // 3
@@ -465,13 +492,12 @@ def _refine(h, tmin, tmax, max_error, max_tris, coords, tris, half, cand, cerr, 
         px = cand[t, 0]
         py = cand[t, 1]
         pn = _add_point(coords, state, px, py)
-        args = (tris, half, coords, queue, qerr, qidx, pending, state, stack)
         if _orient(ax, ay, bx, by, px, py) == 0:
-            _split_on_edge(*args, pn, e0)
+            _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, e0)
         elif _orient(bx, by, cx, cy, px, py) == 0:
-            _split_on_edge(*args, pn, e1)
+            _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, e1)
         elif _orient(cx, cy, ax, ay, px, py) == 0:
-            _split_on_edge(*args, pn, e2)
+            _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, e2)
         else:
             h0 = half[e0]
             h1 = half[e1]
@@ -481,10 +507,11 @@ def _refine(h, tmin, tmax, max_error, max_tris, coords, tris, half, cand, cerr, 
                                -1)
             t2 = _add_triangle(tris, half, qidx, pending, state, p2, p0, pn, h2, t0 + 2,
                                t1 + 1, -1)
-            _legalize(*args, t0)
-            _legalize(*args, t1)
-            _legalize(*args, t2)
-        _flush(h, tmin, tmax, coords, tris, cand, cerr, queue, qerr, qidx, pending, state)
+            _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t0)
+            _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t1)
+            _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t2)
+        _flush(h, tmin, tmax, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
+               state)
     state[_STATUS] = _DONE
 
 
@@ -559,6 +586,9 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
     tmin = np.empty(tiles)
     tmax = np.empty(tiles)
     _tile_ranges(h, tmin, tmax)
+    # scratch of the tiled search: one bound and one heap slot per tile
+    bound = np.empty(tmin.size)
+    order = np.empty(tmin.size, np.int64)
     arr = _Arrays(1024)
     state = np.zeros(5, np.int64)
     x1, y1 = cols - 1, rows - 1
@@ -569,11 +599,11 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
     t0 = _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p3, p0, p2, -1, -1,
                        -1, -1)
     _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p0, p3, p1, t0, -1, -1, -1)
-    _flush(h, tmin, tmax, arr.coords, arr.tris, arr.cand, arr.cerr, arr.queue, arr.qerr, arr.qidx,
-           arr.pending, state)
+    _flush(h, tmin, tmax, bound, order, arr.coords, arr.tris, arr.cand, arr.cerr, arr.queue,
+           arr.qerr, arr.qidx, arr.pending, state)
     while True:
-        _refine(h, tmin, tmax, float(tol), budget, arr.coords, arr.tris, arr.half, arr.cand,
-                arr.cerr, arr.queue, arr.qerr, arr.qidx, arr.pending, arr.stack, state)
+        _refine(h, tmin, tmax, bound, order, float(tol), budget, arr.coords, arr.tris, arr.half,
+                arr.cand, arr.cerr, arr.queue, arr.qerr, arr.qidx, arr.pending, arr.stack, state)
         if state[_STATUS] != _FULL:
             break
         arr = arr.grown()
