@@ -135,3 +135,45 @@ def test_streamed_view_matches_the_whole_map(world, gl_ctx):
             s.release()
     diff = np.abs(frames["tiles"] - frames["whole"])
     assert diff.mean() < 2.0 and np.percentile(diff, 99) < 40
+
+
+def test_loader_process_fills_its_slots_ahead(world):
+    """The loader process builds ahead of the viewer into its shared slots (not one mesh
+    per frame through the pipe) and no further, bit for bit the meshes built here, and
+    reuses the slots as they are taken."""
+    from terrascape.world.chunked_lod import (
+        ProcessTileLoader,
+        StoreReader,
+        tile_mesh,
+        world_pyramid,
+    )
+
+    reader = StoreReader(world)
+    pyramid = world_pyramid(world, tile=16, reader=reader)
+    grid = pyramid.grid
+    keys = grid.roots() + grid.children(grid.roots()[0])
+    keys += [c for k in keys[1:] for c in grid.children(k)]
+    assert len(keys) >= 13
+    loader = ProcessTileLoader(world, tile=16, slots=4)
+    try:
+        loader.request(keys)
+        deadline = time.monotonic() + 60
+        while not loader._conn.poll(0.1) and time.monotonic() < deadline:
+            pass  # the process starting
+        time.sleep(1.5)  # nothing collected meanwhile: a 16² tile takes milliseconds
+        first = loader.finished()
+        assert len(first) == 4  # every slot's mesh at once, none beyond the slots
+        got = list(first)
+        while len(got) < len(keys) and time.monotonic() < deadline:
+            got += loader.finished()
+            time.sleep(0.01)
+        assert [m.key for m in got] == keys  # in the order asked, the slots reused
+        for mesh in got:
+            want = tile_mesh(reader, pyramid, mesh.key)
+            assert mesh.shape == want.shape
+            for a, b in ((mesh.positions, want.positions), (mesh.normals, want.normals),
+                         (mesh.tangents, want.tangents)):
+                assert a.dtype == np.float32 and np.array_equal(a, b)
+        assert loader.pending() == 0 and loader.loaded == len(keys)
+    finally:
+        loader.close()

@@ -178,6 +178,27 @@ def test_no_cracks_between_tiles_of_different_levels(heights, pyramid):
     assert idx.max() == len(mesh.positions) - 1 and idx.size % 3 == 0
 
 
+
+def test_skirts_face_out_of_their_tile(heights, pyramid):
+    """The surface faces up and every skirt triangle faces away from its tile (one winding:
+    the gaps are seen from outside the higher tile only), each edge cell closed once."""
+    for key in (TileKey(0, 3, 4), TileKey(2, 1, 2), TileKey(pyramid.grid.top, 0, 0)):
+        mesh = tile_mesh(array_reader(heights), pyramid, key)
+        idx = tile_indices(mesh.shape).reshape(-1, 3)
+        n_r, n_c = mesh.shape
+        p = mesh.positions.astype(np.float64)
+        tri = p[idx]
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # ccw: front side
+        on_grid = np.all(idx < n_r * n_c, axis=1)
+        assert np.all(normal[on_grid, 1] > 0)  # seen from above
+        skirt = ~on_grid
+        assert skirt.sum() == 2 * 2 * (n_r - 1 + n_c - 1)  # two triangles per edge cell
+        centre = p[:n_r * n_c].mean(axis=0)
+        out = tri[skirt].mean(axis=1) - centre
+        out[:, 1] = 0.0
+        assert np.all(np.einsum("ij,ij->i", normal[skirt], out) > 0)
+        assert np.allclose(normal[skirt, 1], 0.0, atol=1e-6 * np.abs(normal[skirt]).max())
+
 def _touch(a, b) -> bool:
     ar0, ar1, ac0, ac1 = a
     br0, br1, bc0, bc1 = b

@@ -19,6 +19,7 @@ framebuffer of a headless EGL context (noted under the table).
 
 from __future__ import annotations
 
+import gc
 import os
 import resource
 import statistics
@@ -81,7 +82,12 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
     tile counts and memory."""
     from terrascape.bench.viewer import _Surface
     from terrascape.memory import set_limit
-    from terrascape.render.tiled_terrain import seeded_flight, split_budget, stream_world
+    from terrascape.render.tiled_terrain import (
+        freeze_heap,
+        seeded_flight,
+        split_budget,
+        stream_world,
+    )
     from terrascape.viewer.session import ViewerSession
     from terrascape.world.chunked_lod import world_pyramid
 
@@ -98,18 +104,43 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
                             technique=technique, geometry=geometry, warn=lambda m: None)
     cams = seeded_flight(proxy.heightmap, frames, seed=seed, size=SIZE, crossing_s=40.0)
     times, loading, drawn, rss = [], [], [], []
+    # where each frame's time went: the selection, taking in finished tiles, the CPU side
+    # of the draw calls (llvmpipe shades the vertices in the calling thread), the wait for
+    # the rasteriser, the garbage collector's pauses
+    parts: dict[str, list[float]] = {k: [] for k in ("select", "upload", "render", "finish",
+                                                     "gc")}
+    uploads: list[int] = []
+    gc_ms = [0.0, 0.0]  # this frame's pauses, the start of the running one
+
+    def on_gc(phase, info) -> None:
+        if phase == "start":
+            gc_ms[1] = time.perf_counter()
+        else:
+            gc_ms[0] += (time.perf_counter() - gc_ms[1]) * 1000.0
+
     try:
         session.camera = cams[0]
         session.render(surface.fbo, 0.0)  # programs and textures built: not timed
         surface.present()
+        freeze_heap()  # as the viewer does before its first frame
+        gc.callbacks.append(on_gc)
         last = time.perf_counter()
         for cam in cams:
             session.camera = cam
+            gc_ms[0] = 0.0
+            t_render = time.perf_counter()
             session.render(surface.fbo, 1.0 / 30.0)
+            t_finish = time.perf_counter()
             surface.present()
             now = time.perf_counter()
             times.append((now - last) * 1000.0)
             last = now
+            parts["select"].append(geometry.last_select_ms)
+            parts["upload"].append(geometry.last_upload_ms)
+            parts["render"].append((t_finish - t_render) * 1000.0 - geometry.last_update_ms)
+            parts["finish"].append((now - t_finish) * 1000.0)
+            parts["gc"].append(gc_ms[0])
+            uploads.append(geometry.last_uploads)
             st = session.tile_stats
             loading.append(not st["complete"])
             drawn.append(st["tiles_drawn"])
@@ -121,6 +152,8 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
                      max_tiles=geometry.max_tiles,
                      triangles=session.stats.get("triangles", 0))
     finally:
+        if on_gc in gc.callbacks:
+            gc.callbacks.remove(on_gc)
         session.release()
         if own:
             note = surface.note
@@ -128,6 +161,7 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
         else:
             note = surface.note
     return {"times": times, "loading": loading, "drawn": drawn, "rss": rss, "stats": stats,
+            "parts": parts, "uploads": uploads, "tolerance": geometry.tolerance,
             "setup_s": setup_s, "proxy": proxy, "share": share, "pyramid": pyramid,
             "note": note}
 
@@ -175,7 +209,8 @@ def run(quick: bool = False) -> list[BenchTable]:
         f"({proxy.heightmap.cols}×{proxy.heightmap.rows}, {share.proxy_bytes / 2**20:.0f} MiB "
         f"estimated), store reader cache {share.reader_bytes / 2**20:.0f} MiB, tiles "
         f"{share.tile_bytes / 2**20:.0f} MiB (at most {r['stats']['max_tiles']} tiles in view); "
-        f"tiles of {pyr.grid.tile}² cells, levels 0–{pyr.grid.top}, 1.5 px tolerance",
+        f"tiles of {pyr.grid.tile}² cells, levels 0–{pyr.grid.top}, {r['tolerance']:g} px "
+        "tolerance",
         f"tile table + overview read in {r['setup_s']:.1f} s (the table is cached in the store "
         "after its first build)",
         "frames while tiles load draw their loaded parents; the worst frame includes the "
@@ -184,10 +219,35 @@ def run(quick: bool = False) -> list[BenchTable]:
         r["note"] + f"; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; figures from a "
         "loaded 2-core machine shared with other jobs",
     ]
-    return [table]
+    return [table, breakdown_table(results)]
 
 
-__all__ = ["bench_world_recipe", "ensure_world", "fly", "run"]
+def breakdown_table(results: dict) -> BenchTable:
+    """Where the flights' frames went: median and largest per part, and the worst frame."""
+    table = BenchTable(
+        "where a streamed frame's time goes (ms; median / largest over the flight)",
+        ["technique", "frame", "tile selection", "taking in tiles (uploads)",
+         "tiles uploaded a frame", "draw calls (CPU, vertices)", "rasterising (finish)",
+         "garbage collector", "worst frame: frame / selection / uploads / draw / finish / gc"])
+    for technique, r in results.items():
+        p, t = r["parts"], r["times"]
+
+        def both(xs):
+            return f"{statistics.median(xs):.1f} / {max(xs):.1f}"
+
+        w = max(range(len(t)), key=t.__getitem__)
+        table.rows.append([
+            technique, both(t), both(p["select"]), both(p["upload"]),
+            f"{statistics.median(r['uploads']):g} / {max(r['uploads'])}", both(p["render"]),
+            both(p["finish"]), both(p["gc"]),
+            " / ".join(f"{x:.0f}" for x in (t[w], p["select"][w], p["upload"][w],
+                                             p["render"][w], p["finish"][w], p["gc"][w]))])
+    table.notes.append("draw calls: the renderer's frame without the tile update (sky, terrain, "
+                       "water, HUD); the garbage collector's pauses fall inside the other parts")
+    return table
+
+
+__all__ = ["bench_world_recipe", "breakdown_table", "ensure_world", "fly", "run"]
 
 
 if __name__ == "__main__":  # pragma: no cover - builds the world for a later run

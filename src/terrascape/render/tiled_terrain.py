@@ -13,6 +13,7 @@ and the roots are loaded before the first frame.
 
 from __future__ import annotations
 
+import gc
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -39,8 +40,13 @@ from terrascape.world.chunked_lod import (
     world_pyramid,
 )
 
-#: Screen error (pixels) of the streaming viewer and of a world render.
-VIEW_TOLERANCE = 1.5
+#: Screen error (pixels) of the streaming viewer and of a world render. The viewer's frame
+#: is drawn by llvmpipe at a cost about proportional to its triangles: on the benchmark's
+#: 4097² world at 1280×720, 1.5 px asked for 206 tiles (1.8 M triangles, 645 ms a frame),
+#: 3 px for 95 (0.83 M, 364 ms) with the same look but for fine shading detail in the
+#: nearest tiles (2026-12-02, frame 75 of `bench world_view`'s flight, all tiles loaded,
+#: load average ≈ 2; docs/benchmarks.md).
+VIEW_TOLERANCE = 3.0
 RENDER_TOLERANCE = 0.5
 
 
@@ -123,6 +129,10 @@ class TiledGeometry:
         self._view: tuple | None = None  # the camera the selection was made for
         self.uploaded = 0
         self.last_update_ms = 0.0
+        #: The last update's share: selecting the tiles, and taking in finished ones.
+        self.last_select_ms = 0.0
+        self.last_upload_ms = 0.0
+        self.last_uploads = 0
         for key in roots:  # something to draw from the first frame on
             self._upload(build(key), pinned=set(roots))
         if loader is not None:
@@ -155,11 +165,13 @@ class TiledGeometry:
         t0 = time.perf_counter()
         view = (camera.position, camera.yaw, camera.pitch, camera.fov_y, camera.aspect,
                 camera.near, camera.far, tuple(viewport))
+        self.last_select_ms = 0.0
         if view != self._view or self.selection is None:
             self.selection = select_tiles(self.pyramid, camera, viewport,
                                           tolerance=self.tolerance, max_tiles=self.max_tiles,
                                           exaggeration=self.exaggeration)
             self._view = view
+            self.last_select_ms = (time.perf_counter() - t0) * 1000.0
         sel = self.selection
         keep = set(self.drawn) | {k for k in sel.visible if k in self.cache}
         keep.update(self.grid.roots())
@@ -181,6 +193,7 @@ class TiledGeometry:
                 # (a cache too small for both would evict the parents for the children
                 # and reload them for the next child: the selection alone, then)
                 missing = first + missing
+        t_up, before = time.perf_counter(), self.uploaded
         if self.loader is None:
             for key in missing:
                 if not self._upload(self._build(key), pinned=keep | {key}):
@@ -198,6 +211,8 @@ class TiledGeometry:
                     keep.add(got[0].key)
                 if time.perf_counter() > deadline:
                     break  # the rest waits in the loader for the next frame
+        self.last_upload_ms = (time.perf_counter() - t_up) * 1000.0
+        self.last_uploads = self.uploaded - before
         self.drawn = draw_set(self.grid, sel.visible, self.cache.__contains__)
         for key in self.drawn:
             self.cache.get(key)  # most recently used
@@ -310,6 +325,17 @@ def stream_world(ctx, path, *, budget_bytes: int, reader_bytes: int = 64 << 20,
         raise
 
 
+def freeze_heap() -> None:
+    """Collect once and move every object made so far (modules, programs, the tile table)
+    out of the garbage collector's reach (:func:`gc.freeze`), before a streamed flight.
+
+    Each frame's selection makes and drops thousands of small objects, so the collector
+    runs often; now and then a full collection walked every object of the process inside a
+    frame (measured: 157 and 243 ms gen-2 collections during a selection, the worst
+    frames of a flight). Frozen, a full collection walks only what the flight made."""
+    gc.collect()
+    gc.freeze()
+
 def seeded_flight(heightmap, n_frames: int, *, seed: int = 0, size=(1280, 720),
                   fps: float = 30.0, crossing_s: float = 20.0,
                   height: float = 0.03) -> list[Camera]:
@@ -345,4 +371,4 @@ def seeded_flight(heightmap, n_frames: int, *, seed: int = 0, size=(1280, 720),
 
 
 __all__ = ["RENDER_TOLERANCE", "VIEW_TOLERANCE", "TiledGeometry", "WorldBudget",
-           "seeded_flight", "split_budget", "stream_world"]
+           "freeze_heap", "seeded_flight", "split_budget", "stream_world"]

@@ -270,6 +270,10 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
                                 geometry=geometry)
         if object_shadows is not None:
             session.state.object_shadows = object_shadows
+        if geometry is not None:
+            from terrascape.render.tiled_terrain import freeze_heap
+
+            freeze_heap()  # no full collection of the set-up's objects inside a frame
         cls = make_window_config()
         config = cls(session, screenshot_dir=Path(screenshot_dir), max_frames=max_frames,
                      ctx=wnd.ctx, wnd=wnd)

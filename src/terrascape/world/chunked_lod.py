@@ -638,8 +638,14 @@ def _ring(n_r: int, n_c: int) -> np.ndarray:
 
 def tile_indices(shape: tuple[int, int]) -> np.ndarray:
     """uint32 triangles of a tile mesh of ``shape`` grid vertices: the grid's (as
-    :func:`~terrascape.mesh.terrain_mesh.grid_triangles`) and the skirts, both windings
-    (a skirt is seen from either side)."""
+    :func:`~terrascape.mesh.terrain_mesh.grid_triangles`) and the skirts, facing out of
+    the tile (counter-clockwise seen from outside).
+
+    One winding is enough: a gap between two tiles' edges opens below the higher edge, and
+    from the higher tile's side it is hidden by that tile's own surface, so it is only ever
+    seen from outside the higher tile — where its skirt faces the eye. The inward faces
+    would be culled after their vertices were shaded (on a software rasteriser a twelfth
+    of a tile's triangles)."""
     n_r, n_c = shape
     grid = grid_triangles(n_r, n_c)
     ring = _ring(n_r, n_c)
@@ -648,7 +654,7 @@ def tile_indices(shape: tuple[int, int]) -> np.ndarray:
     b = np.roll(ring, -1)
     lo_a = n_r * n_c + np.arange(n)
     lo_b = np.roll(lo_a, -1)
-    quads = np.stack([a, lo_a, b, b, lo_a, lo_b, b, lo_a, a, lo_b, lo_a, b], axis=1)
+    quads = np.stack([b, lo_a, a, lo_b, lo_a, b], axis=1)
     return np.concatenate([grid.reshape(-1), quads.reshape(-1)]).astype(np.uint32)
 
 
@@ -818,45 +824,85 @@ class TileLoader:
         self._thread.join(timeout=5.0)
 
 
-def _loader_process(conn, path: str, tile: int, exaggeration: float, reader_bytes: int) -> None:
-    """The tile loader process: builds the meshes it is asked for, newest request first."""
+#: Meshes the loader process may have made and the viewer not yet taken (shared slots).
+LOADER_SLOTS = 32
+
+
+def _slot_layout(n_vertices: int) -> tuple[int, int, int, int]:
+    """Byte offsets of positions, normals and tangents of an ``n_vertices`` mesh in a slot,
+    and the bytes it takes."""
+    pos = n_vertices * 12
+    return 0, pos, 2 * pos, 2 * pos + n_vertices * 16
+
+
+def _loader_process(conn, path: str, tile: int, exaggeration: float, reader_bytes: int,
+                    slots, slot_bytes: int) -> None:
+    """The tile loader process: builds the meshes it is asked for, newest request first,
+    each into a free slot of the shared ``slots`` buffer; the pipe carries only which tile
+    is in which slot (and, back, which slots the viewer has emptied)."""
     try:
         reader = StoreReader(path, cache_bytes=reader_bytes)
         pyramid = world_pyramid(path, tile=tile, reader=reader, cache=False)
     except Exception as exc:  # reported to the viewer, which stops with it
         conn.send(("error", f"{type(exc).__name__}: {exc}"))
         return
+    memory = np.frombuffer(slots, dtype=np.uint8)
+    free = list(range(len(memory) // slot_bytes))
     queue: list[TileKey] = []
     while True:
-        while conn.poll(0 if queue else None):
+        # wait for work only when there is nothing to build or nowhere to put it
+        while conn.poll(0 if queue and free else None):
             msg = conn.recv()
             if msg[0] == "stop":
                 return
-            queue = list(msg[1])
+            if msg[0] == "free":
+                free.extend(msg[1])
+            else:
+                queue = list(msg[1])
         key = queue.pop(0)
         try:
-            conn.send(("tile", tile_mesh(reader, pyramid, key, exaggeration=exaggeration)))
+            mesh = tile_mesh(reader, pyramid, key, exaggeration=exaggeration)
         except Exception as exc:
             conn.send(("error", f"tile {tuple(key)}: {type(exc).__name__}: {exc}"))
+            continue
+        slot = free.pop()
+        n = len(mesh.positions)
+        base = slot * slot_bytes
+        for arr, off in zip((mesh.positions, mesh.normals, mesh.tangents), _slot_layout(n),
+                            strict=False):
+            raw = np.ascontiguousarray(arr, dtype=np.float32).view(np.uint8).reshape(-1)
+            memory[base + off:base + off + raw.size] = raw
+        conn.send(("tile", key, slot, n, mesh.shape))
 
 
 class ProcessTileLoader:
     """:class:`TileLoader`'s interface over a separate process that reads the world store
     and builds the meshes. A thread is not enough while the frame draws: moderngl keeps
     Python's global interpreter lock during GL calls (measured: a spinning thread got 4 % of
-    its idle rate during a frame), so a loader thread would barely run. The process sends
-    each mesh through a pipe; a full pipe makes it wait, so at most a few meshes are ever in
-    flight. Its memory is its reader's chunk cache plus one mesh."""
+    its idle rate during a frame), so a loader thread would barely run.
+
+    The meshes travel through ``slots`` shared buffers of one largest mesh each, not the
+    pipe: a pipe holds about one mesh, so a process sending meshes through it waits for the
+    viewer's next frame after each one (measured: two tiles a frame whatever the frame's
+    length, the view never finished loading in a flight). The process fills free slots
+    ahead of the viewer and names them in short messages; :meth:`finished` copies a mesh
+    out and hands its slot back. Its memory is its reader's chunk cache, one mesh and the
+    slots (``slots`` × :meth:`TileGrid.max_tile_bytes`, 5.7 MB for 64² tiles)."""
 
     def __init__(self, path, *, tile: int = DEFAULT_TILE, exaggeration: float = 1.0,
-                 reader_bytes: int = 64 << 20) -> None:
+                 reader_bytes: int = 64 << 20, slots: int = LOADER_SLOTS) -> None:
         import multiprocessing
 
+        tile = check_int(tile, "tile (cells per side)", minimum=2, maximum=4096)
+        slots = check_int(slots, "loader slots", minimum=1)
+        self.slot_bytes = ((tile + 1) ** 2 + 4 * tile) * VERTEX_BYTES
         ctx = multiprocessing.get_context("spawn")  # no fork of a process holding GL state
+        self._slots = ctx.RawArray("B", slots * self.slot_bytes)
+        self._memory = np.frombuffer(self._slots, dtype=np.uint8)
         self._conn, child = ctx.Pipe()
         self._proc = ctx.Process(target=_loader_process, name="terrascape-tiles", daemon=True,
                                  args=(child, str(path), int(tile), float(exaggeration),
-                                       int(reader_bytes)))
+                                       int(reader_bytes), self._slots, self.slot_bytes))
         self._proc.start()
         child.close()
         self._asked: set[TileKey] = set()
@@ -873,15 +919,32 @@ class ProcessTileLoader:
     def pending(self) -> int:
         return len(self._asked)
 
+    def _take(self, key: TileKey, slot: int, n: int, shape) -> TileMesh:
+        base = slot * self.slot_bytes
+        size = _slot_layout(n)[3]
+        raw = self._memory[base:base + size].copy().view(np.float32)  # the slot is reused
+        pos = raw[:n * 3].reshape(n, 3)  # the order of _slot_layout
+        nor = raw[n * 3:n * 6].reshape(n, 3)
+        tan = raw[n * 6:].reshape(n, 4)
+        return TileMesh(TileKey(*key), pos, nor, tan, tuple(shape))
+
     def finished(self, limit: int | None = None) -> list[TileMesh]:
         out: list[TileMesh] = []
-        while (limit is None or len(out) < limit) and self._conn.poll(0):
-            kind, value = self._conn.recv()
-            if kind == "error":
-                raise InvalidParameterError(f"loading the world's tiles failed: {value}")
-            self._asked.discard(value.key)
-            self.loaded += 1
-            out.append(value)
+        emptied: list[int] = []
+        try:
+            while (limit is None or len(out) < limit) and self._conn.poll(0):
+                msg = self._conn.recv()
+                if msg[0] == "error":
+                    raise InvalidParameterError(f"loading the world's tiles failed: {msg[1]}")
+                _, key, slot, n, shape = msg
+                mesh = self._take(key, slot, n, shape)
+                emptied.append(slot)
+                self._asked.discard(mesh.key)
+                self.loaded += 1
+                out.append(mesh)
+        finally:
+            if emptied:
+                self._conn.send(("free", emptied))
         if not out and not self._proc.is_alive():
             raise InvalidParameterError("the tile loader process ended unexpectedly")
         return out
@@ -900,7 +963,6 @@ class ProcessTileLoader:
     def close(self) -> None:
         with contextlib.suppress(OSError):
             self._conn.send(("stop",))
-        # a mesh the process is sending blocks it until read: drain until it has stopped
         deadline = time.monotonic() + 5.0
         while self._proc.is_alive() and time.monotonic() < deadline:
             with contextlib.suppress(OSError, EOFError):
@@ -913,7 +975,7 @@ class ProcessTileLoader:
         self._conn.close()
 
 
-__all__ = ["DEFAULT_TILE", "VERTEX_BYTES", "LevelReader", "ProcessTileLoader", "StoreReader",
-           "TileCache", "TileGrid", "TileKey", "TileLoader", "TileMesh", "TilePyramid",
-           "TileSelection", "array_reader", "build_pyramid", "draw_set", "select_tiles",
-           "tile_grid", "tile_indices", "tile_mesh", "world_pyramid"]
+__all__ = ["DEFAULT_TILE", "LOADER_SLOTS", "VERTEX_BYTES", "LevelReader", "ProcessTileLoader",
+           "StoreReader", "TileCache", "TileGrid", "TileKey", "TileLoader", "TileMesh",
+           "TilePyramid", "TileSelection", "array_reader", "build_pyramid", "draw_set",
+           "select_tiles", "tile_grid", "tile_indices", "tile_mesh", "world_pyramid"]
