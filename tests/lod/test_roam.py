@@ -379,3 +379,30 @@ def test_budget_and_tolerance_together_terminate_without_flipping():
             again = roam.update(cam, VIEWPORT, max_triangles=nmax, tolerance_px=tau)
             assert again.splits == again.merges == 0, where
             assert again.stopped_by == stats.stopped_by, where
+
+
+def test_time_budget_converges_to_the_unbudgeted_mesh(rng):
+    # ROAM's queues are incremental: updates stopped by the time budget, repeated for the
+    # same view, end on the mesh one unbudgeted update makes from the same start.
+    hm = _terrain(rng, 129)
+    start = Camera.look_at((10.0, hm.max + 15.0, 10.0), (64.0, hm.min, 64.0), near=0.1,
+                           far=500.0, aspect=16 / 9)
+    moved = Camera.look_at((120.0, hm.max + 8.0, 30.0), (40.0, hm.min, 90.0), near=0.1,
+                           far=500.0, aspect=16 / 9)
+    budgeted, reference = Roam(hm), Roam(hm)
+    for roam in (budgeted, reference):
+        roam.update(start, VIEWPORT, max_triangles=4000)
+    want = reference.update(moved, VIEWPORT, max_triangles=4000)
+    assert want.splits + want.merges > 200  # a change that takes several budgeted frames
+    stops = []
+    for _ in range(500):
+        # 1 µs: each update stops after its first 64 operations
+        stats = budgeted.update(moved, VIEWPORT, max_triangles=4000, time_budget_ms=1e-3)
+        stops.append(stats.stopped_by)
+        assert conformity_report(budgeted.triangles(), hm.shape).ok  # valid every frame
+        if stats.settled:
+            break
+    assert stops[0] == "time" and stops.count("time") >= 3
+    assert stats.settled and stats.stopped_by == want.stopped_by
+    assert stats.max_screen_error == want.max_screen_error
+    assert _tri_set(budgeted.triangles()) == _tri_set(reference.triangles())

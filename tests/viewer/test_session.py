@@ -330,3 +330,22 @@ def test_sky_clock_runs_the_day_into_a_blue_night(gl_ctx):
     finally:
         fbo.release()
         s.release()
+
+
+def test_lod_manager_budgeted_roam_settles_over_frames():
+    hm = _terrain(129)
+    lod = LodManager(hm, time_budget_ms=1e-3)  # the first 64 operations of each update
+    reference = LodManager(hm, time_budget_ms=None)
+    cam = start_camera(hm, SIZE)
+    settings = {"max_triangles": 3000}
+    want, _ = reference.update("roam", cam, SIZE, settings)
+    frames = 0
+    while True:
+        tris, changed = lod.update("roam", cam, SIZE, settings)
+        frames += 1
+        if lod.settled or frames > 500:
+            break
+        assert changed  # not settled: the same view is updated again next frame
+    assert lod.settled and frames > 3
+    assert lod.update("roam", cam, SIZE, settings) == (None, False)  # nothing left to do
+    assert {tuple(t) for t in tris.tolist()} == {tuple(t) for t in want.tolist()}

@@ -1137,10 +1137,10 @@ class Roam:
             )
             if status == _REFILL:
                 ivars[0] = self._rebuild_split_queue(cam, int(ivars[1]))
-                continue
-            if status != _MORE:
+            elif status != _MORE:
                 stop = _STOP_NAMES[status]
                 break
+            # also after a queue rebuild: a frame far from its converged mesh refills often
             if budget_s is not None and time.perf_counter() - t0 >= budget_s:
                 stop = "time"
                 break
