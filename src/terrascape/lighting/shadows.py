@@ -316,8 +316,11 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, a_org=0, b_org=0):
                 out[a, b] = (near_hit[b] != 0) | (float(here[b]) < sf - drop)
         for b in range(max(f_hi + 1, f_lo, b_first), b_last + 1):
             out[a, b] = near_hit[b] != 0
-        # Remember this line's ray-line state for the samples `near` lines downstream.
-        far[:] = sl
+        # Remember this line's ray-line state for the samples `near` lines downstream. (A
+        # loop, not `far[:] = sl`: numba's slice copy brings its shape-mismatch error message,
+        # whose string formatting took longer to compile than the whole sweep.)
+        for jj in range(width):
+            far[jj] = sl[jj]
         # Advance every ray line one step away from the light: take in this grid line's
         # terrain crossing, then let the ray climb `rise`. Ray line jj's left sample on grid
         # line a is p0 = jj + base; a line off the grid has left the map: nothing occludes.
@@ -372,7 +375,7 @@ def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0):
     """
     n0, n1 = h.shape
     e = da * db
-    fl0, fr0 = _line_offset(0, a_org, b_org, e)
+    fl0, fr0 = _line_offset(np.int64(0), a_org, b_org, e)  # not a literal: one compile
     j_lo, nj = _ray_line_span(n0, n1, e, fl0 + fr0)
     size = (nj + blocks - 1) // blocks
     for k in prange(blocks):
