@@ -358,10 +358,24 @@ def _transpose_tiles(src, dst):
                     dst[j, i] = src[i, j]
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """``a`` as a read-only array (a view when it is writable; no copy).
+
+    numba compiles a kernel separately for read-only and writable arrays: heightmap heights
+    are read-only, a transposed copy is not, so without this the sweep compiled twice, once
+    per light direction family.
+    """
+    if not a.flags.writeable:
+        return a
+    view = a.view()
+    view.flags.writeable = False
+    return view
+
+
 def _transposed(a: np.ndarray) -> np.ndarray:
     """A C-contiguous copy of ``a.T``."""
     out = np.empty((a.shape[1], a.shape[0]), dtype=a.dtype)
-    _transpose_tiles(a, out)
+    _transpose_tiles(_read_only(a), out)
     return out
 
 
@@ -408,7 +422,7 @@ def _fast_mask_for_light(hm: Heightmap, light: np.ndarray,
     # The sweep reads grid lines as contiguous rows (its near walk is vectorised along
     # them): for light closer to the x axis it sweeps a transposed copy, which costs less
     # than reading a column-major view one cache line per sample.
-    h = _transposed(hm.heights) if transpose else hm.heights
+    h = _read_only(_transposed(hm.heights) if transpose else hm.heights)
     out = np.zeros(h.shape, dtype=np.bool_)
     with numba.parallel_chunksize(1):  # blocks differ in work: hand them out one by one
         _line_sweep_kernel(h, da, db, rise, _NEAR, out, _sweep_blocks(h.shape[1]), a_org,
