@@ -68,11 +68,13 @@ WARM_UP_TASKS: dict[str, WarmUpTask] = {
          ("generate", "ridged", "--size", str(WARM_UP_SIZE), "-o", "{dir}/ridged.npy")),
         5.0),
     "terrain": WarmUpTask(
-        "terrascape generate diamond-square, hills and fault; erode (river erosion)",
+        "terrascape generate diamond-square, hills and fault; erode (river erosion); the "
+        "renderer's region texture, cone map and object placement",
         (*(("generate", name, "--size", str(WARM_UP_SIZE), "-o", f"{{dir}}/{name}.npy")
            for name in ("diamond-square", "hills", "fault")),
          ("erode", "{map}", "{dir}/eroded.npy")),
-        7.0),
+        12.0,
+        calls=("render_textures",)),
     "lod": WarmUpTask(
         "terrascape mesh --max-error (static mesh) and the demo's ROAM and geomipmapping",
         (("mesh", "{map}", "-o", "{dir}/mesh.obj", "--max-error", "0.5"),),
@@ -107,8 +109,27 @@ def demo_lod(folder: Path) -> None:
     hm = _map_heightmap(folder)
     size = (64, 36)
     camera = _close_up_camera(hm, size[0] / size[1])
-    Roam(hm).update(camera, size, max_triangles=100)
-    Geomipmap(hm, patch_size=17).update(camera, size, tolerance_px=2.0, cull=True)
+    roam = Roam(hm)
+    roam.update(camera, size, max_triangles=100)
+    roam.triangles()
+    geo = Geomipmap(hm, patch_size=17)
+    geo.update(camera, size, tolerance_px=2.0, cull=True)
+    geo.triangles()
+
+
+def render_textures(folder: Path) -> None:
+    """What the renderer builds on the CPU for its techniques and the demo's showcase: the
+    height-region colour texture, the cone map of the relief field, the default objects."""
+    from terrascape.objects import load_objects
+    from terrascape.relief.cone_map import footprint_cone_map
+    from terrascape.relief.fields import sampled_heights
+    from terrascape.render.relief_techniques import TERRAIN_RELIEF_BITS
+    from terrascape.texture import region_texture
+
+    hm = _map_heightmap(folder)
+    region_texture(hm, seed=7)
+    footprint_cone_map(sampled_heights(hm.heights, TERRAIN_RELIEF_BITS))
+    load_objects("default", hm, seed=1, sea_level=float(hm.heights.mean()))
 
 
 def _write_map(folder: Path) -> Path:
