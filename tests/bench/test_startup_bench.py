@@ -58,10 +58,14 @@ def test_first_run_table_compiles_into_an_empty_cache_then_loads_it(tmp_path) ->
     probe = (f"import sys; sys.path.insert(0, {str(tmp_path)!r}); import tiny_kernel; "
              "open(sys.argv[1] + '/ran', 'w').write('yes')")
     table = compile_table(1, {"tiny kernel": [sys.executable, "-c", probe, "{dir}"]})
-    [(name, first, cached, compile_s, files, kib)] = table.rows
+    (name, first, cached, compile_s, cpu, files, kib), total = table.rows
     assert name == "tiny kernel" and first > 0 and cached > 0
     assert compile_s == pytest.approx(first - cached)
+    assert cpu > 0
     assert files == 2 and kib > 0  # the kernel's .nbi index and .nbc code
+    assert total[0] == "all 1 commands, first runs" and total[1] == pytest.approx(first)
     assert not list(tmp_path.rglob("*.nbc"))  # nothing went to the module's __pycache__
-    assert [argv[:2] for _, argv in FIRST_COMMANDS] == [
+    assert [argv[:2] for _, argv in FIRST_COMMANDS][:2] == [
         ("generate", "fbm"), ("shade", "{dir}/height.npy")]
+    # every later command reads the map the first one wrote
+    assert all("{dir}/height.npy" in argv for _, argv in FIRST_COMMANDS[4:])

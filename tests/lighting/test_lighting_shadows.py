@@ -249,3 +249,31 @@ def test_sweep_same_map_on_one_thread_and_two(terrain):
         numba.set_num_threads(before)
     np.testing.assert_array_equal(one, two)
     assert 0.02 < one.mean() < 0.9  # a real shadow map, not an empty one
+
+
+def test_sweep_kernel_sees_one_array_type_for_every_light_direction(terrain, monkeypatch):
+    """numba compiles the sweep once per argument type: heights (read-only) and the
+    transposed copy made for light near the x axis must reach it as the same type, or a
+    new installation compiles the sweep twice (seconds each)."""
+    import numba
+
+    from terrascape.lighting import shadows as sh
+
+    seen = set()
+    kernel = sh._line_sweep_kernel
+
+    def recording(h, *args):
+        seen.add((numba.typeof(h), numba.typeof(args[4])))
+        return kernel(h, *args)
+
+    monkeypatch.setattr(sh, "_line_sweep_kernel", recording)
+    hm = Heightmap(terrain(65, 3, cols=80))
+    transposed = []
+    for az in (0.0, 45.0, 90.0, 133.0, 271.0):
+        transposed.append(sh._sweep_geometry(hm, sh.sun_above_horizon(az, 20.0))[0])
+        shadow_mask(hm, az, 20.0)
+        shadow_mask(np.array(hm.heights), az, 20.0)  # a writable array too
+    assert set(transposed) == {True, False}
+    assert len(seen) == 1, seen
+    [(h_type, out_type)] = seen
+    assert not h_type.mutable and h_type.layout == "C" and out_type.layout == "C"

@@ -115,7 +115,9 @@ def _priority_flood(h, filled, parent, order):  # pragma: no cover - compiled
     hk = np.empty(n, dtype=np.float64)
     hh = np.empty(n, dtype=np.float64)
     hv = np.empty(n, dtype=np.int64)
-    size = 0
+    # int64, not the literal 0: a literal argument makes numba compile the heap functions a
+    # second time for the constant.
+    size = np.int64(0)
     for z in range(rows):
         for x in range(cols):
             if z == 0 or x == 0 or z == rows - 1 or x == cols - 1:

@@ -39,6 +39,9 @@ class Command:
 COMMANDS: dict[str, Command] = {
     "demo": Command(("cmd_demo",),
                     "Generate, texture, shade and render terrains; write everything to OUTPUT."),
+    "warm-up": Command(("cmd_warmup",),
+                       "Compile the common commands' code once, in parallel, so first runs are "
+                       "fast."),
     "blur": Command(("cmd_generate",),
                     "Smooth a heightmap on float heights: --sigma S or --box N."),
     "erode": Command(("cmd_erode",),

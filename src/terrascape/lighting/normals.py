@@ -63,7 +63,10 @@ def _normals_kernel(h, dx, dz, scale, tangent_space, out):
     rows, cols = h.shape
     inv_dx = 1.0 / dx
     inv_dz = 1.0 / dz
-    for r in prange(rows):
+    for rp in prange(rows):
+        # The prange index is unsigned in one of numba's typing passes and signed in the
+        # other: one int64 row index, so the stencils compile once.
+        r = np.int64(rp)
         for c in range(cols):
             # float64 arithmetic: float32 differences of large heights lose digits.
             gx = -scale * _grad_axis1(h, r, c, inv_dx)

@@ -316,8 +316,11 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, a_org=0, b_org=0):
                 out[a, b] = (near_hit[b] != 0) | (float(here[b]) < sf - drop)
         for b in range(max(f_hi + 1, f_lo, b_first), b_last + 1):
             out[a, b] = near_hit[b] != 0
-        # Remember this line's ray-line state for the samples `near` lines downstream.
-        far[:] = sl
+        # Remember this line's ray-line state for the samples `near` lines downstream. (A
+        # loop, not `far[:] = sl`: numba's slice copy brings its shape-mismatch error message,
+        # whose string formatting took longer to compile than the whole sweep.)
+        for jj in range(width):
+            far[jj] = sl[jj]
         # Advance every ray line one step away from the light: take in this grid line's
         # terrain crossing, then let the ray climb `rise`. Ray line jj's left sample on grid
         # line a is p0 = jj + base; a line off the grid has left the map: nothing occludes.
@@ -355,10 +358,24 @@ def _transpose_tiles(src, dst):
                     dst[j, i] = src[i, j]
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """``a`` as a read-only array (a view when it is writable; no copy).
+
+    numba compiles a kernel separately for read-only and writable arrays: heightmap heights
+    are read-only, a transposed copy is not, so without this the sweep compiled twice, once
+    per light direction family.
+    """
+    if not a.flags.writeable:
+        return a
+    view = a.view()
+    view.flags.writeable = False
+    return view
+
+
 def _transposed(a: np.ndarray) -> np.ndarray:
     """A C-contiguous copy of ``a.T``."""
     out = np.empty((a.shape[1], a.shape[0]), dtype=a.dtype)
-    _transpose_tiles(a, out)
+    _transpose_tiles(_read_only(a), out)
     return out
 
 
@@ -372,7 +389,7 @@ def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0):
     """
     n0, n1 = h.shape
     e = da * db
-    fl0, fr0 = _line_offset(0, a_org, b_org, e)
+    fl0, fr0 = _line_offset(np.int64(0), a_org, b_org, e)  # not a literal: one compile
     j_lo, nj = _ray_line_span(n0, n1, e, fl0 + fr0)
     size = (nj + blocks - 1) // blocks
     for k in prange(blocks):
@@ -405,7 +422,7 @@ def _fast_mask_for_light(hm: Heightmap, light: np.ndarray,
     # The sweep reads grid lines as contiguous rows (its near walk is vectorised along
     # them): for light closer to the x axis it sweeps a transposed copy, which costs less
     # than reading a column-major view one cache line per sample.
-    h = _transposed(hm.heights) if transpose else hm.heights
+    h = _read_only(_transposed(hm.heights) if transpose else hm.heights)
     out = np.zeros(h.shape, dtype=np.bool_)
     with numba.parallel_chunksize(1):  # blocks differ in work: hand them out one by one
         _line_sweep_kernel(h, da, db, rise, _NEAR, out, _sweep_blocks(h.shape[1]), a_org,
