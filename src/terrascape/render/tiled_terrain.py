@@ -40,12 +40,10 @@ from terrascape.world.chunked_lod import (
     world_pyramid,
 )
 
-#: Screen error (pixels) of the streaming viewer and of a world render. The viewer's frame
-#: is drawn by llvmpipe at a cost about proportional to its triangles: on the benchmark's
-#: 4097² world at 1280×720, 1.5 px asked for 206 tiles (1.8 M triangles, 645 ms a frame),
-#: 3 px for 95 (0.83 M, 364 ms) with the same look but for fine shading detail in the
-#: nearest tiles (2026-12-02, frame 75 of `bench world_view`'s flight, all tiles loaded,
-#: load average ≈ 2; docs/benchmarks.md).
+#: Screen error (pixels) of the streaming viewer and of a world render. llvmpipe draws the
+#: viewer's frame at a cost about proportional to its triangles, and 3 px needs about half
+#: the tiles of 1.5 px with the same look but for fine shading detail in the nearest tiles
+#: (figures: docs/benchmarks.md, "Streaming viewer").
 VIEW_TOLERANCE = 3.0
 RENDER_TOLERANCE = 0.5
 
@@ -330,11 +328,12 @@ def freeze_heap() -> None:
     out of the garbage collector's reach (:func:`gc.freeze`), before a streamed flight.
 
     Each frame's selection makes and drops thousands of small objects, so the collector
-    runs often; now and then a full collection walked every object of the process inside a
-    frame (measured: 157 and 243 ms gen-2 collections during a selection, the worst
-    frames of a flight). Frozen, a full collection walks only what the flight made."""
+    runs often, and now and then a full collection walked every object of the process
+    inside a frame: the worst frames of a flight. Frozen, a full collection walks only what
+    the flight made."""
     gc.collect()
     gc.freeze()
+
 
 def seeded_flight(heightmap, n_frames: int, *, seed: int = 0, size=(1280, 720),
                   fps: float = 30.0, crossing_s: float = 20.0,

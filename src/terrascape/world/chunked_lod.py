@@ -150,8 +150,12 @@ class TileGrid:
 
     def max_tile_bytes(self) -> int:
         """Bytes of the largest tile mesh (vertices; the index lists are shared)."""
-        n = self.tile + 1
-        return (n * n + 4 * self.tile) * VERTEX_BYTES
+        return _max_tile_bytes(self.tile)
+
+
+def _max_tile_bytes(tile: int) -> int:
+    """Vertex bytes of a full tile of ``tile`` cells a side: its grid and its skirt ring."""
+    return ((tile + 1) ** 2 + 4 * tile) * VERTEX_BYTES
 
 
 def tile_grid(shape: tuple[int, int], spacing: float, tile: int = DEFAULT_TILE) -> TileGrid:
@@ -895,7 +899,7 @@ class ProcessTileLoader:
 
         tile = check_int(tile, "tile (cells per side)", minimum=2, maximum=4096)
         slots = check_int(slots, "loader slots", minimum=1)
-        self.slot_bytes = ((tile + 1) ** 2 + 4 * tile) * VERTEX_BYTES
+        self.slot_bytes = _max_tile_bytes(tile)
         ctx = multiprocessing.get_context("spawn")  # no fork of a process holding GL state
         self._slots = ctx.RawArray("B", slots * self.slot_bytes)
         self._memory = np.frombuffer(self._slots, dtype=np.uint8)
