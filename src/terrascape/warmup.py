@@ -83,6 +83,17 @@ WARM_UP_TASKS: dict[str, WarmUpTask] = {
 }
 
 
+def check_tasks(names: list[str]) -> None:
+    """Raise :class:`~terrascape.errors.InvalidParameterError` naming any of ``names`` that
+    is not a task of :data:`WARM_UP_TASKS`."""
+    from terrascape.errors import InvalidParameterError
+
+    unknown = [n for n in names if n not in WARM_UP_TASKS]
+    if unknown:
+        raise InvalidParameterError(
+            f"unknown {', '.join(unknown)}; choose from {', '.join(WARM_UP_TASKS)}")
+
+
 def _map_heightmap(folder: Path):
     """The tasks' 33² map as a :class:`~terrascape.heightmap.Heightmap` with the demo's 4 m
     spacing (the kernels see the same types as for the demo's eroded terrain)."""
@@ -161,9 +172,7 @@ def run_tasks(names: list[str], folder: Path) -> tuple[dict[str, float], list[st
     and the optional commands that failed (with why).
 
     A required command that fails raises :class:`RuntimeError` with its output."""
-    unknown = [n for n in names if n not in WARM_UP_TASKS]
-    if unknown:
-        raise KeyError(f"unknown warm-up task(s) {unknown}; known: {sorted(WARM_UP_TASKS)}")
+    check_tasks(names)
     map_path = _write_map(folder)
     seconds = {}
     skipped = []
@@ -214,9 +223,7 @@ def warm_up(tasks: list[str] | None = None, processes: int | None = None) -> War
     ``__pycache__`` next to the modules. Raises :class:`RuntimeError` when a task fails.
     """
     names = list(WARM_UP_TASKS) if tasks is None else list(tasks)
-    unknown = [n for n in names if n not in WARM_UP_TASKS]
-    if unknown:
-        raise KeyError(f"unknown warm-up task(s) {unknown}; known: {sorted(WARM_UP_TASKS)}")
+    check_tasks(names)
     if processes is None:
         processes = os.cpu_count() or 1
     if processes < 1:
@@ -267,5 +274,5 @@ if __name__ == "__main__":
     sys.exit(_main(sys.argv[1:]))
 
 
-__all__ = ["WARM_UP_SIZE", "WARM_UP_TASKS", "WarmUpResult", "WarmUpTask", "plan",
+__all__ = ["WARM_UP_SIZE", "WARM_UP_TASKS", "WarmUpResult", "WarmUpTask", "check_tasks", "plan",
            "run_tasks", "warm_up"]

@@ -28,13 +28,13 @@ def warm_up_command(
     after another. Running it again only loads the cache.
     """
     from terrascape.errors import InvalidParameterError
-    from terrascape.warmup import WARM_UP_TASKS, warm_up
+    from terrascape.warmup import WARM_UP_TASKS, check_tasks, warm_up
 
     chosen = [t.strip() for t in tasks.split(",") if t.strip()] or None
-    unknown = [t for t in chosen or [] if t not in WARM_UP_TASKS]
-    if unknown:
-        raise InvalidParameterError(
-            f"--only: unknown {', '.join(unknown)}; choose from {', '.join(WARM_UP_TASKS)}")
+    try:
+        check_tasks(chosen or [])
+    except InvalidParameterError as exc:
+        raise InvalidParameterError(f"--only: {exc}") from None
     if processes < 0:
         raise InvalidParameterError(f"--processes must be >= 0 (0 = one per CPU), got {processes}")
     result = warm_up(chosen, processes or None)
