@@ -35,9 +35,8 @@ _START_QUANTA = 4.0
 # ... and a triangle whose plane passes within this many depth quanta of the ray's start is
 # the surface the point lies on: it cannot shadow the point. A start point a fraction of a
 # quantum behind a face the sun grazes (N·L ≈ 0.07) leaves through that face at t = δ / N·L,
-# beyond any start offset along the ray. On the quick bench scene the points that shadowed
-# themselves so lay −6.3 to +0.5 quanta from the plane they hit (5th-95th percentile); the
-# stencil count's agreement plateaus from 4 to 16 quanta (99.93-99.94 %) and falls beyond.
+# beyond any start offset along the ray. A few quanta cover the points' offsets; far more
+# would hide real occluders close to a face (docs/benchmarks.md, "Object shadows").
 _PLANE_QUANTA = 8.0
 _DEPTH_BITS = 24
 
