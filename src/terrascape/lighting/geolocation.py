@@ -1,9 +1,11 @@
 """Where a georeferenced map lies on the Earth: the longitude and latitude of its centre.
 
 A map read from a GeoTIFF keeps its coordinate reference system (``Heightmap.crs``) and the
-position of its first sample (``Heightmap.origin``); the centre is reprojected to WGS 84
-longitude/latitude with GDAL through rasterio (``rasterio.warp.transform``). Rows grow
-southward (a north-up map), as GeoTIFF's geotransform has them.
+outer corner of its first sample's cell (``Heightmap.origin``); the centre is reprojected to
+WGS 84 longitude/latitude with GDAL through rasterio (``rasterio.warp.transform``). Rows grow
+southward (a north-up map), as GeoTIFF's geotransform has them. The centre is measured in
+the CRS's own units: the pixel size in degrees for a geographic map, whose ``spacing`` the
+readers keep in metres.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import math
 
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
+from terrascape.io.geotiff import crs_pixel_size
 
 
 def map_lon_lat(heightmap: Heightmap) -> tuple[float, float] | None:
@@ -31,8 +34,9 @@ def map_lon_lat(heightmap: Heightmap) -> tuple[float, float] | None:
     except ImportError:  # pragma: no cover - rasterio is a core dependency
         return None
     ox, oy = heightmap.origin
-    ex, ez = heightmap.extent
-    x, y = ox + 0.5 * ex, oy - 0.5 * ez
+    # the outer corners span cols × rows pixels; spacing is in metres for a map in degrees
+    px, py = crs_pixel_size(heightmap)
+    x, y = ox + 0.5 * px * heightmap.cols, oy - 0.5 * py * heightmap.rows
     try:
         lon, lat = transform(CRS.from_user_input(heightmap.crs), CRS.from_epsg(4326), [x], [y])
     except (CRSError, ValueError, RuntimeError) as exc:
