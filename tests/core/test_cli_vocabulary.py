@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import itertools
 import re
 
 import numpy as np
@@ -46,6 +47,23 @@ def test_help_speaks_the_users_words(path, monkeypatch):
     text = _help(path, monkeypatch)
     found = sorted({m.group(0) for m in NOT_USERS_WORDS.finditer(text)})
     assert not found, f"`terrascape {' '.join(path)} --help` shows {found}"
+
+
+@pytest.mark.parametrize("path", ALL_COMMANDS, ids=lambda p: " ".join(p) or "terrascape")
+def test_help_paragraphs_are_not_broken_mid_sentence(path, monkeypatch):
+    # Typer keeps the line breaks of a docstring's later paragraphs: lines written wider than
+    # the terminal come out as a long line and a stub ("... spends most of its time\ncompiling").
+    monkeypatch.setenv("COLUMNS", "80")
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert run_app([*path, "--help"]) == 0
+    lines = [line.rstrip() for line in buf.getvalue().splitlines()]
+    start = next(i for i, line in enumerate(lines) if "Usage:" in line) + 1
+    end = next((i for i, line in enumerate(lines) if line.startswith("╭")), len(lines))
+    text = lines[start:end]
+    for line, after in itertools.pairwise(text):
+        assert not (line.strip() and after.strip() and len(line) < 50), (
+            f"`terrascape {' '.join(path)} --help` breaks a sentence after {line.strip()!r}")
 
 
 def test_technique_help_lists_the_registry(monkeypatch):

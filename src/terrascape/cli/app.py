@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import difflib
 import importlib
+import inspect
 import signal
 import time
 import warnings
@@ -51,6 +52,16 @@ def load_command_modules(names: Iterable[str] | None = None) -> None:
         modules = [m for name in names for m in COMMANDS[name].modules]
     for module in modules:
         importlib.import_module(f"terrascape.cli.{module}")
+
+
+def _reflow_help(info) -> None:
+    """A command's help from its docstring with each paragraph on one line: typer keeps the
+    source's line breaks, so a paragraph written 95 columns wide came out on an 80-column
+    terminal as a long line and a stub ("... most of its time" / "compiling")."""
+    if info.help is not None or info.callback is None or not info.callback.__doc__:
+        return
+    paragraphs = inspect.cleandoc(info.callback.__doc__).split("\n\n")
+    info.help = "\n\n".join(" ".join(p.split()) for p in paragraphs)
 
 
 class LazyCommandGroup(TyperGroup):
@@ -97,11 +108,14 @@ class LazyCommandGroup(TyperGroup):
         for info in app.registered_commands:
             name = info.name or get_command_name(info.callback.__name__)
             if name == cmd_name:
+                _reflow_help(info)
                 self.commands[name] = get_command_from_info(
                     info, pretty_exceptions_short=app.pretty_exceptions_short,
                     rich_markup_mode=app.rich_markup_mode)
         for info in app.registered_groups:
             if info.name == cmd_name:
+                for sub in info.typer_instance.registered_commands:
+                    _reflow_help(sub)
                 self.commands[cmd_name] = get_group_from_info(
                     info, pretty_exceptions_short=app.pretty_exceptions_short,
                     rich_markup_mode=app.rich_markup_mode,
