@@ -23,3 +23,34 @@ def test_bench_prints_markdown_tables_in_full(capsys):
     # A data row has as many cells as the header, none cut short by the terminal width.
     assert lines[header + 2].count("|") == lines[header].count("|")
     assert "━" not in out and "┃" not in out  # no rich box drawing
+
+
+def test_plain_maps_need_no_world_extra(tmp_path, gl_ctx):
+    # The demo's install has no zarr/dask (the `world` extra): rendering or exporting a plain
+    # heightmap file must not go through the world-store module, which imports them.
+    import subprocess
+    import sys
+
+    import numpy as np
+    from PIL import Image
+
+    from terrascape import Heightmap
+    from terrascape.generate.registry import generate
+    from terrascape.io import write_heightmap
+
+    hm = generate("fbm", 65, seed=3, spacing=1.0)
+    write_heightmap(Heightmap(hm.heights * 20.0), tmp_path / "map.png")
+    script = (
+        "import sys; sys.modules['zarr'] = None; sys.modules['dask'] = None\n"
+        "from terrascape.cli import run_app\n"
+        "code = run_app(sys.argv[1:])\n"
+        "assert 'terrascape.world' not in sys.modules, 'the world module was imported'\n"
+        "sys.exit(code)\n")
+    for args in (["render", "map.png", "-o", "r.png", "--size", "64x36", "-q"],
+                 ["export", "unity", "map.png", "-o", "unity", "-q"]):
+        done = subprocess.run([sys.executable, "-c", script, *args], cwd=tmp_path,
+                              capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stderr[-500:]
+    picture = np.asarray(Image.open(tmp_path / "r.png").convert("RGB"), dtype=np.float32)
+    assert picture.shape == (36, 64, 3) and picture.std() > 5.0
+    assert any((tmp_path / "unity").glob("*.raw"))

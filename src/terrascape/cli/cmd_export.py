@@ -13,6 +13,7 @@ import typer
 
 from terrascape.cli.app import app, console, out, timed
 from terrascape.cli.geo_options import NO_REPROJECT, metric_map
+from terrascape.cli.parsing import is_world_store
 from terrascape.export import destinations
 
 #: Destinations that tile the globe: they take a map in degrees as it is.
@@ -118,9 +119,7 @@ def export_command(
     from terrascape.io.geotiff import degree_warning
 
     module = get_destination(destination)
-    from terrascape.world.store import is_world
-
-    if is_world(heightmap):
+    if is_world_store(heightmap):
         _export_world(destination, heightmap, output, name, lonlat, min_zoom, max_zoom, fmt,
                       force, quiet, max_error)
         return

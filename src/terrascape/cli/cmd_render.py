@@ -14,7 +14,7 @@ from terrascape.camera import Camera
 from terrascape.cli.app import MAX_MEMORY, app, out, progress, timed, use_max_memory
 from terrascape.cli.app import console as err
 from terrascape.cli.geo_options import NO_REPROJECT, metric_map
-from terrascape.cli.parsing import parse_floats, parse_size
+from terrascape.cli.parsing import is_world_store, parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
 from terrascape.generate.registry import generator_names, names_help
 
@@ -398,9 +398,7 @@ def render_command(
         raise InvalidParameterError("--object-shadows needs --objects")
 
     use_max_memory(max_memory)
-    from terrascape.world.store import is_world
-
-    if heightmap is not None and generate is None and is_world(heightmap):
+    if heightmap is not None and generate is None and is_world_store(heightmap):
         if turntable or water_depth is not None:
             raise InvalidParameterError(
                 "a world renders one frame without --water-depth: drop --turntable/--water-depth")

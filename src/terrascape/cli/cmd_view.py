@@ -16,6 +16,7 @@ from terrascape.cli.cmd_render import (
     load_objects_option,
 )
 from terrascape.cli.geo_options import NO_REPROJECT, metric_map
+from terrascape.cli.parsing import is_world_store
 from terrascape.errors import InvalidParameterError
 from terrascape.generate.registry import VIEW_SPACING, generator_names, get_generator, names_help
 from terrascape.lod.schemes import SCHEMES
@@ -35,9 +36,7 @@ def generate_terrain(kind: str, size: int, seed: int, *, spacing: float = VIEW_S
 
 
 def _is_world(path: Path) -> bool:
-    from terrascape.world.store import is_world
-
-    return is_world(path)
+    return is_world_store(path)
 
 
 @app.command("view")

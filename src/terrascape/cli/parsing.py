@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import os
+from pathlib import Path
 
 from terrascape.errors import InvalidParameterError
 
@@ -32,3 +34,20 @@ def parse_floats(text: str, count: int, *, name: str) -> tuple[float, ...]:
             f"{name} must be {count} comma-separated finite numbers, got {text!r}"
         )
     return values
+
+
+def is_world_store(path: str | os.PathLike | None) -> bool:
+    """Whether a command's map argument is a world store (``world.zarr``) rather than a file.
+
+    A folder holding ``zarr.json`` is looked at by the world module, which needs the
+    ``world`` extra (zarr, dask); anything else is decided here, so rendering, viewing or
+    exporting a plain heightmap never needs that extra.
+    """
+    if path is None:
+        return False
+    p = Path(path)
+    if not (p.is_dir() and (p / "zarr.json").is_file()):
+        return False
+    from terrascape.world.store import is_world
+
+    return is_world(p)
