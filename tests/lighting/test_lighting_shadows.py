@@ -128,6 +128,48 @@ def test_fast_equals_reference_on_axes_and_diagonals(terrain):
             )
 
 
+def test_near_walk_run_skip_changes_no_decision(terrain):
+    """The near walk skips a step for runs of samples whose crossings cannot rise above their
+    rays; with the skip and without it every line's near hits are the same."""
+    from terrascape.lighting import shadows as sh
+
+    rng = np.random.default_rng(7)
+    # gentle terrain with needles: most runs skip under a high sun, the needles must not
+    h = terrain(83, 5, relief=0.05, cols=101)
+    needles = rng.integers(0, h.size, 60)
+    h.flat[needles] += rng.uniform(5.0, 40.0, 60).astype(np.float32)
+    hm = Heightmap(h)
+    near = sh._NEAR
+    total_skipped = 0
+    for az in (0.0, 33.0, 45.0, 160.0, 200.0, 271.0):
+        for el in (8.0, 35.0, 60.0):
+            transpose, da, db, rise = sh._sweep_geometry(hm, sh.sun_above_horizon(az, el))
+            o, _, _ = sh._oriented(hm, transpose)
+            o = np.ascontiguousarray(o)
+            segments = (o.shape[1] + sh._SEGMENT - 1) // sh._SEGMENT
+            smax = np.empty((o.shape[0], segments))
+            smin = np.empty((o.shape[0], segments))
+            for a in range(o.shape[0]):
+                sh._segment_extrema(o[a], smax[a], smin[a])
+            skipped = np.zeros(near + 1, np.int64)
+            for a in range(o.shape[0]):
+                with_runs = np.zeros(o.shape[1], np.uint8)
+                without = np.zeros(o.shape[1], np.uint8)
+                sh._near_part(o, a, da, db, rise, near, 0, o.shape[1] - 1, with_runs, smax, smin,
+                              1e-6, np.ones(near + 1, np.uint8), skipped)
+                total_skipped += int(skipped.sum())
+                sh._near_part(o, a, da, db, rise, near, 0, o.shape[1] - 1, without, smax, smin,
+                              1e-6, np.zeros(near + 1, np.uint8), skipped)
+                np.testing.assert_array_equal(with_runs, without, err_msg=f"{az} {el} line {a}")
+                assert with_runs.any() or el > 8.0 or a in (0, o.shape[0] - 1)
+    assert total_skipped > 1000  # the skip is exercised, not bypassed
+    # and the whole sweep still equals the ray walk where it must (axes and diagonals)
+    for az in (0.0, 45.0, 90.0, 225.0):
+        for el in (10.0, 60.0):
+            np.testing.assert_array_equal(shadow_mask(hm, az, el),
+                                          shadow_mask_reference(hm, az, el), err_msg=f"{az}")
+
+
 def test_fast_matches_reference_on_random_terrains_and_lights(terrain):
     """The fast sweep's decisions differ from the ray walk on a sub-sample band only."""
     rng = np.random.default_rng(2024)

@@ -60,6 +60,15 @@ _VERTICAL = 1e-12
 _SNAP = 1e-9
 # Steps of each sample's own ray walked exactly by the fast method before it interpolates.
 _NEAR = 8
+# Samples per run whose extrema let the near walk skip a step (two AVX2 vectors of float64).
+_SEGMENT = 16
+# Relative slack on that bound: the skip must stay exact whatever the rounding of the
+# interpolation under fastmath (it only ever makes the walk do more).
+_SKIP_MARGIN = 1e-9
+# The run test is made for a step on the lines after a probe line (one in _PROBE) where it
+# skipped more than one run in _PAYS (measured: the test costs about a third of a run's walk).
+_PROBE = 16
+_PAYS = 3
 
 
 # --------------------------------------------------------------------------------------------
@@ -213,8 +222,40 @@ def _line_offset(a, a_org, b_org, e):
     return whole - b_org, absolute - whole
 
 
+@njit(cache=CACHE)
+def _segment_extrema(row, smax, smin):
+    """Lowest height of every run of ``_SEGMENT`` samples of one grid line,
+    ``smin[m]`` over ``row[m·_SEGMENT … (m + 1)·_SEGMENT - 1]``, and the highest of that run
+    and the next, ``smax[m]``."""
+    n1 = row.shape[0]
+    for m in range(smax.shape[0]):
+        b0 = m * _SEGMENT
+        hi = float(row[b0])
+        lo = hi
+        for b in range(b0 + 1, min(n1, b0 + _SEGMENT)):
+            v = float(row[b])
+            hi = v if v > hi else hi
+            lo = v if v < lo else lo
+        smax[m] = hi
+        smin[m] = lo
+    for m in range(smax.shape[0] - 1):
+        smax[m] = max(smax[m], smax[m + 1])
+
+
+@njit(cache=CACHE)
+def _largest_magnitude(smax, smin):
+    """max |v| over both arrays, in a plain loop: an array expression inside the parallel
+    sweep kernel would become a parallel loop handed out one element at a time."""
+    top = 0.0
+    for a in range(smax.shape[0]):
+        for m in range(smax.shape[1]):
+            top = max(top, abs(smax[a, m]), abs(smin[a, m]))
+    return top
+
+
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _near_part(h, a, da, db, rise, near, b_first, b_last, hit):
+def _near_part(h, a, da, db, rise, near, b_first, b_last, hit, smax, smin, slack, by_runs,
+               skipped):
     """The first ``near`` steps of the rays of samples ``b_first … b_last`` on grid line
     ``a``, walked exactly as the reference does: ``hit[b]`` = 1 when one of them meets
     terrain above the ray.
@@ -224,6 +265,17 @@ def _near_part(h, a, da, db, rise, near, b_first, b_last, hit):
     runs step by step over the whole line — contiguous loads, no floor per sample, a loop
     LLVM vectorises — instead of sample by sample; a step that has left the grid (the
     reference stops there) is skipped for the samples it left.
+
+    A run of ``_SEGMENT`` samples skips step k when no terrain it crosses there can rise
+    above its lowest sample's ray (``smin``: each run's lowest sample; ``smax``: the highest
+    of a run and the next, which hold every sample a run's crossings read; ``slack``: a
+    rounding margin): the interpolated
+    terrain never exceeds the higher of its two samples, so the skip changes no decision.
+    Under a high sun, where ``k·rise`` soon outgrows the local relief, most of the walk is
+    skipped. Where few runs would skip (a low sun) the test costs more than it saves, so it
+    is made only for the steps ``k`` with ``by_runs[k]``; ``skipped[k]`` receives how many
+    runs it skipped (the caller's estimate of the next lines' gain). Either way the
+    decisions are the same.
     """
     n0, n1 = h.shape
     here = h[a]
@@ -241,17 +293,40 @@ def _near_part(h, a, da, db, rise, near, b_first, b_last, hit):
         hi = min(b_last, math.floor(n1 - 1 - x))
         above = k * rise
         there = h[pa]
-        if f == 0.0:
-            for b in range(lo, hi + 1):
-                hit[b] |= float(there[b + s]) > float(here[b]) + above
-        else:
-            for b in range(lo, hi + 1):
-                v0 = float(there[b + s])
-                hit[b] |= v0 + f * (float(there[b + s + 1]) - v0) > float(here[b]) + above
+        skipped[k] = 0
+        if not by_runs[k]:
+            if f == 0.0:
+                for b in range(lo, hi + 1):
+                    hit[b] |= float(there[b + s]) > float(here[b]) + above
+            else:
+                for b in range(lo, hi + 1):
+                    v0 = float(there[b + s])
+                    hit[b] |= v0 + f * (float(there[b + s + 1]) - v0) > float(here[b]) + above
+            continue
+        top = smax[pa]
+        low = smin[a]
+        count = 0
+        for m in range(lo // _SEGMENT, hi // _SEGMENT + 1):
+            r0 = max(lo, m * _SEGMENT)
+            r1 = min(hi, m * _SEGMENT + _SEGMENT - 1)
+            # the run's crossings read samples r0 + s … r1 + s + 1, which lie in run
+            # (r0 + s) // _SEGMENT or the next: smax holds the higher of the two
+            if top[(r0 + s) // _SEGMENT] < low[m] + above - slack:
+                count += 1
+                continue
+            if f == 0.0:
+                for b in range(r0, r1 + 1):
+                    hit[b] |= float(there[b + s]) > float(here[b]) + above
+            else:
+                for b in range(r0, r1 + 1):
+                    v0 = float(there[b + s])
+                    hit[b] |= v0 + f * (float(there[b + s + 1]) - v0) > float(here[b]) + above
+        skipped[k] = count
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, a_org=0, b_org=0):
+def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_org=0,
+                 b_org=0):
     """Sweep the ray lines ``lo … hi`` (indices from ``j_lo``) and shade their samples.
 
     Ray line ``j`` crosses grid line ``a`` at ``p_j(a) = j + a·e`` with ``e = da·db``. Grid
@@ -278,6 +353,11 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, a_org=0, b_org=0):
     sl = np.full(width, neg_inf, dtype=np.float64)
     ring = np.full((near, width), neg_inf, dtype=np.float64)
     near_hit = np.zeros(n1, dtype=np.uint8)
+    # Per near step: test runs of samples for a skip? Re-decided on every _PROBE-th line,
+    # which tests them all and keeps the test where it skipped enough runs to pay.
+    by_runs = np.ones(near + 1, dtype=np.uint8)
+    all_runs = np.ones(near + 1, dtype=np.uint8)
+    skipped = np.zeros(near + 1, dtype=np.int64)
     a = n0 - 1 if da > 0 else 0
     for t in range(n0):
         fl, fr = _line_offset(a, a_org, b_org, e)
@@ -289,7 +369,13 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, a_org=0, b_org=0):
         b_first = max(0, lo + shift)
         b_last = min(n1 - 1, hi + shift)
         if b_first <= b_last:
-            _near_part(h, a, da, db, rise, near, b_first, b_last, near_hit)
+            probe = t % _PROBE == 0
+            _near_part(h, a, da, db, rise, near, b_first, b_last, near_hit, smax, smin, slack,
+                       all_runs if probe else by_runs, skipped)
+            if probe:
+                runs = (b_last - b_first) // _SEGMENT + 1
+                for k in range(1, near + 1):
+                    by_runs[k] = skipped[k] * _PAYS > runs
         # --- the far part of the rays: between the two ray lines around each, their shadow
         # heights `near` lines upstream interpolated (samples whose ray is still on the
         # grid `near` steps on: 0 <= b + near·db <= n1 - 1)
@@ -392,11 +478,20 @@ def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0):
     fl0, fr0 = _line_offset(np.int64(0), a_org, b_org, e)  # not a literal: one compile
     j_lo, nj = _ray_line_span(n0, n1, e, fl0 + fr0)
     size = (nj + blocks - 1) // blocks
+    segments = (n1 + _SEGMENT - 1) // _SEGMENT
+    smax = np.empty((n0, segments), dtype=np.float64)
+    smin = np.empty((n0, segments), dtype=np.float64)
+    # in bands of lines: the caller hands prange's iterations out one at a time
+    for band in prange((n0 + 63) // 64):
+        for a in range(band * 64, min(n0, band * 64 + 64)):
+            _segment_extrema(h[a], smax[a], smin[a])
+    slack = _SKIP_MARGIN * (_largest_magnitude(smax, smin) + 1.0)
     for k in prange(blocks):
         lo = k * size
         hi = min(nj - 1, lo + size - 1)
         if lo <= hi:
-            _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, a_org, b_org)
+            _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_org,
+                         b_org)
 
 
 def _sweep_blocks(n_cols: int) -> int:
