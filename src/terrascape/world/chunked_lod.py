@@ -16,9 +16,14 @@ level-(k−1) vertex; by the triangle inequality
 
     e_k(tile) = max over the tile's level-(k−1) vertices |h_{k−1} − I_k| + max over children e_{k−1}
 
-bounds ``|h_0 − I_k|`` everywhere in the tile (``e_0 = 0``). One pass over each pyramid level,
-in bands of rows, builds the table (memory bounded by a band, not the map); it is cached
-next to the store.
+bounds ``|h_0 − I_k|`` everywhere in the tile (``e_0 = 0``). The bound sums every level's
+error as if they all peaked at one point; they seldom do (the real error is about half on
+fBm: docs/benchmarks.md), so the levels whose tiles span at most :data:`EXACT_ROWS` full-resolution rows — the
+ones a view draws near the eye — store the exact ``max |h_0 − I_k|`` instead (also at a
+sample: ``I_0 − I_k`` is linear on level-0 triangles), measured in the same pass over
+level 0, and only the levels above use the sum, over exact children. One pass over each
+pyramid level, in bands of rows, builds the table (memory bounded by a band, not the
+map); it is cached next to the store.
 
 Selection (Ulrich 2002's chunked LOD): starting from the roots, the tile whose projected
 error ``e · K / d`` (``K`` = pixels per radian, ``d`` = distance from the eye to the tile's
@@ -62,6 +67,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from scipy.ndimage import minimum_filter
 
+from terrascape._numba import CACHE, FASTMATH, njit
 from terrascape._validate import check_int, check_positive
 from terrascape.camera import Camera
 from terrascape.errors import InvalidParameterError, MemoryLimitError
@@ -72,7 +78,10 @@ from terrascape.mesh.terrain_mesh import grid_triangles
 DEFAULT_TILE = 64
 #: Bytes per tile vertex: position (3 f4), normal (3 f4), tangent + handedness (4 f4).
 VERTEX_BYTES = 40
-_CACHE_NAME = "terrascape_lod_{tile}.npz"
+#: Full-resolution rows of the tiles whose errors the tile table holds exactly (levels
+#: ``1 … log2(EXACT_ROWS / tile)``; the levels above hold the hierarchical bound).
+EXACT_ROWS = 1024
+_CACHE_NAME = "terrascape_lod2_{tile}.npz"  # 2: exact errors of the low levels
 
 #: Reads samples ``[a0:a1, b0:b1]`` of pyramid level ``level`` (0 = full resolution).
 LevelReader = Callable[[int, int, int, int, int], np.ndarray]
@@ -263,40 +272,81 @@ def _band_rows(grid: TileGrid, level: int, block: int) -> int:
     return max(1, block // cells)
 
 
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _exact_error_kernel(band, r0, level, tile, rows, cols, out):  # pragma: no cover - jitted
+    """``out[i, j]`` = max ``|h_0 − I_level|`` over the full-resolution samples of the
+    level-``level`` tile ``(i_first + i, j)`` (closed ranges), ``band`` holding full-
+    resolution rows ``r0 …`` of the whole width; ``rows``, ``cols``: the map's cells."""
+    s = 1 << level
+    span = tile * s
+    inv = 1.0 / s
+    cells_r, cells_c = rows >> level, cols >> level
+    i_first = r0 // span
+    for ti in range(out.shape[0]):
+        ga0 = (i_first + ti) * span
+        ga1 = min(ga0 + span, rows)
+        for tj in range(out.shape[1]):
+            gb0 = tj * span
+            gb1 = min(gb0 + span, cols)
+            worst = 0.0
+            for r in range(ga0, ga1 + 1):
+                a = min(r // s, cells_r - 1)
+                ra = a * s - r0
+                v = (r - a * s) * inv
+                for c in range(gb0, gb1 + 1):
+                    b = min(c // s, cells_c - 1)
+                    cb = b * s
+                    u = (c - cb) * inv
+                    h00 = np.float64(band[ra, cb])
+                    h01 = np.float64(band[ra, cb + s])
+                    h10 = np.float64(band[ra + s, cb])
+                    # the cell is split along (a+1, b)–(a, b+1), as grid_triangles
+                    if u + v <= 1.0:
+                        interp = h00 + u * (h01 - h00) + v * (h10 - h00)
+                    else:
+                        h11 = np.float64(band[ra + s, cb + s])
+                        interp = h11 + (1.0 - u) * (h10 - h11) + (1.0 - v) * (h01 - h11)
+                    e = abs(np.float64(band[r - r0, c]) - interp)
+                    if e > worst:
+                        worst = e
+            out[ti, tj] = worst
+
+
 def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *,
                   tile: int = DEFAULT_TILE, block: int = 1024) -> TilePyramid:
-    """The error bounds and height ranges of every tile, reading each pyramid level once in
-    bands of about ``block`` rows (memory: a band, never the whole map)."""
+    """The error bounds and height ranges of every tile, reading each pyramid level at most
+    once in bands of about ``block`` rows (memory: a band, never the whole map).
+
+    A level whose tiles fit in the level-0 bands gets its exact error, max ``|h_0 − I_k|``
+    over the full-resolution samples of the tile (the interpolant of the level-0 samples,
+    ``I_0``, differs from ``I_k`` by a function linear on level-0 triangles, so its largest
+    value is at a sample); the levels above add their own midpoint error to their children's
+    (the hierarchical bound of the module docstring, over exact children)."""
     grid = tile_grid(shape, spacing, tile)
     t, top = grid.tile, grid.top
     error: list[np.ndarray] = [np.zeros(grid.count(0))]
-    # level 0: each finest tile's height range
+    # level 0: each finest tile's height range; the levels whose tiles fit a band: exact
     nr0, nc0 = grid.count(0)
     low0, high0 = np.empty((nr0, nc0)), np.empty((nr0, nc0))
-    cols0 = grid.shape[1]
-    per = _band_rows(grid, 0, block)
+    rows, cols = grid.shape[0] - 1, grid.shape[1] - 1
+    # a level-k tile is 2**k level-0 tile rows: bands of 2**m of them hold levels 1 … m
+    exact_top = min(top, max(1, (EXACT_ROWS // t).bit_length() - 1))
+    per = max(1 << exact_top, 1 << (_band_rows(grid, 0, block).bit_length() - 1))
+    exact = [np.zeros(grid.count(k)) for k in range(1, exact_top + 1)]
     for i0 in range(0, nr0, per):
         i1 = min(nr0, i0 + per)
-        a0, a1 = i0 * t, min(i1 * t, grid.shape[0] - 1)
-        band = reader(0, a0, a1 + 1, 0, cols0).astype(np.float64)
+        a0, a1 = i0 * t, min(i1 * t, rows)
+        band = np.ascontiguousarray(reader(0, a0, a1 + 1, 0, cols + 1), dtype=np.float32)
         for i in range(i0, i1):
-            rows = band[(i - i0) * t:(i - i0 + 1) * t + 1]
-            low0[i] = _tile_reduce(rows, t, nc0, np.min)
-            high0[i] = _tile_reduce(rows, t, nc0, np.max)
+            part = band[(i - i0) * t:(i - i0 + 1) * t + 1]
+            low0[i] = _tile_reduce(part, t, nc0, np.min)
+            high0[i] = _tile_reduce(part, t, nc0, np.max)
+        for k in range(1, exact_top + 1):
+            k0, k1 = i0 >> k, -(-i1 // (1 << k))
+            _exact_error_kernel(band, a0, k, t, rows, cols, exact[k - 1][k0:k1])
     low, high = [low0], [high0]
     for k in range(1, top + 1):
         nr, nc = grid.count(k)
-        # e_k: the level-(k−1) samples of each level-k tile against the level-k interpolant
-        own = np.empty((nr, nc))
-        fr, fc = grid.cells(k - 1)
-        per = _band_rows(grid, k, block)
-        for i0 in range(0, nr, per):
-            i1 = min(nr, i0 + per)
-            a0, a1 = i0 * 2 * t, min(i1 * 2 * t, fr)
-            err = _midpoint_error(reader(k - 1, a0, a1 + 1, 0, fc + 1))
-            for i in range(i0, i1):
-                own[i] = _tile_reduce(err[(i - i0) * 2 * t:(i - i0 + 1) * 2 * t + 1],
-                                      2 * t, nc, np.max)
         child_err = np.zeros((nr, nc))
         lo_k, hi_k = np.full((nr, nc), np.inf), np.full((nr, nc), -np.inf)
         for di in (0, 1):
@@ -306,9 +356,23 @@ def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *
                 child_err[sl] = np.maximum(child_err[sl], e)
                 lo_k[sl] = np.minimum(lo_k[sl], low[k - 1][di::2, dj::2])
                 hi_k[sl] = np.maximum(hi_k[sl], high[k - 1][di::2, dj::2])
-        error.append(own + child_err)
         low.append(lo_k)
         high.append(hi_k)
+        if k <= exact_top:
+            error.append(exact[k - 1])
+            continue
+        # e_k: the level-(k−1) samples of each level-k tile against the level-k interpolant
+        own = np.empty((nr, nc))
+        fr, fc = grid.cells(k - 1)
+        per_k = _band_rows(grid, k, block)
+        for i0 in range(0, nr, per_k):
+            i1 = min(nr, i0 + per_k)
+            a0, a1 = i0 * 2 * t, min(i1 * 2 * t, fr)
+            err = _midpoint_error(reader(k - 1, a0, a1 + 1, 0, fc + 1))
+            for i in range(i0, i1):
+                own[i] = _tile_reduce(err[(i - i0) * 2 * t:(i - i0 + 1) * 2 * t + 1],
+                                      2 * t, nc, np.max)
+        error.append(own + child_err)
     return TilePyramid(grid, error, low, high)
 
 
@@ -384,14 +448,14 @@ class StoreReader:
 def world_pyramid(path, *, tile: int = DEFAULT_TILE, reader: StoreReader | None = None,
                   cache: bool = True) -> TilePyramid:
     """The :class:`TilePyramid` of a world store, built once and cached in the store
-    (``terrascape_lod_<tile>.npz``, keyed by the recipe's hash)."""
+    (``terrascape_lod2_<tile>.npz``, keyed by the recipe's hash)."""
     from terrascape.io.atomic import atomic_output
 
     reader = reader or StoreReader(path)
     recipe = reader.recipe
     shape = (int(recipe.rows), int(recipe.cols))
     cache_path = Path(path) / _CACHE_NAME.format(tile=tile)
-    digest = hashlib.sha256(f"{recipe.digest()}:{tile}:1".encode()).hexdigest()
+    digest = hashlib.sha256(f"{recipe.digest()}:{tile}:2".encode()).hexdigest()
     if cache_path.is_file():
         try:
             with np.load(cache_path) as z:
