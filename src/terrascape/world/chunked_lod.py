@@ -280,7 +280,6 @@ def _exact_error_kernel(band, r0, level, tile, rows, cols, out):  # pragma: no c
     s = 1 << level
     span = tile * s
     inv = 1.0 / s
-    cells_r, cells_c = rows >> level, cols >> level
     i_first = r0 // span
     for ti in range(out.shape[0]):
         ga0 = (i_first + ti) * span
@@ -290,11 +289,11 @@ def _exact_error_kernel(band, r0, level, tile, rows, cols, out):  # pragma: no c
             gb1 = min(gb0 + span, cols)
             worst = 0.0
             for r in range(ga0, ga1 + 1):
-                a = min(r // s, cells_r - 1)
+                a = min(r // s, ga1 // s - 1)  # the tile's last row: its last cell's
                 ra = a * s - r0
                 v = (r - a * s) * inv
                 for c in range(gb0, gb1 + 1):
-                    b = min(c // s, cells_c - 1)
+                    b = min(c // s, gb1 // s - 1)
                     cb = b * s
                     u = (c - cb) * inv
                     h00 = np.float64(band[ra, cb])
