@@ -77,7 +77,7 @@ def _peak_gb(stats: dict) -> float:
 
 
 def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
-        surface=None) -> dict:
+        surface=None, tile: int | None = None) -> dict:
     """One seeded flight of ``frames`` frames over the world at ``path``: per-frame times,
     tile counts and memory."""
     from terrascape.bench.viewer import _Surface
@@ -94,7 +94,7 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
     set_limit(str(BUDGET))
     t0 = time.perf_counter()
     proxy, share = split_budget(path, BUDGET)
-    pyramid = world_pyramid(path)
+    pyramid = world_pyramid(path) if tile is None else world_pyramid(path, tile=tile)
     setup_s = time.perf_counter() - t0
     own = surface is None
     surface = surface or _Surface(SIZE)

@@ -17,11 +17,12 @@ level-(k−1) vertex; by the triangle inequality
     e_k(tile) = max over the tile's level-(k−1) vertices |h_{k−1} − I_k| + max over children e_{k−1}
 
 bounds ``|h_0 − I_k|`` everywhere in the tile (``e_0 = 0``). The bound sums every level's
-error as if they all peaked at one point; they seldom do (the real error is about half on
-fBm: docs/benchmarks.md), so the levels whose tiles span at most :data:`EXACT_ROWS` full-resolution rows — the
-ones a view draws near the eye — store the exact ``max |h_0 − I_k|`` instead (also at a
-sample: ``I_0 − I_k`` is linear on level-0 triangles), measured in the same pass over
-level 0, and only the levels above use the sum, over exact children. One pass over each
+error as if they all peaked at one point; they seldom do (on fBm the real error is about
+half: docs/benchmarks.md), so the levels whose tiles span at most :data:`EXACT_ROWS`
+full-resolution rows — the ones a view draws near the eye — store the exact
+``max |h_0 − I_k|`` instead (also at a sample: ``I_0 − I_k`` is linear on level-0
+triangles), measured in the same pass over level 0, and only the levels above use the sum,
+over exact children. One pass over each
 pyramid level, in bands of rows, builds the table (memory bounded by a band, not the
 map); it is cached next to the store.
 
@@ -603,30 +604,45 @@ def select_tiles(pyramid: TilePyramid, camera: Camera, viewport: tuple[int, int]
     """
     tol = check_positive(tolerance, "tolerance (pixels)")
     grid = pyramid.grid
-    planes = camera.frustum_planes()
-    eye = camera.eye
     kpx = camera.pixels_per_radian(int(viewport[1]))
 
-    # every tile's visibility and projected error at once (a few ms for 20,000 tiles);
-    # the refinement then only looks them up
-    vis_of, px_of, dist_of = [], [], []
-    for k in range(grid.top + 1):
-        b = pyramid.boxes(k, exaggeration)
-        p = np.where(planes[None, None, :, :3] >= 0, b[..., None, 3:], b[..., None, :3])
-        inside = np.all(np.einsum("rcpi,pi->rcp", p, planes[:, :3]) + planes[:, 3] >= 0,
-                        axis=-1)
-        d = np.linalg.norm(np.clip(eye, b[..., :3], b[..., 3:]) - eye, axis=-1)
-        err = pyramid.error[k] * exaggeration
-        with np.errstate(divide="ignore", invalid="ignore"):
-            px = np.where(err > 0, np.where(d > 0, err * kpx / np.maximum(d, 1e-300),
-                                            np.inf), 0.0)
-        vis_of.append(inside)
-        px_of.append(np.where(inside, px, 0.0) if k else np.zeros_like(px))
-        dist_of.append(d)
+    # a tile's visibility, projected error and distance when the refinement first reaches
+    # it: the cost follows the tiles the view splits, not the world's size (a 32769² world
+    # has 350,000 tiles of 64², a view looks at a few hundred)
+    planes = [tuple(float(v) for v in p) for p in camera.frustum_planes()]
+    ex, ey, ez = (float(v) for v in camera.eye)
+    sp = grid.spacing
+    scale = float(exaggeration)
+    error, skirt, high = pyramid.error, pyramid.skirt, pyramid.high
+    seen: dict[TileKey, tuple[bool, float, float]] = {}
+
+    def look(key: TileKey) -> tuple[bool, float, float]:
+        got = seen.get(key)
+        if got is not None:
+            return got
+        k, i, j = key
+        r0, r1, c0, c1 = grid.span(key)
+        x0, x1, z0, z1 = c0 * sp, c1 * sp, r0 * sp, r1 * sp
+        y0, y1 = float(skirt[k][i, j]) * scale, float(high[k][i, j]) * scale
+        inside = True
+        for a, b, c, d in planes:  # the box's corner furthest along each inward normal
+            if (a * (x1 if a >= 0 else x0) + b * (y1 if b >= 0 else y0)
+                    + c * (z1 if c >= 0 else z0) + d) < 0:
+                inside = False
+                break
+        dx = ex - min(max(ex, x0), x1)
+        dy = ey - min(max(ey, y0), y1)
+        dz = ez - min(max(ez, z0), z1)
+        dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+        err = float(error[k][i, j]) * scale
+        px = 0.0
+        if inside and k and err > 0:
+            px = err * kpx / dist if dist > 0 else math.inf
+        got = seen[key] = (inside, px, dist)
+        return got
 
     def measure(key: TileKey) -> tuple[bool, float]:
-        k, i, j = key
-        return bool(vis_of[k][i, j]), float(px_of[k][i, j])
+        return look(key)[:2]
 
     cap = math.inf if max_tiles is None else check_int(max_tiles, "max tiles", minimum=1)
     while True:
@@ -635,7 +651,7 @@ def select_tiles(pyramid: TilePyramid, camera: Camera, viewport: tuple[int, int]
             break
         cap -= max(1, int(n_visible - cap))  # balancing overshot: refine less, retry
     visible = [k for k, (v, _) in leaves.items() if v]
-    visible.sort(key=lambda k: float(dist_of[k.level][k.row, k.col]))
+    visible.sort(key=lambda k: look(k)[2])
     pixels = {k: leaves[k][1] for k in visible}
     return TileSelection(visible=visible, culled=[k for k, (v, _) in leaves.items() if not v],
                          pixels=pixels, max_pixels=max(pixels.values(), default=0.0),
