@@ -76,7 +76,7 @@ from terrascape.mesh.tangent_space import heightfield_tangent_frames
 from terrascape.mesh.terrain_mesh import grid_triangles
 
 #: Cells per tile side (a tile mesh has at most (DEFAULT_TILE + 1)² vertices).
-DEFAULT_TILE = 64
+DEFAULT_TILE = 32
 #: Bytes per tile vertex: position (3 f4), normal (3 f4), tangent + handedness (4 f4).
 VERTEX_BYTES = 40
 #: Full-resolution rows of the tiles whose errors the tile table holds exactly (levels
@@ -970,7 +970,7 @@ class ProcessTileLoader:
     length, the view never finished loading in a flight). The process fills free slots
     ahead of the viewer and names them in short messages; :meth:`finished` copies a mesh
     out and hands its slot back. Its memory is its reader's chunk cache, one mesh and the
-    slots (``slots`` × :meth:`TileGrid.max_tile_bytes`, 5.7 MB for 64² tiles)."""
+    slots (``slots`` × :meth:`TileGrid.max_tile_bytes`, 1.5 MB for 32² tiles)."""
 
     def __init__(self, path, *, tile: int = DEFAULT_TILE, exaggeration: float = 1.0,
                  reader_bytes: int = 64 << 20, slots: int = LOADER_SLOTS) -> None:
