@@ -178,3 +178,76 @@ def test_loader_process_fills_its_slots_ahead(world):
         assert loader.pending() == 0 and loader.loaded == len(keys)
     finally:
         loader.close()
+
+
+class _ReadyLoader:
+    """A loader whose every requested tile is already built: the frame's byte budget, not
+    the loader, decides how many are taken."""
+
+    def __init__(self, build) -> None:
+        self._build, self._ready, self.asked = build, [], []
+
+    def request(self, keys) -> None:
+        known = {m.key for m in self._ready} | set(self.asked)
+        for key in keys:
+            if key not in known:
+                self._ready.append(self._build(key))
+                self.asked.append(key)
+
+    def pending(self) -> int:
+        return len(self._ready)
+
+    def finished(self, limit=None):
+        n = len(self._ready) if limit is None else limit
+        out, self._ready = self._ready[:n], self._ready[n:]
+        return out
+
+    def close(self) -> None:
+        pass
+
+
+@pytest.mark.gl
+def test_upload_budget_spreads_a_burst_of_tiles_over_frames(world, gl_ctx):
+    from terrascape.render.tiled_terrain import TiledGeometry
+    from terrascape.world.chunked_lod import StoreReader, tile_mesh, world_pyramid
+    from terrascape.world.window import overview_window
+
+    reader = StoreReader(world)
+    pyramid = world_pyramid(world, tile=16, reader=reader)
+    per_tile = pyramid.grid.max_tile_bytes()
+
+    def build(key):
+        return tile_mesh(reader, pyramid, key)
+
+    proxy = overview_window(world, budget=1 << 30, max_side=65).heightmap
+    cam = _last_flight_camera(proxy)
+    frames = {}
+    for budget in (3 * per_tile, 1 << 30):
+        loader = _ReadyLoader(build)
+        geo = TiledGeometry(gl_ctx, pyramid, build, budget_bytes=200 * per_tile,
+                            tolerance=0.3, upload_ms=1e6, upload_bytes=budget, loader=loader)
+        try:
+            taken = []
+            for _ in range(100):
+                geo.update(cam, SIZE)
+                taken.append(geo.last_uploads)
+                assert geo.last_upload_bytes <= budget  # never more than the budget a frame
+                if not geo.loading():
+                    break
+            # the selection and the parents asked for first, all taken, past the root
+            assert not geo.loading() and sum(taken) == geo.uploaded - 1
+            assert set(geo.selection.visible) <= set(loader.asked)
+            frames[budget] = (taken, sorted(loader.asked))
+        finally:
+            geo.release()
+    # every tile was ready at once: all in the first frame without a budget, at most 3 a
+    # frame with one of 3 whole tiles' bytes, the same tiles in the end
+    (burst, asked), (spread, asked_spread) = frames[1 << 30], frames[3 * per_tile]
+    assert burst[0] == sum(burst) > 6 and asked == asked_spread
+    assert max(spread) <= 3 and len(spread) >= sum(spread) // 3 and sum(spread) == sum(burst)
+
+
+def _last_flight_camera(proxy):
+    from terrascape.render.tiled_terrain import seeded_flight
+
+    return seeded_flight(proxy, 30, seed=4, size=SIZE, crossing_s=3.0)[-1]

@@ -46,6 +46,8 @@ from terrascape.world.chunked_lod import (
 #: (figures: docs/benchmarks.md, "Streaming viewer").
 VIEW_TOLERANCE = 3.0
 RENDER_TOLERANCE = 0.5
+#: Vertex bytes a streamed frame uploads at most (at least one tile): about 40 full 32² tiles.
+UPLOAD_BYTES = 2 << 20
 
 
 @dataclass
@@ -92,8 +94,10 @@ class TiledGeometry:
     background
         Load on a thread and never wait (the viewer); False: :meth:`update` loads every
         selected tile before returning (a still render).
-    upload_ms
-        Time per frame spent uploading finished tiles (at least one is uploaded).
+    upload_ms, upload_bytes
+        Time and vertex bytes per frame for uploading finished tiles, whichever runs out
+        first (at least one tile a frame is uploaded); the rest wait in the loader, so a
+        burst of finished tiles is spread over the next frames.
     loader
         What builds the tiles in the background (default: a
         :class:`~terrascape.world.chunked_lod.TileLoader` thread over ``build``;
@@ -103,13 +107,15 @@ class TiledGeometry:
 
     def __init__(self, ctx, pyramid: TilePyramid, build: Callable[[TileKey], TileMesh], *,
                  budget_bytes: int, tolerance: float = VIEW_TOLERANCE, exaggeration: float = 1.0,
-                 background: bool = True, upload_ms: float = 4.0, loader=None) -> None:
+                 background: bool = True, upload_ms: float = 4.0,
+                 upload_bytes: int = UPLOAD_BYTES, loader=None) -> None:
         self.ctx = ctx
         self.pyramid = pyramid
         self.grid = pyramid.grid
         self.tolerance = float(tolerance)
         self.exaggeration = float(exaggeration)
         self.upload_ms = float(upload_ms)
+        self.upload_bytes = int(upload_bytes)
         self._build = build
         self.cache = TileCache(int(budget_bytes), size_of=lambda t: t.nbytes,
                                release=lambda t: t.release())
@@ -131,6 +137,7 @@ class TiledGeometry:
         self.last_select_ms = 0.0
         self.last_upload_ms = 0.0
         self.last_uploads = 0
+        self.last_upload_bytes = 0
         for key in roots:  # something to draw from the first frame on
             self._upload(build(key), pinned=set(roots))
         if loader is not None:
@@ -191,7 +198,7 @@ class TiledGeometry:
                 # (a cache too small for both would evict the parents for the children
                 # and reload them for the next child: the selection alone, then)
                 missing = first + missing
-        t_up, before = time.perf_counter(), self.uploaded
+        t_up, before, taken = time.perf_counter(), self.uploaded, 0
         if self.loader is None:
             for key in missing:
                 if not self._upload(self._build(key), pinned=keep | {key}):
@@ -207,10 +214,13 @@ class TiledGeometry:
                 # late arrivals of an earlier view are still kept while there is room
                 if self._upload(got[0], pinned=keep):
                     keep.add(got[0].key)
-                if time.perf_counter() > deadline:
+                taken += got[0].nbytes
+                if (time.perf_counter() > deadline
+                        or taken + self.grid.max_tile_bytes() > self.upload_bytes):
                     break  # the rest waits in the loader for the next frame
         self.last_upload_ms = (time.perf_counter() - t_up) * 1000.0
         self.last_uploads = self.uploaded - before
+        self.last_upload_bytes = taken
         self.drawn = draw_set(self.grid, sel.visible, self.cache.__contains__)
         for key in self.drawn:
             self.cache.get(key)  # most recently used
@@ -369,5 +379,5 @@ def seeded_flight(heightmap, n_frames: int, *, seed: int = 0, size=(1280, 720),
     return cams
 
 
-__all__ = ["RENDER_TOLERANCE", "VIEW_TOLERANCE", "TiledGeometry", "WorldBudget",
+__all__ = ["RENDER_TOLERANCE", "UPLOAD_BYTES", "VIEW_TOLERANCE", "TiledGeometry", "WorldBudget",
            "freeze_heap", "seeded_flight", "split_budget", "stream_world"]
