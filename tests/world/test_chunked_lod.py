@@ -10,16 +10,18 @@ import pytest
 from scipy.ndimage import gaussian_filter
 
 from terrascape.camera import Camera
-from terrascape.errors import MemoryLimitError
+from terrascape.errors import InvalidParameterError, MemoryLimitError
 from terrascape.heightmap import Heightmap
 from terrascape.mesh.terrain_mesh import terrain_mesh
 from terrascape.world.chunked_lod import (
+    CELL_ORDERS,
     EXACT_ROWS,
     TileCache,
     TileKey,
     TileLoader,
     array_reader,
     build_pyramid,
+    cell_order,
     draw_set,
     select_tiles,
     tile_grid,
@@ -225,6 +227,35 @@ def test_skirts_face_out_of_their_tile(heights, pyramid):
         out[:, 1] = 0.0
         assert np.all(np.einsum("ij,ij->i", normal[skirt], out) > 0)
         assert np.allclose(normal[skirt, 1], 0.0, atol=1e-6 * np.abs(normal[skirt]).max())
+
+def test_cell_orders_draw_the_same_triangles_nearest_first(heights, pyramid):
+    key = TileKey(1, 2, 3)
+    mesh = tile_mesh(array_reader(heights), pyramid, key)
+    n_r, n_c = mesh.shape
+    first = tile_indices(mesh.shape).reshape(-1, 3)
+    grid_tris = 2 * (n_r - 1) * (n_c - 1)
+    box = pyramid.box(key)
+    cx, cz = 0.5 * (box[0] + box[3]), 0.5 * (box[2] + box[5])
+    side = box[3] - box[0]
+    seen = set()
+    for dx, dz in ((-3, 0.5), (3, -0.5), (0.4, -3), (-0.4, 3), (2, 2.5), (-2.5, -2)):
+        eye = np.array([cx + dx * side, 50.0, cz + dz * side])
+        order = cell_order(box, eye)
+        seen.add(order)
+        idx = tile_indices(mesh.shape, order).reshape(-1, 3)
+        # the same triangles, each with its own winding, the skirts last
+        assert sorted(map(tuple, idx)) == sorted(map(tuple, first))
+        assert np.array_equal(idx[grid_tris:], first[grid_tris:])
+        # nearest cells first: along the order, the cells' distance to the eye grows
+        centre = mesh.positions[idx[:grid_tris]].mean(axis=1)
+        d = np.linalg.norm((centre - eye)[:, [0, 2]], axis=1)
+        tenth = grid_tris // 10
+        assert d[:tenth].mean() < d[tenth:-tenth].mean() < d[-tenth:].mean()
+        assert d[0] <= np.percentile(d, 5)
+    assert len(seen) == 6 and seen <= set(range(CELL_ORDERS))
+    with pytest.raises(InvalidParameterError):
+        tile_indices(mesh.shape, CELL_ORDERS)
+
 
 def _touch(a, b) -> bool:
     ar0, ar1, ac0, ac1 = a

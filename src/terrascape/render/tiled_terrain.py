@@ -25,6 +25,7 @@ from terrascape.camera import Camera
 from terrascape.errors import MemoryLimitError
 from terrascape.memory import format_bytes
 from terrascape.world.chunked_lod import (
+    CELL_ORDERS,
     ProcessTileLoader,
     StoreReader,
     TileCache,
@@ -33,6 +34,7 @@ from terrascape.world.chunked_lod import (
     TileMesh,
     TilePyramid,
     TileSelection,
+    cell_order,
     draw_set,
     select_tiles,
     tile_indices,
@@ -116,6 +118,8 @@ class TiledGeometry:
         self.exaggeration = float(exaggeration)
         self.upload_ms = float(upload_ms)
         self.upload_bytes = int(upload_bytes)
+        #: Draw each tile's cells nearest to the eye first (False: always the first order).
+        self.ordered = True
         self._build = build
         self.cache = TileCache(int(budget_bytes), size_of=lambda t: t.nbytes,
                                release=lambda t: t.release())
@@ -147,10 +151,12 @@ class TiledGeometry:
 
     # --- streaming ---------------------------------------------------------------------
     def _ibo(self, shape: tuple[int, int]) -> tuple[Any, int]:
+        """The index buffer of a tile shape — its :data:`CELL_ORDERS` orders one after the
+        other — and the indices of one order."""
         have = self._ibos.get(shape)
         if have is None:
-            idx = tile_indices(shape)
-            have = self._ibos[shape] = (self.ctx.buffer(idx.tobytes()), idx.size)
+            idx = np.concatenate([tile_indices(shape, order) for order in range(CELL_ORDERS)])
+            have = self._ibos[shape] = (self.ctx.buffer(idx.tobytes()), idx.size // CELL_ORDERS)
         return have
 
     def _upload(self, mesh: TileMesh, *, pinned) -> bool:
@@ -221,9 +227,13 @@ class TiledGeometry:
         self.last_upload_ms = (time.perf_counter() - t_up) * 1000.0
         self.last_uploads = self.uploaded - before
         self.last_upload_bytes = taken
-        self.drawn = draw_set(self.grid, sel.visible, self.cache.__contains__)
-        for key in self.drawn:
-            self.cache.get(key)  # most recently used
+        drawn = draw_set(self.grid, sel.visible, self.cache.__contains__)
+        eye = camera.eye
+        boxes = {key: self.cache.get(key).box for key in drawn}  # and most recently used
+        # front to back (the draw set follows the quadtree): the nearer tiles' depth hides
+        # the further ones' fragments before they are shaded
+        self.drawn = sorted(drawn, key=lambda k: float(np.linalg.norm(
+            np.clip(eye, boxes[k][:3], boxes[k][3:]) - eye)))
         self.last_update_ms = (time.perf_counter() - t0) * 1000.0
         return self.stats()
 
@@ -249,21 +259,22 @@ class TiledGeometry:
         import moderngl
 
         planes = camera.frustum_planes()
+        eye = camera.eye
         tris = drawn = 0
-        for key in self.drawn:
+        for key in self.drawn:  # front to back, and each tile's cells front to back
             tile = self.cache.get(key)
             if tile is None or not _in_frustum(planes, tile.box):
                 continue
+            ibo, count = self._ibo(tile.shape)
             vao = tile.vaos.get(program.glo)
             if vao is None:
-                ibo, _ = self._ibo(tile.shape)
                 pos, nor, tan = tile.buffers
                 vao = tile.vaos[program.glo] = self.ctx.vertex_array(
                     program, [(pos, "3f", "in_position"), (nor, "3f", "in_normal"),
                               (tan, "4f", "in_tangent")], ibo, 4, skip_errors=True)
-            vao.render(moderngl.TRIANGLES)
-            n = self._ibo(tile.shape)[1] // 3
-            tris += n
+            order = cell_order(tile.box, eye) if self.ordered else 0
+            vao.render(moderngl.TRIANGLES, vertices=count, first=order * count)
+            tris += count // 3
             drawn += 1
         return {"triangles": tris, "triangles_drawn": tris, "chunks": drawn,
                 "chunks_culled": len(self.drawn) - drawn, "chunks_small_cull": 0}
