@@ -10,20 +10,20 @@ import pytest
 from scipy.ndimage import gaussian_filter
 
 from terrascape.camera import Camera
-from terrascape.errors import InvalidParameterError, MemoryLimitError
+from terrascape.errors import MemoryLimitError
 from terrascape.heightmap import Heightmap
 from terrascape.mesh.terrain_mesh import terrain_mesh
 from terrascape.world.chunked_lod import (
-    CELL_ORDERS,
+    EDGE_STEPS,
     EXACT_ROWS,
     TileCache,
     TileKey,
     TileLoader,
     array_reader,
     build_pyramid,
-    cell_order,
     draw_set,
     select_tiles,
+    skirt_edges,
     tile_grid,
     tile_indices,
     tile_mesh,
@@ -228,33 +228,27 @@ def test_skirts_face_out_of_their_tile(heights, pyramid):
         assert np.all(np.einsum("ij,ij->i", normal[skirt], out) > 0)
         assert np.allclose(normal[skirt, 1], 0.0, atol=1e-6 * np.abs(normal[skirt]).max())
 
-def test_cell_orders_draw_the_same_triangles_nearest_first(heights, pyramid):
+def test_skirt_edges_are_the_skirt_of_each_edge(heights, pyramid):
     key = TileKey(1, 2, 3)
     mesh = tile_mesh(array_reader(heights), pyramid, key)
     n_r, n_c = mesh.shape
-    first = tile_indices(mesh.shape).reshape(-1, 3)
-    grid_tris = 2 * (n_r - 1) * (n_c - 1)
-    box = pyramid.box(key)
-    cx, cz = 0.5 * (box[0] + box[3]), 0.5 * (box[2] + box[5])
-    side = box[3] - box[0]
-    seen = set()
-    for dx, dz in ((-3, 0.5), (3, -0.5), (0.4, -3), (-0.4, 3), (2, 2.5), (-2.5, -2)):
-        eye = np.array([cx + dx * side, 50.0, cz + dz * side])
-        order = cell_order(box, eye)
-        seen.add(order)
-        idx = tile_indices(mesh.shape, order).reshape(-1, 3)
-        # the same triangles, each with its own winding, the skirts last
-        assert sorted(map(tuple, idx)) == sorted(map(tuple, first))
-        assert np.array_equal(idx[grid_tris:], first[grid_tris:])
-        # nearest cells first: along the order, the cells' distance to the eye grows
-        centre = mesh.positions[idx[:grid_tris]].mean(axis=1)
-        d = np.linalg.norm((centre - eye)[:, [0, 2]], axis=1)
-        tenth = grid_tris // 10
-        assert d[:tenth].mean() < d[tenth:-tenth].mean() < d[-tenth:].mean()
-        assert d[0] <= np.percentile(d, 5)
-    assert len(seen) == 6 and seen <= set(range(CELL_ORDERS))
-    with pytest.raises(InvalidParameterError):
-        tile_indices(mesh.shape, CELL_ORDERS)
+    idx = tile_indices(mesh.shape)
+    grid = 6 * (n_r - 1) * (n_c - 1)
+    edges = skirt_edges(mesh.shape)
+    assert sum(c for _, c in edges) == idx.size - grid  # every skirt index, once
+    assert [f for f, _ in edges] == list(np.cumsum([0] + [c for _, c in edges[:-1]]))
+    r0, r1, c0, c1 = pyramid.grid.span(key)
+    # each edge's skirt hangs from that edge's top vertices: the line toward its neighbour
+    for (first, count), (di, dj) in zip(edges, EDGE_STEPS, strict=True):
+        tops = idx[grid + first:grid + first + count]
+        tops = tops[tops < n_r * n_c]
+        x, z = mesh.positions[tops, 0], mesh.positions[tops, 2]
+        sp = pyramid.grid.spacing
+        if di:
+            assert np.all(z == (r0 if di < 0 else r1) * sp)
+        else:
+            assert np.all(x == (c0 if dj < 0 else c1) * sp)
+        assert len(np.unique(tops)) == (n_c if di else n_r)
 
 
 def _touch(a, b) -> bool:

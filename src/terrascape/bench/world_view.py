@@ -103,7 +103,7 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
     session = ViewerSession(surface.ctx, proxy.heightmap, size=SIZE, hud=True,
                             technique=technique, geometry=geometry, warn=lambda m: None)
     cams = seeded_flight(proxy.heightmap, frames, seed=seed, size=SIZE, crossing_s=40.0)
-    times, loading, drawn, rss = [], [], [], []
+    times, loading, drawn, rss, tris = [], [], [], [], []
     # where each frame's time went: the selection, taking in finished tiles, the CPU side
     # of the draw calls (llvmpipe shades the vertices in the calling thread), the wait for
     # the rasteriser, the garbage collector's pauses
@@ -144,6 +144,7 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
             st = session.tile_stats
             loading.append(not st["complete"])
             drawn.append(st["tiles_drawn"])
+            tris.append(session.stats.get("triangles", 0))
             rss.append(_rss_now())
         stats = dict(session.tile_stats)
         loader_rss = geometry.loader.peak_rss() if hasattr(geometry.loader, "peak_rss") else 0
@@ -161,6 +162,7 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
         else:
             note = surface.note
     return {"times": times, "loading": loading, "drawn": drawn, "rss": rss, "stats": stats,
+            "triangles": tris,
             "parts": parts, "uploads": uploads, "tolerance": geometry.tolerance,
             "setup_s": setup_s, "proxy": proxy, "share": share, "pyramid": pyramid,
             "note": note}
@@ -175,8 +177,8 @@ def run(quick: bool = False) -> list[BenchTable]:
         f"streaming world viewer {side}² at {SIZE[0]}×{SIZE[1]}, seeded flight of {frames} "
         "frames",
         ["technique", "median fps", "median ms", "p95 ms", "worst ms", "worst ms loading",
-         "frames loading", "tiles drawn (median)", "tiles loaded", "tiles evicted",
-         "peak tile MB", "peak RSS GB (viewer + loader)"])
+         "frames loading", "tiles drawn (median)", "triangles (median)", "tiles loaded",
+         "tiles evicted", "peak tile MB", "peak RSS GB (viewer + loader)"])
     results = {}
     for technique in ("plain", "material"):
         r = fly(path, frames, technique=technique)
@@ -188,7 +190,8 @@ def run(quick: bool = False) -> list[BenchTable]:
             technique, round(1000.0 / statistics.median(t), 1), round(statistics.median(t), 1),
             round(sorted(t)[int(0.95 * (len(t) - 1))], 1), round(max(t), 1),
             round(max(load_t), 1) if load_t else "-", sum(r["loading"]),
-            int(statistics.median(r["drawn"])), st["uploaded"], st["evicted"],
+            int(statistics.median(r["drawn"])), int(statistics.median(r["triangles"])),
+            st["uploaded"], st["evicted"],
             round(st["tile_peak"] / 2**20, 1), round(_peak_gb(st), 3)])
     plain = results["plain"]
     load_t = [x for x, busy in zip(plain["times"], plain["loading"], strict=True) if busy]
@@ -199,6 +202,8 @@ def run(quick: bool = False) -> list[BenchTable]:
     table.check_target("peak resident memory (viewer + loader process)",
                        max(_peak_gb(r["stats"]) for r in results.values()),
                        at_most=MEMORY_TARGET_GB, unit=" GB")
+    from terrascape.render.tiled_terrain import UPLOAD_BYTES
+
     r = plain
     share, proxy, pyr = r["share"], r["proxy"], r["pyramid"]
     table.notes += [
@@ -214,8 +219,8 @@ def run(quick: bool = False) -> list[BenchTable]:
         f"tile table + overview read in {r['setup_s']:.1f} s (the table is cached in the store "
         "after its first build)",
         "frames while tiles load draw their loaded parents; the worst frame includes the "
-        "uploads of that frame (at most 4 ms of them, at least one tile); a loader process "
-        "reads the store and builds the tile meshes",
+        f"uploads of that frame (at most 4 ms or {UPLOAD_BYTES / 2**20:g} MiB of them, at "
+        "least one tile); a loader process reads the store and builds the tile meshes",
         r["note"] + f"; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; figures from a "
         "loaded 2-core machine shared with other jobs",
     ]

@@ -25,7 +25,7 @@ from terrascape.camera import Camera
 from terrascape.errors import MemoryLimitError
 from terrascape.memory import format_bytes
 from terrascape.world.chunked_lod import (
-    CELL_ORDERS,
+    EDGE_STEPS,
     ProcessTileLoader,
     StoreReader,
     TileCache,
@@ -34,9 +34,9 @@ from terrascape.world.chunked_lod import (
     TileMesh,
     TilePyramid,
     TileSelection,
-    cell_order,
     draw_set,
     select_tiles,
+    skirt_edges,
     tile_indices,
     tile_mesh,
     world_pyramid,
@@ -118,8 +118,8 @@ class TiledGeometry:
         self.exaggeration = float(exaggeration)
         self.upload_ms = float(upload_ms)
         self.upload_bytes = int(upload_bytes)
-        #: Draw each tile's cells nearest to the eye first (False: always the first order).
-        self.ordered = True
+        #: Skirts on every tile edge (False: not between drawn tiles of one level).
+        self.every_skirt = False
         self._build = build
         self.cache = TileCache(int(budget_bytes), size_of=lambda t: t.nbytes,
                                release=lambda t: t.release())
@@ -150,13 +150,15 @@ class TiledGeometry:
             self.loader = TileLoader(build) if background else None
 
     # --- streaming ---------------------------------------------------------------------
-    def _ibo(self, shape: tuple[int, int]) -> tuple[Any, int]:
-        """The index buffer of a tile shape — its :data:`CELL_ORDERS` orders one after the
-        other — and the indices of one order."""
+    def _ibo(self, shape: tuple[int, int]) -> tuple[Any, int, list[tuple[int, int]]]:
+        """The index buffer of a tile shape (:func:`~terrascape.world.chunked_lod.
+        tile_indices`), the grid's indices, and each edge's skirt ``(first, count)``."""
         have = self._ibos.get(shape)
         if have is None:
-            idx = np.concatenate([tile_indices(shape, order) for order in range(CELL_ORDERS)])
-            have = self._ibos[shape] = (self.ctx.buffer(idx.tobytes()), idx.size // CELL_ORDERS)
+            idx = tile_indices(shape)
+            n = 6 * (shape[0] - 1) * (shape[1] - 1)
+            edges = [(n + first, count) for first, count in skirt_edges(shape)]
+            have = self._ibos[shape] = (self.ctx.buffer(idx.tobytes()), n, edges)
         return have
 
     def _upload(self, mesh: TileMesh, *, pinned) -> bool:
@@ -259,22 +261,39 @@ class TiledGeometry:
         import moderngl
 
         planes = camera.frustum_planes()
-        eye = camera.eye
+        neighbours = frozenset(self.drawn)
         tris = drawn = 0
-        for key in self.drawn:  # front to back, and each tile's cells front to back
+        for key in self.drawn:  # front to back
             tile = self.cache.get(key)
             if tile is None or not _in_frustum(planes, tile.box):
                 continue
-            ibo, count = self._ibo(tile.shape)
+            ibo, count, edges = self._ibo(tile.shape)
             vao = tile.vaos.get(program.glo)
             if vao is None:
                 pos, nor, tan = tile.buffers
                 vao = tile.vaos[program.glo] = self.ctx.vertex_array(
                     program, [(pos, "3f", "in_position"), (nor, "3f", "in_normal"),
                               (tan, "4f", "in_tangent")], ibo, 4, skip_errors=True)
-            order = cell_order(tile.box, eye) if self.ordered else 0
-            vao.render(moderngl.TRIANGLES, vertices=count, first=order * count)
-            tris += count // 3
+            vao.render(moderngl.TRIANGLES, vertices=count)
+            n = count
+            # the skirts of the edges not shared with a drawn tile of the same level, runs
+            # of neighbouring edges in one call
+            run_first = run_count = 0
+            for (first, size), (di, dj) in zip(edges, EDGE_STEPS, strict=True):
+                if (not self.every_skirt
+                        and TileKey(key.level, key.row + di, key.col + dj) in neighbours):
+                    if run_count:
+                        vao.render(moderngl.TRIANGLES, vertices=run_count, first=run_first)
+                        n += run_count
+                    run_count = 0
+                    continue
+                if not run_count:
+                    run_first = first
+                run_count += size
+            if run_count:
+                vao.render(moderngl.TRIANGLES, vertices=run_count, first=run_first)
+                n += run_count
+            tris += n // 3
             drawn += 1
         return {"triangles": tris, "triangles_drawn": tris, "chunks": drawn,
                 "chunks_culled": len(self.drawn) - drawn, "chunks_small_cull": 0}
@@ -284,7 +303,7 @@ class TiledGeometry:
             self.loader.close()
             self.loader = None
         self.cache.clear()
-        for ibo, _ in self._ibos.values():
+        for ibo, _, _ in self._ibos.values():
             ibo.release()
         self._ibos.clear()
 

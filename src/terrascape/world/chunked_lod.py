@@ -719,26 +719,10 @@ def _ring(n_r: int, n_c: int) -> np.ndarray:
     return np.concatenate([top, right, bottom, left])
 
 
-#: Cell orders of :func:`tile_indices`: bit 0 rows from the last, bit 1 columns from the
-#: last, bit 2 column by column.
-CELL_ORDERS = 8
-
-
-def cell_order(box: np.ndarray | tuple, eye) -> int:
-    """The :func:`tile_indices` order that draws a tile's cells nearest to ``eye`` first:
-    from the side of the tile the eye is on, along the axis it is furthest off the tile's
-    centre. Front to back, a depth test rejects the hidden fragments before they are shaded
-    (on a software rasteriser each one costs as much as a visible one)."""
-    dx = float(eye[0]) - 0.5 * (float(box[0]) + float(box[3]))
-    dz = float(eye[2]) - 0.5 * (float(box[2]) + float(box[5]))
-    return (dz > 0) | (dx > 0) << 1 | (abs(dx) > abs(dz)) << 2
-
-
-def tile_indices(shape: tuple[int, int], order: int = 0) -> np.ndarray:
+def tile_indices(shape: tuple[int, int]) -> np.ndarray:
     """uint32 triangles of a tile mesh of ``shape`` grid vertices: the grid's (as
-    :func:`~terrascape.mesh.terrain_mesh.grid_triangles`, its cells in ``order``, see
-    :data:`CELL_ORDERS`) and the skirts, facing out of the tile (counter-clockwise seen
-    from outside).
+    :func:`~terrascape.mesh.terrain_mesh.grid_triangles`) and the skirts, facing out of
+    the tile (counter-clockwise seen from outside; each edge's: :func:`skirt_edges`).
 
     One winding is enough: a gap between two tiles' edges opens below the higher edge, and
     from the higher tile's side it is hidden by that tile's own surface, so it is only ever
@@ -746,14 +730,7 @@ def tile_indices(shape: tuple[int, int], order: int = 0) -> np.ndarray:
     would be culled after their vertices were shaded (on a software rasteriser a twelfth
     of a tile's triangles)."""
     n_r, n_c = shape
-    order = check_int(order, "cell order", minimum=0, maximum=CELL_ORDERS - 1)
-    cells = grid_triangles(n_r, n_c).reshape(n_r - 1, n_c - 1, 6)
-    if order & 1:
-        cells = cells[::-1]
-    if order & 2:
-        cells = cells[:, ::-1]
-    if order & 4:
-        cells = cells.transpose(1, 0, 2)
+    grid = grid_triangles(n_r, n_c)
     ring = _ring(n_r, n_c)
     n = len(ring)
     a = ring
@@ -761,7 +738,24 @@ def tile_indices(shape: tuple[int, int], order: int = 0) -> np.ndarray:
     lo_a = n_r * n_c + np.arange(n)
     lo_b = np.roll(lo_a, -1)
     quads = np.stack([b, lo_a, a, lo_b, lo_a, b], axis=1)
-    return np.concatenate([cells.reshape(-1), quads.reshape(-1)]).astype(np.uint32)
+    return np.concatenate([grid.reshape(-1), quads.reshape(-1)]).astype(np.uint32)
+
+
+#: The neighbour across each edge of :func:`skirt_edges` (row and column steps).
+EDGE_STEPS = ((-1, 0), (0, 1), (1, 0), (0, -1))
+
+
+def skirt_edges(shape: tuple[int, int]) -> list[tuple[int, int]]:
+    """``(first, count)`` of the skirt indices of each tile edge — row 0, the last column,
+    the last row, column 0 (the neighbours of :data:`EDGE_STEPS`) — in :func:`tile_indices`
+    after the grid's. Two tiles of one level share their edge's samples exactly, so an edge
+    between them needs no skirt; only edges to another level or to nothing drawn do."""
+    n_r, n_c = shape
+    out, at = [], 0
+    for quads in (n_c - 1, n_r - 1, n_c - 1, n_r - 1):  # the order of _ring
+        out.append((6 * at, 6 * quads))
+        at += quads
+    return out
 
 
 def tile_mesh(reader: LevelReader, pyramid: TilePyramid, key: TileKey, *,
@@ -1081,8 +1075,8 @@ class ProcessTileLoader:
         self._conn.close()
 
 
-__all__ = ["CELL_ORDERS", "DEFAULT_TILE", "LOADER_SLOTS", "VERTEX_BYTES", "LevelReader",
+__all__ = ["DEFAULT_TILE", "EDGE_STEPS", "LOADER_SLOTS", "VERTEX_BYTES", "LevelReader",
            "ProcessTileLoader", "StoreReader", "TileCache", "TileGrid", "TileKey", "TileLoader",
            "TileMesh", "TilePyramid", "TileSelection", "array_reader", "build_pyramid",
-           "cell_order", "draw_set", "select_tiles", "tile_grid", "tile_indices", "tile_mesh",
+           "draw_set", "select_tiles", "skirt_edges", "tile_grid", "tile_indices", "tile_mesh",
            "world_pyramid"]
