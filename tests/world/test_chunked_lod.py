@@ -107,12 +107,14 @@ def test_error_bound_holds_for_every_tile(heights, pyramid):
     assert g.top >= 3 and np.median(tight) > 0.4  # a bound, not a blanket
 
 
-def test_levels_above_the_exact_ones_bound_the_error(heights, monkeypatch):
-    import terrascape.world.chunked_lod as lod
-
-    monkeypatch.setattr(lod, "EXACT_ROWS", 64)  # 16-cell tiles: levels 1–2 exact, 3–4 summed
-    pyr = build_pyramid(array_reader(heights), heights.shape, SPACING, tile=16, block=40)
-    wide = build_pyramid(array_reader(heights), heights.shape, SPACING, tile=16, block=256)
+def test_levels_above_the_exact_ones_bound_the_error(heights):
+    # 64 rows of 16-cell tiles: levels 1–2 exact, 3–4 summed
+    pyr = build_pyramid(array_reader(heights), heights.shape, SPACING, tile=16, block=40,
+                        exact_rows=64)
+    wide = build_pyramid(array_reader(heights), heights.shape, SPACING, tile=16, block=256,
+                         exact_rows=64)
+    summed = build_pyramid(array_reader(heights), heights.shape, SPACING, tile=16,
+                           exact_rows=0)
     g = pyr.grid
     assert g.top == 4
     for k in range(1, g.top + 1):
@@ -127,6 +129,9 @@ def test_levels_above_the_exact_ones_bound_the_error(heights, monkeypatch):
             np.testing.assert_allclose(pyr.error[k], true, rtol=1e-6, atol=1e-4)
         else:
             assert (true <= pyr.error[k] + 1e-4).all() and (pyr.error[k] > true).any()
+        # the sum over every level (level 1's own error is its real one): never below
+        assert (pyr.error[k] <= summed.error[k] + 1e-9).all()
+        assert k == 1 or (summed.error[k] > pyr.error[k]).any()
 
 
 def test_selection_covers_once_within_tolerance(heights, pyramid):

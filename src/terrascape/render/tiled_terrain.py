@@ -120,6 +120,8 @@ class TiledGeometry:
         self.upload_bytes = int(upload_bytes)
         #: Skirts on every tile edge (False: not between drawn tiles of one level).
         self.every_skirt = False
+        #: Draw the tiles nearest first (False: in the quadtree's order).
+        self.sort_tiles = True
         self._build = build
         self.cache = TileCache(int(budget_bytes), size_of=lambda t: t.nbytes,
                                release=lambda t: t.release())
@@ -232,10 +234,12 @@ class TiledGeometry:
         drawn = draw_set(self.grid, sel.visible, self.cache.__contains__)
         eye = camera.eye
         boxes = {key: self.cache.get(key).box for key in drawn}  # and most recently used
-        # front to back (the draw set follows the quadtree): the nearer tiles' depth hides
-        # the further ones' fragments before they are shaded
-        self.drawn = sorted(drawn, key=lambda k: float(np.linalg.norm(
-            np.clip(eye, boxes[k][:3], boxes[k][3:]) - eye)))
+        if self.sort_tiles:
+            # front to back (the draw set follows the quadtree): the nearer tiles' depth
+            # hides the further ones' fragments before they are shaded
+            drawn.sort(key=lambda k: float(np.linalg.norm(
+                np.clip(eye, boxes[k][:3], boxes[k][3:]) - eye)))
+        self.drawn = drawn
         self.last_update_ms = (time.perf_counter() - t0) * 1000.0
         return self.stats()
 

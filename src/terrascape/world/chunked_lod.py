@@ -37,7 +37,9 @@ Cracks: at an edge shared by tiles A and B, A's edge is the interpolant of sampl
 edge line and so is B's; B's value at any point of the edge lies between two of B's samples
 at most one B cell away — within the ground of A's parent's 3×3 neighbourhood (B is at most
 one level coarser). A vertical skirt hanging from every tile edge down to the lowest height
-of that neighbourhood therefore closes every gap.
+of that neighbourhood therefore closes every gap. Two tiles of one level have the same
+samples on their shared edge, so no gap opens there: a frame draws the skirts of the other
+edges only (:func:`skirt_edges`).
 
 References
 ----------
@@ -313,7 +315,8 @@ def _exact_error_kernel(band, r0, level, tile, rows, cols, out):  # pragma: no c
 
 
 def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *,
-                  tile: int = DEFAULT_TILE, block: int = 1024) -> TilePyramid:
+                  tile: int = DEFAULT_TILE, block: int = 1024,
+                  exact_rows: int | None = None) -> TilePyramid:
     """The error bounds and height ranges of every tile, reading each pyramid level at most
     once in bands of about ``block`` rows (memory: a band, never the whole map).
 
@@ -321,7 +324,8 @@ def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *
     over the full-resolution samples of the tile (the interpolant of the level-0 samples,
     ``I_0``, differs from ``I_k`` by a function linear on level-0 triangles, so its largest
     value is at a sample); the levels above add their own midpoint error to their children's
-    (the hierarchical bound of the module docstring, over exact children)."""
+    (the hierarchical bound of the module docstring, over exact children). ``exact_rows``:
+    that span (default :data:`EXACT_ROWS`; 0: only level 1, where the sum is exact too)."""
     grid = tile_grid(shape, spacing, tile)
     t, top = grid.tile, grid.top
     error: list[np.ndarray] = [np.zeros(grid.count(0))]
@@ -330,7 +334,8 @@ def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *
     low0, high0 = np.empty((nr0, nc0)), np.empty((nr0, nc0))
     rows, cols = grid.shape[0] - 1, grid.shape[1] - 1
     # a level-k tile is 2**k level-0 tile rows: bands of 2**m of them hold levels 1 … m
-    exact_top = min(top, max(1, (EXACT_ROWS // t).bit_length() - 1))
+    rows_exact = EXACT_ROWS if exact_rows is None else int(exact_rows)
+    exact_top = min(top, max(1, (rows_exact // t).bit_length() - 1))
     per = max(1 << exact_top, 1 << (_band_rows(grid, 0, block).bit_length() - 1))
     exact = [np.zeros(grid.count(k)) for k in range(1, exact_top + 1)]
     for i0 in range(0, nr0, per):
