@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from terrascape.world import build_world, connect, recipe_from_dict
+from terrascape.world.chunked_lod import TileKey
 
 SIZE = (160, 96)
 
@@ -304,3 +305,26 @@ def test_tiles_front_to_back_skirts_between_levels_same_pixels(world, gl_ctx):
     assert passed[False] < 0.9 * passed[True]
     # the shared edges' skirts left out (one edge's: 32 of a 16² tile's 640 triangles)
     assert tris[False] < tris[True] - 100
+
+
+def test_loader_process_is_asked_for_the_front_of_the_queue(world):
+    """A request names the first LOADER_QUEUE tiles only (a long list a frame would fill the
+    pipe while the process builds); the rest are asked for again by later frames."""
+    from terrascape.world.chunked_lod import LOADER_QUEUE, ProcessTileLoader, world_pyramid
+
+    grid = world_pyramid(world, tile=16).grid
+    keys = [TileKey(0, i, j) for i in range(grid.count(0)[0]) for j in range(grid.count(0)[1])]
+    assert len(keys) > LOADER_QUEUE
+    loader = ProcessTileLoader(world, tile=16, slots=4)
+    try:
+        loader.request(keys)
+        assert loader._last == keys[:LOADER_QUEUE] and loader.pending() == LOADER_QUEUE
+        got, deadline = [], time.monotonic() + 60
+        while len(got) < 8 and time.monotonic() < deadline:
+            got += loader.finished()
+            time.sleep(0.01)
+        assert [m.key for m in got[:8]] == keys[:8]
+        loader.request(keys[8:])  # the next frame: what is still missing
+        assert loader._last == keys[8:8 + LOADER_QUEUE]
+    finally:
+        loader.close()

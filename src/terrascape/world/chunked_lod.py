@@ -931,6 +931,8 @@ class TileLoader:
 
 #: Meshes the loader process may have made and the viewer not yet taken (shared slots).
 LOADER_SLOTS = 32
+#: Tiles a request to the loader process names at most (its queue, in priority order).
+LOADER_QUEUE = 4 * LOADER_SLOTS
 
 
 def _slot_layout(n_vertices: int) -> tuple[int, int, int, int]:
@@ -1015,7 +1017,10 @@ class ProcessTileLoader:
         self.loaded = 0
 
     def request(self, keys: Iterable[TileKey]) -> None:
-        keys = list(dict.fromkeys(keys))
+        """Replace the process's queue by the first :data:`LOADER_QUEUE` of ``keys`` (a
+        moving view asks anew each frame, the rest again later): a long list each frame
+        would fill the pipe while the process builds a tile, and the frame would wait."""
+        keys = list(dict.fromkeys(keys))[:LOADER_QUEUE]
         if keys != self._last:
             self._conn.send(("want", keys))
             self._last = keys
@@ -1080,8 +1085,8 @@ class ProcessTileLoader:
         self._conn.close()
 
 
-__all__ = ["DEFAULT_TILE", "EDGE_STEPS", "LOADER_SLOTS", "VERTEX_BYTES", "LevelReader",
-           "ProcessTileLoader", "StoreReader", "TileCache", "TileGrid", "TileKey", "TileLoader",
-           "TileMesh", "TilePyramid", "TileSelection", "array_reader", "build_pyramid",
-           "draw_set", "select_tiles", "skirt_edges", "tile_grid", "tile_indices", "tile_mesh",
-           "world_pyramid"]
+__all__ = ["DEFAULT_TILE", "EDGE_STEPS", "LOADER_QUEUE", "LOADER_SLOTS", "VERTEX_BYTES",
+           "LevelReader", "ProcessTileLoader", "StoreReader", "TileCache", "TileGrid", "TileKey",
+           "TileLoader", "TileMesh", "TilePyramid", "TileSelection", "array_reader",
+           "build_pyramid", "draw_set", "select_tiles", "skirt_edges", "tile_grid",
+           "tile_indices", "tile_mesh", "world_pyramid"]
