@@ -17,14 +17,13 @@ level-(k−1) vertex; by the triangle inequality
     e_k(tile) = max over the tile's level-(k−1) vertices |h_{k−1} − I_k| + max over children e_{k−1}
 
 bounds ``|h_0 − I_k|`` everywhere in the tile (``e_0 = 0``). The bound sums every level's
-error as if they all peaked at one point; they seldom do (on fBm the real error is about
-half: docs/benchmarks.md), so the levels whose tiles span at most :data:`EXACT_ROWS`
-full-resolution rows — the ones a view draws near the eye — store the exact
+error as if they all peaked at one point; they seldom do, and a bound above the real error
+splits tiles the tolerance would keep. So the levels whose tiles span at most
+:data:`EXACT_ROWS` full-resolution rows — the ones a view draws near the eye — store the exact
 ``max |h_0 − I_k|`` instead (also at a sample: ``I_0 − I_k`` is linear on level-0
 triangles), measured in the same pass over level 0, and only the levels above use the sum,
-over exact children. One pass over each
-pyramid level, in bands of rows, builds the table (memory bounded by a band, not the
-map); it is cached next to the store.
+over exact children. One pass over each pyramid level, in bands of rows, builds the table
+(memory bounded by a band, not the map); it is cached next to the store.
 
 Selection (Ulrich 2002's chunked LOD): starting from the roots, the tile whose projected
 error ``e · K / d`` (``K`` = pixels per radian, ``d`` = distance from the eye to the tile's
