@@ -612,7 +612,7 @@ def select_tiles(pyramid: TilePyramid, camera: Camera, viewport: tuple[int, int]
 
     # a tile's visibility, projected error and distance when the refinement first reaches
     # it: the cost follows the tiles the view splits, not the world's size (a 32769² world
-    # has 350,000 tiles of 64², a view looks at a few hundred)
+    # has 1.4 M tiles of 32², a view looks at a few hundred)
     planes = [tuple(float(v) for v in p) for p in camera.frustum_planes()]
     ex, ey, ez = (float(v) for v in camera.eye)
     sp = grid.spacing
