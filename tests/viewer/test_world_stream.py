@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from terrascape.world import build_world, connect, recipe_from_dict
+from terrascape.world.chunked_lod import TileKey
 
 SIZE = (160, 96)
 
@@ -176,5 +177,154 @@ def test_loader_process_fills_its_slots_ahead(world):
                          (mesh.tangents, want.tangents)):
                 assert a.dtype == np.float32 and np.array_equal(a, b)
         assert loader.pending() == 0 and loader.loaded == len(keys)
+    finally:
+        loader.close()
+
+
+class _ReadyLoader:
+    """A loader whose every requested tile is already built: the frame's byte budget, not
+    the loader, decides how many are taken."""
+
+    def __init__(self, build) -> None:
+        self._build, self._ready, self.asked = build, [], []
+
+    def request(self, keys) -> None:
+        known = {m.key for m in self._ready} | set(self.asked)
+        for key in keys:
+            if key not in known:
+                self._ready.append(self._build(key))
+                self.asked.append(key)
+
+    def pending(self) -> int:
+        return len(self._ready)
+
+    def finished(self, limit=None):
+        n = len(self._ready) if limit is None else limit
+        out, self._ready = self._ready[:n], self._ready[n:]
+        return out
+
+    def close(self) -> None:
+        pass
+
+
+@pytest.mark.gl
+def test_upload_budget_spreads_a_burst_of_tiles_over_frames(world, gl_ctx):
+    from terrascape.render.tiled_terrain import TiledGeometry
+    from terrascape.world.chunked_lod import StoreReader, tile_mesh, world_pyramid
+    from terrascape.world.window import overview_window
+
+    reader = StoreReader(world)
+    pyramid = world_pyramid(world, tile=16, reader=reader)
+    per_tile = pyramid.grid.max_tile_bytes()
+
+    def build(key):
+        return tile_mesh(reader, pyramid, key)
+
+    proxy = overview_window(world, budget=1 << 30, max_side=65).heightmap
+    cam = _last_flight_camera(proxy)
+    frames = {}
+    for budget in (3 * per_tile, 1 << 30):
+        loader = _ReadyLoader(build)
+        geo = TiledGeometry(gl_ctx, pyramid, build, budget_bytes=200 * per_tile,
+                            tolerance=0.3, upload_ms=1e6, upload_bytes=budget, loader=loader)
+        try:
+            taken = []
+            for _ in range(100):
+                geo.update(cam, SIZE)
+                taken.append(geo.last_uploads)
+                assert geo.last_upload_bytes <= budget  # never more than the budget a frame
+                if not geo.loading():
+                    break
+            # the selection and the parents asked for first, all taken, past the root
+            assert not geo.loading() and sum(taken) == geo.uploaded - 1
+            assert set(geo.selection.visible) <= set(loader.asked)
+            frames[budget] = (taken, sorted(loader.asked))
+        finally:
+            geo.release()
+    # every tile was ready at once: all in the first frame without a budget, at most 3 a
+    # frame with one of 3 whole tiles' bytes, the same tiles in the end
+    (burst, asked), (spread, asked_spread) = frames[1 << 30], frames[3 * per_tile]
+    assert burst[0] == sum(burst) > 6 and asked == asked_spread
+    assert max(spread) <= 3 and len(spread) >= sum(spread) // 3 and sum(spread) == sum(burst)
+
+
+def _last_flight_camera(proxy):
+    from terrascape.render.tiled_terrain import seeded_flight
+
+    return seeded_flight(proxy, 30, seed=4, size=SIZE, crossing_s=3.0)[-1]
+
+
+@pytest.mark.gl
+def test_tiles_front_to_back_skirts_between_levels_same_pixels(world, gl_ctx):
+    """Tiles drawn nearest first, and skirts only on edges not shared with a drawn tile of
+    the same level: the picture of the quadtree order with every skirt (no crack opens),
+    with fewer triangles and fewer fragments through the depth test."""
+    from terrascape.render.tiled_terrain import seeded_flight, stream_world
+    from terrascape.viewer.session import ViewerSession
+    from terrascape.world.chunked_lod import draw_set
+    from terrascape.world.window import overview_window
+
+    proxy = overview_window(world, budget=1 << 30, max_side=65).heightmap
+    cam = seeded_flight(proxy, 30, seed=4, size=SIZE, crossing_s=3.0)[-1]
+    geo = stream_world(gl_ctx, world, budget_bytes=64 << 20, tolerance=0.5, background=False)
+    s = ViewerSession(gl_ctx, proxy, size=SIZE, hud=False, technique="plain", geometry=geo,
+                      moving_sun_shadows=False, warn=lambda m: None)
+    fbo = gl_ctx.simple_framebuffer(SIZE)
+    draw, update = geo.draw, geo.update
+    passed = {}
+
+    def counted(program, camera, viewport):
+        q = gl_ctx.query(samples=True)
+        with q:
+            out = draw(program, camera, viewport)
+        passed[geo.every_skirt] = q.samples
+        return out
+
+    def quadtree_order(camera, viewport):
+        out = update(camera, viewport)
+        if geo.every_skirt:  # the draw set's own order, as the tiles were drawn before
+            by_distance = geo.drawn
+            geo.drawn = draw_set(geo.grid, geo.selection.visible, geo.cache.__contains__)
+            assert sorted(geo.drawn) == sorted(by_distance) and geo.drawn != by_distance
+        return out
+
+    geo.draw, geo.update = counted, quadtree_order
+    frames, tris = {}, {}
+    try:
+        s.camera = cam
+        for before in (False, True):
+            geo.every_skirt = before
+            s.render(fbo, 0.0)
+            frames[before], tris[before] = _frame(fbo), s.stats["triangles"]
+        assert len(geo.drawn) >= 8 and len({k.level for k in geo.drawn}) >= 2
+    finally:
+        fbo.release()
+        s.release()
+    diff = np.abs(frames[False] - frames[True])
+    assert np.percentile(diff, 99.5) <= 2 and diff.mean() < 0.05  # ties at equal depth only
+    assert passed[False] < 0.9 * passed[True]
+    # the shared edges' skirts left out (one edge's: 32 of a 16² tile's 640 triangles)
+    assert tris[False] < tris[True] - 100
+
+
+def test_loader_process_is_asked_for_the_front_of_the_queue(world):
+    """A request names the first LOADER_QUEUE tiles only (a long list a frame would fill the
+    pipe while the process builds); the rest are asked for again by later frames."""
+    from terrascape.world.chunked_lod import LOADER_QUEUE, ProcessTileLoader, world_pyramid
+
+    grid = world_pyramid(world, tile=16).grid
+    keys = [TileKey(0, i, j) for i in range(grid.count(0)[0]) for j in range(grid.count(0)[1])]
+    assert len(keys) > LOADER_QUEUE
+    loader = ProcessTileLoader(world, tile=16, slots=4)
+    try:
+        loader.request(keys)
+        assert loader._last == keys[:LOADER_QUEUE] and loader.pending() == LOADER_QUEUE
+        got, deadline = [], time.monotonic() + 60
+        while len(got) < 8 and time.monotonic() < deadline:
+            got += loader.finished()
+            time.sleep(0.01)
+        assert [m.key for m in got[:8]] == keys[:8]
+        loader.request(keys[8:])  # the next frame: what is still missing
+        assert loader._last == keys[8:8 + LOADER_QUEUE]
     finally:
         loader.close()

@@ -110,10 +110,11 @@ def test_render_from_world_equals_whole_map(world, gl_ctx, tmp_path):
         expected = whole.render(cam, "material", params)
     finally:
         whole.release()
-    # Everything fits: every tile the view needs at level 0, over the whole map's
-    # overview: the same pixels (a rounding step at most where triangles meet differently).
+    # Everything fits: every tile the view needs at level 0 (tiles of 64² cells: none of
+    # them far enough for level 1), over the whole map's overview: the same pixels (a
+    # rounding step at most where triangles meet differently).
     img, frame = render_world(world, cam, size=SIZE, params=params, ctx=gl_ctx,
-                              budget=1 << 30)
+                              budget=1 << 30, tile=64)
     assert frame.proxy_level == 0 and frame.levels == {0: frame.tiles}
     assert frame.max_pixels == 0.0 and not frame.budget_bound
     diff = np.abs(img.astype(int) - expected)
@@ -204,7 +205,7 @@ def test_view_a_world_in_a_window(world, tmp_path):
     # 8 MiB: the 257² world (13 MB to draw) has its overview at level 1, 129² samples, and
     # its tiles stream in within what is left
     assert "world at level 1" in res.stderr and "129×129" in res.stderr
-    assert "tiles of levels 0–2 stream in within" in res.stderr
+    assert "tiles of levels 0–3 stream in within" in res.stderr  # 32² tiles of 256²
     assert "after 3 frames" in res.stderr
 
 
@@ -219,7 +220,7 @@ def test_tile_table_of_a_store_is_cached_and_exact(world):
     )
 
     h = _heights(world)
-    cache = world / "terrascape_lod_32.npz"
+    cache = world / "terrascape_lod2_32.npz"
     cache.unlink(missing_ok=True)
     reader = StoreReader(world, cache_bytes=3 * 64 * 64 * 4)  # three zarr chunks
     built = world_pyramid(world, tile=32, reader=reader)

@@ -14,7 +14,9 @@ Sizes: a 4097² world and 150 frames (full; ``TERRASCAPE_BENCH_WORLD_SIDE=8193``
 one, ``TERRASCAPE_BENCH_FRAMES`` for another flight length), 2049² and 60 frames (quick).
 The tiles are loaded by a separate process (its peak memory is added to the viewer's).
 With a display the frames go to a real window, otherwise to an off-screen
-framebuffer of a headless EGL context (noted under the table).
+framebuffer of a headless EGL context (noted under the table). Up to 8193², a third table
+renders four views of the flight before and after the tile scheme's cuts, in turn in one
+process (:func:`same_views`): a ratio the host's load changes less than two runs' rates.
 """
 
 from __future__ import annotations
@@ -77,7 +79,7 @@ def _peak_gb(stats: dict) -> float:
 
 
 def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
-        surface=None) -> dict:
+        surface=None, tile: int | None = None) -> dict:
     """One seeded flight of ``frames`` frames over the world at ``path``: per-frame times,
     tile counts and memory."""
     from terrascape.bench.viewer import _Surface
@@ -94,7 +96,7 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
     set_limit(str(BUDGET))
     t0 = time.perf_counter()
     proxy, share = split_budget(path, BUDGET)
-    pyramid = world_pyramid(path)
+    pyramid = world_pyramid(path) if tile is None else world_pyramid(path, tile=tile)
     setup_s = time.perf_counter() - t0
     own = surface is None
     surface = surface or _Surface(SIZE)
@@ -103,7 +105,7 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
     session = ViewerSession(surface.ctx, proxy.heightmap, size=SIZE, hud=True,
                             technique=technique, geometry=geometry, warn=lambda m: None)
     cams = seeded_flight(proxy.heightmap, frames, seed=seed, size=SIZE, crossing_s=40.0)
-    times, loading, drawn, rss = [], [], [], []
+    times, loading, drawn, rss, tris = [], [], [], [], []
     # where each frame's time went: the selection, taking in finished tiles, the CPU side
     # of the draw calls (llvmpipe shades the vertices in the calling thread), the wait for
     # the rasteriser, the garbage collector's pauses
@@ -144,6 +146,7 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
             st = session.tile_stats
             loading.append(not st["complete"])
             drawn.append(st["tiles_drawn"])
+            tris.append(session.stats.get("triangles", 0))
             rss.append(_rss_now())
         stats = dict(session.tile_stats)
         loader_rss = geometry.loader.peak_rss() if hasattr(geometry.loader, "peak_rss") else 0
@@ -161,6 +164,7 @@ def fly(path: Path, frames: int, *, technique: str = "material", seed: int = 7,
         else:
             note = surface.note
     return {"times": times, "loading": loading, "drawn": drawn, "rss": rss, "stats": stats,
+            "triangles": tris,
             "parts": parts, "uploads": uploads, "tolerance": geometry.tolerance,
             "setup_s": setup_s, "proxy": proxy, "share": share, "pyramid": pyramid,
             "note": note}
@@ -175,8 +179,8 @@ def run(quick: bool = False) -> list[BenchTable]:
         f"streaming world viewer {side}² at {SIZE[0]}×{SIZE[1]}, seeded flight of {frames} "
         "frames",
         ["technique", "median fps", "median ms", "p95 ms", "worst ms", "worst ms loading",
-         "frames loading", "tiles drawn (median)", "tiles loaded", "tiles evicted",
-         "peak tile MB", "peak RSS GB (viewer + loader)"])
+         "frames loading", "tiles drawn (median)", "triangles (median)", "tiles loaded",
+         "tiles evicted", "peak tile MB", "peak RSS GB (viewer + loader)"])
     results = {}
     for technique in ("plain", "material"):
         r = fly(path, frames, technique=technique)
@@ -188,7 +192,8 @@ def run(quick: bool = False) -> list[BenchTable]:
             technique, round(1000.0 / statistics.median(t), 1), round(statistics.median(t), 1),
             round(sorted(t)[int(0.95 * (len(t) - 1))], 1), round(max(t), 1),
             round(max(load_t), 1) if load_t else "-", sum(r["loading"]),
-            int(statistics.median(r["drawn"])), st["uploaded"], st["evicted"],
+            int(statistics.median(r["drawn"])), int(statistics.median(r["triangles"])),
+            st["uploaded"], st["evicted"],
             round(st["tile_peak"] / 2**20, 1), round(_peak_gb(st), 3)])
     plain = results["plain"]
     load_t = [x for x, busy in zip(plain["times"], plain["loading"], strict=True) if busy]
@@ -199,6 +204,8 @@ def run(quick: bool = False) -> list[BenchTable]:
     table.check_target("peak resident memory (viewer + loader process)",
                        max(_peak_gb(r["stats"]) for r in results.values()),
                        at_most=MEMORY_TARGET_GB, unit=" GB")
+    from terrascape.render.tiled_terrain import UPLOAD_BYTES
+
     r = plain
     share, proxy, pyr = r["share"], r["proxy"], r["pyramid"]
     table.notes += [
@@ -214,12 +221,76 @@ def run(quick: bool = False) -> list[BenchTable]:
         f"tile table + overview read in {r['setup_s']:.1f} s (the table is cached in the store "
         "after its first build)",
         "frames while tiles load draw their loaded parents; the worst frame includes the "
-        "uploads of that frame (at most 4 ms of them, at least one tile); a loader process "
-        "reads the store and builds the tile meshes",
+        f"uploads of that frame (at most 4 ms or {UPLOAD_BYTES / 2**20:g} MiB of them, at "
+        "least one tile); a loader process reads the store and builds the tile meshes",
         r["note"] + f"; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; figures from a "
         "loaded 2-core machine shared with other jobs",
     ]
-    return [table, breakdown_table(results)]
+    tables = [table, breakdown_table(results)]
+    if side <= 8193:  # the old table of a larger world takes minutes to build
+        tables.append(same_views(path))
+    return tables
+
+
+def same_views(path: Path, *, frames=(20, 60, 100, 140), rounds: int = 5,
+               technique: str = "plain") -> BenchTable:
+    """The streamed frame before and after this tile scheme, in one process and one GL
+    context, with every tile loaded, on the same cameras of the flight, rendered in turn
+    (so the host's load weighs on both alike): before = 64² tiles, the error table summed
+    over the levels, tiles in the quadtree's order with skirts on every edge."""
+    from terrascape.bench.viewer import _Surface
+    from terrascape.render.tiled_terrain import TiledGeometry, seeded_flight, split_budget
+    from terrascape.viewer.session import ViewerSession
+    from terrascape.world.chunked_lod import StoreReader, build_pyramid, tile_mesh, world_pyramid
+
+    proxy, share = split_budget(path, BUDGET)
+    reader = StoreReader(path, cache_bytes=256 << 20)
+    rec = reader.recipe
+    before = build_pyramid(reader, (int(rec.rows), int(rec.cols)), rec.spacing, tile=64,
+                           block=reader.chunk, exact_rows=0)
+    after = world_pyramid(path, reader=reader)
+    cams = seeded_flight(proxy.heightmap, 150, seed=7, size=SIZE, crossing_s=40.0)
+    surface = _Surface(SIZE)
+    sessions = {}
+    try:
+        for name, pyr in (("before", before), ("after", after)):
+            geo = TiledGeometry(surface.ctx, pyr,
+                                lambda key, pyr=pyr: tile_mesh(reader, pyr, key),
+                                budget_bytes=share.tile_bytes, background=False)
+            if name == "before":
+                geo.sort_tiles, geo.every_skirt = False, True
+            sessions[name] = ViewerSession(surface.ctx, proxy.heightmap, size=SIZE, hud=True,
+                                           technique=technique, geometry=geo,
+                                           warn=lambda m: None)
+        table = BenchTable(
+            f"the same views before and after, every tile loaded ({technique}, {SIZE[0]}×"
+            f"{SIZE[1]}; ms: draw calls + rasterising, median of {rounds} renders in turn)",
+            ["flight frame", "triangles before", "triangles after", "tiles before",
+             "tiles after", "ms before", "ms after", "after / before"])
+        for f in frames:
+            ms: dict[str, list[float]] = {n: [] for n in sessions}
+            for s in sessions.values():
+                s.camera = cams[f]
+                s.render(surface.fbo, 0.0)  # loads the view's tiles, builds the VAOs
+            for _ in range(rounds):
+                for n, s in sessions.items():
+                    surface.ctx.finish()
+                    t0 = time.perf_counter()
+                    s.render(surface.fbo, 0.0)
+                    surface.ctx.finish()
+                    ms[n].append((time.perf_counter() - t0) * 1000.0)
+            b, a = statistics.median(ms["before"]), statistics.median(ms["after"])
+            sb, sa = sessions["before"], sessions["after"]
+            table.rows.append([f, sb.stats["triangles"], sa.stats["triangles"],
+                               len(sb.geometry.drawn), len(sa.geometry.drawn), round(b, 1),
+                               round(a, 1), round(a / b, 2)])
+        table.notes.append(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, load "
+                           f"average {os.getloadavg()[0]:.1f} at the end; " + surface.note)
+    finally:
+        for s in sessions.values():
+            s.release()
+        surface.release()
+    return table
 
 
 def breakdown_table(results: dict) -> BenchTable:
@@ -247,7 +318,8 @@ def breakdown_table(results: dict) -> BenchTable:
     return table
 
 
-__all__ = ["bench_world_recipe", "breakdown_table", "ensure_world", "fly", "run"]
+__all__ = ["bench_world_recipe", "breakdown_table", "ensure_world", "fly", "run",
+           "same_views"]
 
 
 if __name__ == "__main__":  # pragma: no cover - builds the world for a later run

@@ -25,6 +25,7 @@ from terrascape.camera import Camera
 from terrascape.errors import MemoryLimitError
 from terrascape.memory import format_bytes
 from terrascape.world.chunked_lod import (
+    EDGE_STEPS,
     ProcessTileLoader,
     StoreReader,
     TileCache,
@@ -35,6 +36,7 @@ from terrascape.world.chunked_lod import (
     TileSelection,
     draw_set,
     select_tiles,
+    skirt_edges,
     tile_indices,
     tile_mesh,
     world_pyramid,
@@ -46,6 +48,8 @@ from terrascape.world.chunked_lod import (
 #: (figures: docs/benchmarks.md, "Streaming viewer").
 VIEW_TOLERANCE = 3.0
 RENDER_TOLERANCE = 0.5
+#: Vertex bytes a streamed frame uploads at most (at least one tile): about 40 full 32² tiles.
+UPLOAD_BYTES = 2 << 20
 
 
 @dataclass
@@ -92,8 +96,10 @@ class TiledGeometry:
     background
         Load on a thread and never wait (the viewer); False: :meth:`update` loads every
         selected tile before returning (a still render).
-    upload_ms
-        Time per frame spent uploading finished tiles (at least one is uploaded).
+    upload_ms, upload_bytes
+        Time and vertex bytes per frame for uploading finished tiles, whichever runs out
+        first (at least one tile a frame is uploaded); the rest wait in the loader, so a
+        burst of finished tiles is spread over the next frames.
     loader
         What builds the tiles in the background (default: a
         :class:`~terrascape.world.chunked_lod.TileLoader` thread over ``build``;
@@ -103,13 +109,19 @@ class TiledGeometry:
 
     def __init__(self, ctx, pyramid: TilePyramid, build: Callable[[TileKey], TileMesh], *,
                  budget_bytes: int, tolerance: float = VIEW_TOLERANCE, exaggeration: float = 1.0,
-                 background: bool = True, upload_ms: float = 4.0, loader=None) -> None:
+                 background: bool = True, upload_ms: float = 4.0,
+                 upload_bytes: int = UPLOAD_BYTES, loader=None) -> None:
         self.ctx = ctx
         self.pyramid = pyramid
         self.grid = pyramid.grid
         self.tolerance = float(tolerance)
         self.exaggeration = float(exaggeration)
         self.upload_ms = float(upload_ms)
+        self.upload_bytes = int(upload_bytes)
+        #: Skirts on every tile edge (False: not between drawn tiles of one level).
+        self.every_skirt = False
+        #: Draw the tiles nearest first (False: in the quadtree's order).
+        self.sort_tiles = True
         self._build = build
         self.cache = TileCache(int(budget_bytes), size_of=lambda t: t.nbytes,
                                release=lambda t: t.release())
@@ -131,6 +143,7 @@ class TiledGeometry:
         self.last_select_ms = 0.0
         self.last_upload_ms = 0.0
         self.last_uploads = 0
+        self.last_upload_bytes = 0
         for key in roots:  # something to draw from the first frame on
             self._upload(build(key), pinned=set(roots))
         if loader is not None:
@@ -139,11 +152,15 @@ class TiledGeometry:
             self.loader = TileLoader(build) if background else None
 
     # --- streaming ---------------------------------------------------------------------
-    def _ibo(self, shape: tuple[int, int]) -> tuple[Any, int]:
+    def _ibo(self, shape: tuple[int, int]) -> tuple[Any, int, list[tuple[int, int]]]:
+        """The index buffer of a tile shape (:func:`~terrascape.world.chunked_lod.
+        tile_indices`), the grid's indices, and each edge's skirt ``(first, count)``."""
         have = self._ibos.get(shape)
         if have is None:
             idx = tile_indices(shape)
-            have = self._ibos[shape] = (self.ctx.buffer(idx.tobytes()), idx.size)
+            n = 6 * (shape[0] - 1) * (shape[1] - 1)
+            edges = [(n + first, count) for first, count in skirt_edges(shape)]
+            have = self._ibos[shape] = (self.ctx.buffer(idx.tobytes()), n, edges)
         return have
 
     def _upload(self, mesh: TileMesh, *, pinned) -> bool:
@@ -191,7 +208,7 @@ class TiledGeometry:
                 # (a cache too small for both would evict the parents for the children
                 # and reload them for the next child: the selection alone, then)
                 missing = first + missing
-        t_up, before = time.perf_counter(), self.uploaded
+        t_up, before, taken = time.perf_counter(), self.uploaded, 0
         if self.loader is None:
             for key in missing:
                 if not self._upload(self._build(key), pinned=keep | {key}):
@@ -207,13 +224,22 @@ class TiledGeometry:
                 # late arrivals of an earlier view are still kept while there is room
                 if self._upload(got[0], pinned=keep):
                     keep.add(got[0].key)
-                if time.perf_counter() > deadline:
+                taken += got[0].nbytes
+                if (time.perf_counter() > deadline
+                        or taken + self.grid.max_tile_bytes() > self.upload_bytes):
                     break  # the rest waits in the loader for the next frame
         self.last_upload_ms = (time.perf_counter() - t_up) * 1000.0
         self.last_uploads = self.uploaded - before
-        self.drawn = draw_set(self.grid, sel.visible, self.cache.__contains__)
-        for key in self.drawn:
-            self.cache.get(key)  # most recently used
+        self.last_upload_bytes = taken
+        drawn = draw_set(self.grid, sel.visible, self.cache.__contains__)
+        eye = camera.eye
+        boxes = {key: self.cache.get(key).box for key in drawn}  # and most recently used
+        if self.sort_tiles:
+            # front to back (the draw set follows the quadtree): the nearer tiles' depth
+            # hides the further ones' fragments before they are shaded
+            drawn.sort(key=lambda k: float(np.linalg.norm(
+                np.clip(eye, boxes[k][:3], boxes[k][3:]) - eye)))
+        self.drawn = drawn
         self.last_update_ms = (time.perf_counter() - t0) * 1000.0
         return self.stats()
 
@@ -239,21 +265,39 @@ class TiledGeometry:
         import moderngl
 
         planes = camera.frustum_planes()
+        neighbours = frozenset(self.drawn)
         tris = drawn = 0
-        for key in self.drawn:
+        for key in self.drawn:  # front to back
             tile = self.cache.get(key)
             if tile is None or not _in_frustum(planes, tile.box):
                 continue
+            ibo, count, edges = self._ibo(tile.shape)
             vao = tile.vaos.get(program.glo)
             if vao is None:
-                ibo, _ = self._ibo(tile.shape)
                 pos, nor, tan = tile.buffers
                 vao = tile.vaos[program.glo] = self.ctx.vertex_array(
                     program, [(pos, "3f", "in_position"), (nor, "3f", "in_normal"),
                               (tan, "4f", "in_tangent")], ibo, 4, skip_errors=True)
-            vao.render(moderngl.TRIANGLES)
-            n = self._ibo(tile.shape)[1] // 3
-            tris += n
+            vao.render(moderngl.TRIANGLES, vertices=count)
+            n = count
+            # the skirts of the edges not shared with a drawn tile of the same level, runs
+            # of neighbouring edges in one call
+            run_first = run_count = 0
+            for (first, size), (di, dj) in zip(edges, EDGE_STEPS, strict=True):
+                if (not self.every_skirt
+                        and TileKey(key.level, key.row + di, key.col + dj) in neighbours):
+                    if run_count:
+                        vao.render(moderngl.TRIANGLES, vertices=run_count, first=run_first)
+                        n += run_count
+                    run_count = 0
+                    continue
+                if not run_count:
+                    run_first = first
+                run_count += size
+            if run_count:
+                vao.render(moderngl.TRIANGLES, vertices=run_count, first=run_first)
+                n += run_count
+            tris += n // 3
             drawn += 1
         return {"triangles": tris, "triangles_drawn": tris, "chunks": drawn,
                 "chunks_culled": len(self.drawn) - drawn, "chunks_small_cull": 0}
@@ -263,7 +307,7 @@ class TiledGeometry:
             self.loader.close()
             self.loader = None
         self.cache.clear()
-        for ibo, _ in self._ibos.values():
+        for ibo, _, _ in self._ibos.values():
             ibo.release()
         self._ibos.clear()
 
@@ -369,5 +413,5 @@ def seeded_flight(heightmap, n_frames: int, *, seed: int = 0, size=(1280, 720),
     return cams
 
 
-__all__ = ["RENDER_TOLERANCE", "VIEW_TOLERANCE", "TiledGeometry", "WorldBudget",
+__all__ = ["RENDER_TOLERANCE", "UPLOAD_BYTES", "VIEW_TOLERANCE", "TiledGeometry", "WorldBudget",
            "freeze_heap", "seeded_flight", "split_budget", "stream_world"]

@@ -16,9 +16,14 @@ level-(k−1) vertex; by the triangle inequality
 
     e_k(tile) = max over the tile's level-(k−1) vertices |h_{k−1} − I_k| + max over children e_{k−1}
 
-bounds ``|h_0 − I_k|`` everywhere in the tile (``e_0 = 0``). One pass over each pyramid level,
-in bands of rows, builds the table (memory bounded by a band, not the map); it is cached
-next to the store.
+bounds ``|h_0 − I_k|`` everywhere in the tile (``e_0 = 0``). The bound sums every level's
+error as if they all peaked at one point; they seldom do, and a bound above the real error
+splits tiles the tolerance would keep. So the levels whose tiles span at most
+:data:`EXACT_ROWS` full-resolution rows — the ones a view draws near the eye — store the exact
+``max |h_0 − I_k|`` instead (also at a sample: ``I_0 − I_k`` is linear on level-0
+triangles), measured in the same pass over level 0, and only the levels above use the sum,
+over exact children. One pass over each pyramid level, in bands of rows, builds the table
+(memory bounded by a band, not the map); it is cached next to the store.
 
 Selection (Ulrich 2002's chunked LOD): starting from the roots, the tile whose projected
 error ``e · K / d`` (``K`` = pixels per radian, ``d`` = distance from the eye to the tile's
@@ -31,7 +36,9 @@ Cracks: at an edge shared by tiles A and B, A's edge is the interpolant of sampl
 edge line and so is B's; B's value at any point of the edge lies between two of B's samples
 at most one B cell away — within the ground of A's parent's 3×3 neighbourhood (B is at most
 one level coarser). A vertical skirt hanging from every tile edge down to the lowest height
-of that neighbourhood therefore closes every gap.
+of that neighbourhood therefore closes every gap. Two tiles of one level have the same
+samples on their shared edge, so no gap opens there: a frame draws the skirts of the other
+edges only (:func:`skirt_edges`).
 
 References
 ----------
@@ -62,6 +69,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from scipy.ndimage import minimum_filter
 
+from terrascape._numba import CACHE, FASTMATH, njit
 from terrascape._validate import check_int, check_positive
 from terrascape.camera import Camera
 from terrascape.errors import InvalidParameterError, MemoryLimitError
@@ -69,10 +77,13 @@ from terrascape.mesh.tangent_space import heightfield_tangent_frames
 from terrascape.mesh.terrain_mesh import grid_triangles
 
 #: Cells per tile side (a tile mesh has at most (DEFAULT_TILE + 1)² vertices).
-DEFAULT_TILE = 64
+DEFAULT_TILE = 32
 #: Bytes per tile vertex: position (3 f4), normal (3 f4), tangent + handedness (4 f4).
 VERTEX_BYTES = 40
-_CACHE_NAME = "terrascape_lod_{tile}.npz"
+#: Full-resolution rows of the tiles whose errors the tile table holds exactly (levels
+#: ``1 … log2(EXACT_ROWS / tile)``; the levels above hold the hierarchical bound).
+EXACT_ROWS = 1024
+_CACHE_NAME = "terrascape_lod2_{tile}.npz"  # 2: exact errors of the low levels
 
 #: Reads samples ``[a0:a1, b0:b1]`` of pyramid level ``level`` (0 = full resolution).
 LevelReader = Callable[[int, int, int, int, int], np.ndarray]
@@ -263,40 +274,83 @@ def _band_rows(grid: TileGrid, level: int, block: int) -> int:
     return max(1, block // cells)
 
 
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _exact_error_kernel(band, r0, level, tile, rows, cols, out):  # pragma: no cover - jitted
+    """``out[i, j]`` = max ``|h_0 − I_level|`` over the full-resolution samples of the
+    level-``level`` tile ``(i_first + i, j)`` (closed ranges), ``band`` holding full-
+    resolution rows ``r0 …`` of the whole width; ``rows``, ``cols``: the map's cells."""
+    s = 1 << level
+    span = tile * s
+    inv = 1.0 / s
+    i_first = r0 // span
+    for ti in range(out.shape[0]):
+        ga0 = (i_first + ti) * span
+        ga1 = min(ga0 + span, rows)
+        for tj in range(out.shape[1]):
+            gb0 = tj * span
+            gb1 = min(gb0 + span, cols)
+            worst = 0.0
+            for r in range(ga0, ga1 + 1):
+                a = min(r // s, ga1 // s - 1)  # the tile's last row: its last cell's
+                ra = a * s - r0
+                v = (r - a * s) * inv
+                for c in range(gb0, gb1 + 1):
+                    b = min(c // s, gb1 // s - 1)
+                    cb = b * s
+                    u = (c - cb) * inv
+                    h00 = np.float64(band[ra, cb])
+                    h01 = np.float64(band[ra, cb + s])
+                    h10 = np.float64(band[ra + s, cb])
+                    # the cell is split along (a+1, b)–(a, b+1), as grid_triangles
+                    if u + v <= 1.0:
+                        interp = h00 + u * (h01 - h00) + v * (h10 - h00)
+                    else:
+                        h11 = np.float64(band[ra + s, cb + s])
+                        interp = h11 + (1.0 - u) * (h10 - h11) + (1.0 - v) * (h01 - h11)
+                    e = abs(np.float64(band[r - r0, c]) - interp)
+                    if e > worst:
+                        worst = e
+            out[ti, tj] = worst
+
+
 def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *,
-                  tile: int = DEFAULT_TILE, block: int = 1024) -> TilePyramid:
-    """The error bounds and height ranges of every tile, reading each pyramid level once in
-    bands of about ``block`` rows (memory: a band, never the whole map)."""
+                  tile: int = DEFAULT_TILE, block: int = 1024,
+                  exact_rows: int | None = None) -> TilePyramid:
+    """The error bounds and height ranges of every tile, reading each pyramid level at most
+    once in bands of about ``block`` rows (memory: a band, never the whole map).
+
+    A level whose tiles fit in the level-0 bands gets its exact error, max ``|h_0 − I_k|``
+    over the full-resolution samples of the tile (the interpolant of the level-0 samples,
+    ``I_0``, differs from ``I_k`` by a function linear on level-0 triangles, so its largest
+    value is at a sample); the levels above add their own midpoint error to their children's
+    (the hierarchical bound of the module docstring, over exact children). ``exact_rows``:
+    that span (default :data:`EXACT_ROWS`; 0: only level 1, where the sum is exact too)."""
     grid = tile_grid(shape, spacing, tile)
     t, top = grid.tile, grid.top
     error: list[np.ndarray] = [np.zeros(grid.count(0))]
-    # level 0: each finest tile's height range
+    # level 0: each finest tile's height range; the levels whose tiles fit a band: exact
     nr0, nc0 = grid.count(0)
     low0, high0 = np.empty((nr0, nc0)), np.empty((nr0, nc0))
-    cols0 = grid.shape[1]
-    per = _band_rows(grid, 0, block)
+    rows, cols = grid.shape[0] - 1, grid.shape[1] - 1
+    # a level-k tile is 2**k level-0 tile rows: bands of 2**m of them hold levels 1 … m
+    rows_exact = EXACT_ROWS if exact_rows is None else int(exact_rows)
+    exact_top = min(top, max(1, (rows_exact // t).bit_length() - 1))
+    per = max(1 << exact_top, 1 << (_band_rows(grid, 0, block).bit_length() - 1))
+    exact = [np.zeros(grid.count(k)) for k in range(1, exact_top + 1)]
     for i0 in range(0, nr0, per):
         i1 = min(nr0, i0 + per)
-        a0, a1 = i0 * t, min(i1 * t, grid.shape[0] - 1)
-        band = reader(0, a0, a1 + 1, 0, cols0).astype(np.float64)
+        a0, a1 = i0 * t, min(i1 * t, rows)
+        band = np.ascontiguousarray(reader(0, a0, a1 + 1, 0, cols + 1), dtype=np.float32)
         for i in range(i0, i1):
-            rows = band[(i - i0) * t:(i - i0 + 1) * t + 1]
-            low0[i] = _tile_reduce(rows, t, nc0, np.min)
-            high0[i] = _tile_reduce(rows, t, nc0, np.max)
+            part = band[(i - i0) * t:(i - i0 + 1) * t + 1]
+            low0[i] = _tile_reduce(part, t, nc0, np.min)
+            high0[i] = _tile_reduce(part, t, nc0, np.max)
+        for k in range(1, exact_top + 1):
+            k0, k1 = i0 >> k, -(-i1 // (1 << k))
+            _exact_error_kernel(band, a0, k, t, rows, cols, exact[k - 1][k0:k1])
     low, high = [low0], [high0]
     for k in range(1, top + 1):
         nr, nc = grid.count(k)
-        # e_k: the level-(k−1) samples of each level-k tile against the level-k interpolant
-        own = np.empty((nr, nc))
-        fr, fc = grid.cells(k - 1)
-        per = _band_rows(grid, k, block)
-        for i0 in range(0, nr, per):
-            i1 = min(nr, i0 + per)
-            a0, a1 = i0 * 2 * t, min(i1 * 2 * t, fr)
-            err = _midpoint_error(reader(k - 1, a0, a1 + 1, 0, fc + 1))
-            for i in range(i0, i1):
-                own[i] = _tile_reduce(err[(i - i0) * 2 * t:(i - i0 + 1) * 2 * t + 1],
-                                      2 * t, nc, np.max)
         child_err = np.zeros((nr, nc))
         lo_k, hi_k = np.full((nr, nc), np.inf), np.full((nr, nc), -np.inf)
         for di in (0, 1):
@@ -306,9 +360,23 @@ def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *
                 child_err[sl] = np.maximum(child_err[sl], e)
                 lo_k[sl] = np.minimum(lo_k[sl], low[k - 1][di::2, dj::2])
                 hi_k[sl] = np.maximum(hi_k[sl], high[k - 1][di::2, dj::2])
-        error.append(own + child_err)
         low.append(lo_k)
         high.append(hi_k)
+        if k <= exact_top:
+            error.append(exact[k - 1])
+            continue
+        # e_k: the level-(k−1) samples of each level-k tile against the level-k interpolant
+        own = np.empty((nr, nc))
+        fr, fc = grid.cells(k - 1)
+        per_k = _band_rows(grid, k, block)
+        for i0 in range(0, nr, per_k):
+            i1 = min(nr, i0 + per_k)
+            a0, a1 = i0 * 2 * t, min(i1 * 2 * t, fr)
+            err = _midpoint_error(reader(k - 1, a0, a1 + 1, 0, fc + 1))
+            for i in range(i0, i1):
+                own[i] = _tile_reduce(err[(i - i0) * 2 * t:(i - i0 + 1) * 2 * t + 1],
+                                      2 * t, nc, np.max)
+        error.append(own + child_err)
     return TilePyramid(grid, error, low, high)
 
 
@@ -384,14 +452,14 @@ class StoreReader:
 def world_pyramid(path, *, tile: int = DEFAULT_TILE, reader: StoreReader | None = None,
                   cache: bool = True) -> TilePyramid:
     """The :class:`TilePyramid` of a world store, built once and cached in the store
-    (``terrascape_lod_<tile>.npz``, keyed by the recipe's hash)."""
+    (``terrascape_lod2_<tile>.npz``, keyed by the recipe's hash)."""
     from terrascape.io.atomic import atomic_output
 
     reader = reader or StoreReader(path)
     recipe = reader.recipe
     shape = (int(recipe.rows), int(recipe.cols))
     cache_path = Path(path) / _CACHE_NAME.format(tile=tile)
-    digest = hashlib.sha256(f"{recipe.digest()}:{tile}:1".encode()).hexdigest()
+    digest = hashlib.sha256(f"{recipe.digest()}:{tile}:2".encode()).hexdigest()
     if cache_path.is_file():
         try:
             with np.load(cache_path) as z:
@@ -540,30 +608,45 @@ def select_tiles(pyramid: TilePyramid, camera: Camera, viewport: tuple[int, int]
     """
     tol = check_positive(tolerance, "tolerance (pixels)")
     grid = pyramid.grid
-    planes = camera.frustum_planes()
-    eye = camera.eye
     kpx = camera.pixels_per_radian(int(viewport[1]))
 
-    # every tile's visibility and projected error at once (a few ms for 20,000 tiles);
-    # the refinement then only looks them up
-    vis_of, px_of, dist_of = [], [], []
-    for k in range(grid.top + 1):
-        b = pyramid.boxes(k, exaggeration)
-        p = np.where(planes[None, None, :, :3] >= 0, b[..., None, 3:], b[..., None, :3])
-        inside = np.all(np.einsum("rcpi,pi->rcp", p, planes[:, :3]) + planes[:, 3] >= 0,
-                        axis=-1)
-        d = np.linalg.norm(np.clip(eye, b[..., :3], b[..., 3:]) - eye, axis=-1)
-        err = pyramid.error[k] * exaggeration
-        with np.errstate(divide="ignore", invalid="ignore"):
-            px = np.where(err > 0, np.where(d > 0, err * kpx / np.maximum(d, 1e-300),
-                                            np.inf), 0.0)
-        vis_of.append(inside)
-        px_of.append(np.where(inside, px, 0.0) if k else np.zeros_like(px))
-        dist_of.append(d)
+    # a tile's visibility, projected error and distance when the refinement first reaches
+    # it: the cost follows the tiles the view splits, not the world's size (a 32769² world
+    # has 1.4 M tiles of 32², a view looks at a few hundred)
+    planes = [tuple(float(v) for v in p) for p in camera.frustum_planes()]
+    ex, ey, ez = (float(v) for v in camera.eye)
+    sp = grid.spacing
+    scale = float(exaggeration)
+    error, skirt, high = pyramid.error, pyramid.skirt, pyramid.high
+    seen: dict[TileKey, tuple[bool, float, float]] = {}
+
+    def look(key: TileKey) -> tuple[bool, float, float]:
+        got = seen.get(key)
+        if got is not None:
+            return got
+        k, i, j = key
+        r0, r1, c0, c1 = grid.span(key)
+        x0, x1, z0, z1 = c0 * sp, c1 * sp, r0 * sp, r1 * sp
+        y0, y1 = float(skirt[k][i, j]) * scale, float(high[k][i, j]) * scale
+        inside = True
+        for a, b, c, d in planes:  # the box's corner furthest along each inward normal
+            if (a * (x1 if a >= 0 else x0) + b * (y1 if b >= 0 else y0)
+                    + c * (z1 if c >= 0 else z0) + d) < 0:
+                inside = False
+                break
+        dx = ex - min(max(ex, x0), x1)
+        dy = ey - min(max(ey, y0), y1)
+        dz = ez - min(max(ez, z0), z1)
+        dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+        err = float(error[k][i, j]) * scale
+        px = 0.0
+        if inside and k and err > 0:
+            px = err * kpx / dist if dist > 0 else math.inf
+        got = seen[key] = (inside, px, dist)
+        return got
 
     def measure(key: TileKey) -> tuple[bool, float]:
-        k, i, j = key
-        return bool(vis_of[k][i, j]), float(px_of[k][i, j])
+        return look(key)[:2]
 
     cap = math.inf if max_tiles is None else check_int(max_tiles, "max tiles", minimum=1)
     while True:
@@ -572,7 +655,7 @@ def select_tiles(pyramid: TilePyramid, camera: Camera, viewport: tuple[int, int]
             break
         cap -= max(1, int(n_visible - cap))  # balancing overshot: refine less, retry
     visible = [k for k, (v, _) in leaves.items() if v]
-    visible.sort(key=lambda k: float(dist_of[k.level][k.row, k.col]))
+    visible.sort(key=lambda k: look(k)[2])
     pixels = {k: leaves[k][1] for k in visible}
     return TileSelection(visible=visible, culled=[k for k, (v, _) in leaves.items() if not v],
                          pixels=pixels, max_pixels=max(pixels.values(), default=0.0),
@@ -643,7 +726,7 @@ def _ring(n_r: int, n_c: int) -> np.ndarray:
 def tile_indices(shape: tuple[int, int]) -> np.ndarray:
     """uint32 triangles of a tile mesh of ``shape`` grid vertices: the grid's (as
     :func:`~terrascape.mesh.terrain_mesh.grid_triangles`) and the skirts, facing out of
-    the tile (counter-clockwise seen from outside).
+    the tile (counter-clockwise seen from outside; each edge's: :func:`skirt_edges`).
 
     One winding is enough: a gap between two tiles' edges opens below the higher edge, and
     from the higher tile's side it is hidden by that tile's own surface, so it is only ever
@@ -660,6 +743,23 @@ def tile_indices(shape: tuple[int, int]) -> np.ndarray:
     lo_b = np.roll(lo_a, -1)
     quads = np.stack([b, lo_a, a, lo_b, lo_a, b], axis=1)
     return np.concatenate([grid.reshape(-1), quads.reshape(-1)]).astype(np.uint32)
+
+
+#: The neighbour across each edge of :func:`skirt_edges` (row and column steps).
+EDGE_STEPS = ((-1, 0), (0, 1), (1, 0), (0, -1))
+
+
+def skirt_edges(shape: tuple[int, int]) -> list[tuple[int, int]]:
+    """``(first, count)`` of the skirt indices of each tile edge — row 0, the last column,
+    the last row, column 0 (the neighbours of :data:`EDGE_STEPS`) — in :func:`tile_indices`
+    after the grid's. Two tiles of one level share their edge's samples exactly, so an edge
+    between them needs no skirt; only edges to another level or to nothing drawn do."""
+    n_r, n_c = shape
+    out, at = [], 0
+    for quads in (n_c - 1, n_r - 1, n_c - 1, n_r - 1):  # the order of _ring
+        out.append((6 * at, 6 * quads))
+        at += quads
+    return out
 
 
 def tile_mesh(reader: LevelReader, pyramid: TilePyramid, key: TileKey, *,
@@ -830,6 +930,8 @@ class TileLoader:
 
 #: Meshes the loader process may have made and the viewer not yet taken (shared slots).
 LOADER_SLOTS = 32
+#: Tiles a request to the loader process names at most (its queue, in priority order).
+LOADER_QUEUE = 4 * LOADER_SLOTS
 
 
 def _slot_layout(n_vertices: int) -> tuple[int, int, int, int]:
@@ -891,7 +993,7 @@ class ProcessTileLoader:
     length, the view never finished loading in a flight). The process fills free slots
     ahead of the viewer and names them in short messages; :meth:`finished` copies a mesh
     out and hands its slot back. Its memory is its reader's chunk cache, one mesh and the
-    slots (``slots`` × :meth:`TileGrid.max_tile_bytes`, 5.7 MB for 64² tiles)."""
+    slots (``slots`` × :meth:`TileGrid.max_tile_bytes`, 1.5 MB for 32² tiles)."""
 
     def __init__(self, path, *, tile: int = DEFAULT_TILE, exaggeration: float = 1.0,
                  reader_bytes: int = 64 << 20, slots: int = LOADER_SLOTS) -> None:
@@ -914,7 +1016,10 @@ class ProcessTileLoader:
         self.loaded = 0
 
     def request(self, keys: Iterable[TileKey]) -> None:
-        keys = list(dict.fromkeys(keys))
+        """Replace the process's queue by the first :data:`LOADER_QUEUE` of ``keys`` (a
+        moving view asks anew each frame, the rest again later): a long list each frame
+        would fill the pipe while the process builds a tile, and the frame would wait."""
+        keys = list(dict.fromkeys(keys))[:LOADER_QUEUE]
         if keys != self._last:
             self._conn.send(("want", keys))
             self._last = keys
@@ -979,7 +1084,8 @@ class ProcessTileLoader:
         self._conn.close()
 
 
-__all__ = ["DEFAULT_TILE", "LOADER_SLOTS", "VERTEX_BYTES", "LevelReader", "ProcessTileLoader",
-           "StoreReader", "TileCache", "TileGrid", "TileKey", "TileLoader", "TileMesh",
-           "TilePyramid", "TileSelection", "array_reader", "build_pyramid", "draw_set",
-           "select_tiles", "tile_grid", "tile_indices", "tile_mesh", "world_pyramid"]
+__all__ = ["DEFAULT_TILE", "EDGE_STEPS", "LOADER_QUEUE", "LOADER_SLOTS", "VERTEX_BYTES",
+           "LevelReader", "ProcessTileLoader", "StoreReader", "TileCache", "TileGrid", "TileKey",
+           "TileLoader", "TileMesh", "TilePyramid", "TileSelection", "array_reader",
+           "build_pyramid", "draw_set", "select_tiles", "skirt_edges", "tile_grid",
+           "tile_indices", "tile_mesh", "world_pyramid"]
