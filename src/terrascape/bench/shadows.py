@@ -158,6 +158,11 @@ def _frame_and_agreement(frames: _Frames, hm, inst, camera, quick: bool) -> list
         frames.render(camera, {**base, "object_shadows": m, "impostor_pixels": 0})
         images[m] = _luma(frames.image())
     count = volumes.last_count
+    # the volumes cut at the lowest surface (reach "floor"), counted on the same frame
+    volumes.reach = "floor"
+    frames.render(camera, {**base, "object_shadows": "volumes", "impostor_pixels": 0})
+    floor_count = volumes.last_count
+    volumes.reach = "infinite"
     volumes.keep_count = False
     depth = frames.target.read_depth()
     mesh_camera = frames.terrain.last_camera  # volumes: drawn with an infinite far plane
@@ -214,12 +219,18 @@ def _frame_and_agreement(frames: _Frames, hm, inst, camera, quick: bool) -> list
                        ["mode", "what is compared", "pixels", "agree %"])
     agree.rows.append(["volumes", "stencil count ≠ 0 vs the ray hits an object, every "
                        "surface pixel", int(surface.sum()), exact])
+    agree.rows.append(["volumes cut at the lowest surface", "the same",
+                       int(surface.sum()),
+                       100.0 * agreement(floor_count > 0, ref.object_shadow, surface)])
     for m in ("volumes", "cascades"):
         agree.rows.append([m, f"pixel darker than {DARKER:g}× the unshadowed frame, away "
                            "from shadow edges (2 px), sun-facing, not terrain-shaded "
                            "(objects drawn as meshes)", int(eligible.sum()), pix[m]])
     agree.rows.append(["cascades", "the same, the frame as drawn (impostors far away), on "
                        "the pixels no impostor covers", int(drawn_eligible.sum()), pix_drawn])
+    floor_diff = int(((floor_count > 0) != (count > 0))[surface].sum())
+    agree.notes.append(f"volumes cut at the lowest surface: {floor_diff} surface pixels "
+                       "counted otherwise than by the volumes to infinity")
     agree.notes.append(f"ray cast: {1e3 * ref_s:.0f} ms for {int(surface.sum())} pixels "
                        f"({int(ref.object_shadow.sum())} in object shadow); impostors cover "
                        f"{int(quads.sum())} pixels of the frame as drawn")
