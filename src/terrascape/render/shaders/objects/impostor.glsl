@@ -3,8 +3,9 @@
 // hemisphere of directions — u_views around it at each of u_elevations elevations from the
 // side (0°) to straight above (90°) — (albedo + coverage, and normals in the mesh's frame),
 // premultiplied by coverage. The four atlas views around the viewer's direction (two
-// around, two in elevation) are blended, and the normals lit like the mesh, so the switch
-// from mesh to impostor keeps its colour, seen from the side or from above.
+// around, two in elevation) are blended, each sampled where it saw the point the viewing
+// ray meets (atlas_uv), and the normals lit like the mesh, so the switch from mesh to
+// impostor keeps its outline and colour, seen from the side or from above.
 // DEPTH_ONLY: the shadow-map pass, the quad facing the sun (u_facing.w = 0).
 #if defined VERTEX_SHADER
 in vec2 in_corner;  // x in [-1, 1] across, y in [0, 1] up
@@ -17,7 +18,8 @@ uniform vec2 u_up_range;    // the quad's extent along its up axis (mesh units)
 uniform float u_mid;        // height of the middle of the mesh's bounding sphere
 uniform float u_views;      // atlas views per elevation (columns)
 uniform float u_elevations; // atlas elevations per mesh (rows), 0° … 90°
-out vec2 v_cell;            // position inside the atlas cell, [0, 1]²
+out vec3 v_local;           // the quad's point in the mesh's frame (mesh units) ...
+out vec3 v_ray;             // ... and the viewing ray's direction there (not normalised)
 flat out vec3 v_views;      // first view, second view, weight of the second
 flat out vec3 v_rows;       // lower elevation row, upper row, weight of the upper
 flat out vec2 v_yaw;        // (cos, sin) of the instance's yaw
@@ -68,7 +70,12 @@ void main() {
     float along = u_mid * d.y;
 #endif
     vec3 world = in_place.xyz + scale * (right * x + up * u + d * along);
-    v_cell = vec2(in_corner.x * 0.5 + 0.5, in_corner.y);
+    // into the mesh's frame (the inverse of objects/mesh.glsl's transform): the fragment
+    // stage finds where each atlas view saw the point the viewing ray passes through
+    vec3 rel = (world - in_place.xyz) / scale;
+    v_local = vec3(c * rel.x - s * rel.z, rel.y, s * rel.x + c * rel.z);
+    vec3 ray = u_facing.w > 0.5 ? world - u_facing.xyz : -u_facing.xyz;
+    v_ray = vec3(c * ray.x - s * ray.z, ray.y, s * ray.x + c * ray.z);
 #ifndef DEPTH_ONLY
     v_world = world;
     v_foot_r = vec3(in_place.xz, u_radius * scale);
@@ -80,13 +87,35 @@ uniform sampler2D u_atlas_color;   // linear albedo × coverage, alpha = coverag
 uniform sampler2D u_atlas_normal;  // normal in the mesh's frame × coverage, w = coverage
 uniform float u_atlas_row;         // this mesh's first row of cells (elevation 0°)
 uniform vec2 u_atlas_cells;        // (views, meshes × elevations)
-in vec2 v_cell;
+uniform float u_views;
+uniform float u_elevations;
+uniform float u_radius;
+uniform vec2 u_up_range;
+uniform float u_mid;
+in vec3 v_local;
+in vec3 v_ray;
 flat in vec3 v_views;
 flat in vec3 v_rows;
 flat in vec2 v_yaw;
 
+// Where atlas view (view, row) saw the point of the object the viewing ray meets: the ray
+// cut with that view's plane through the middle of the mesh, in the view's orthographic
+// frame (objects.py _bake_matrix). Each view is sampled where it holds the same point,
+// not at the quad's own coordinates: two views a turn apart (all views from straight
+// above differ by one) then line up instead of showing the object twice, turned — a
+// house seen from above as a blur of two rotated roofs.
 vec2 atlas_uv(float view, float row) {
-    return (vec2(view, u_atlas_row + row) + clamp(v_cell, 0.002, 0.998)) / u_atlas_cells;
+    float phi = 6.28318531 * view / u_views;
+    float el = 1.57079633 * row / (u_elevations - 1.0);
+    vec3 d = vec3(sin(phi) * cos(el), sin(el), cos(phi) * cos(el));
+    vec3 right = vec3(cos(phi), 0.0, -sin(phi));
+    vec3 up = cross(d, right);
+    vec3 o = v_local - vec3(0.0, u_mid, 0.0);
+    float along = dot(v_ray, d);
+    vec3 p = abs(along) > 1e-6 * length(v_ray) ? o - v_ray * (dot(o, d) / along) : o;
+    vec2 cell = vec2(0.5 + 0.5 * dot(right, p) / u_radius,
+                     (dot(up, p) + u_mid * up.y - u_up_range.x) / (u_up_range.y - u_up_range.x));
+    return (vec2(view, u_atlas_row + row) + clamp(cell, 0.002, 0.998)) / u_atlas_cells;
 }
 
 // The atlas blended over the four views around the viewing direction.
