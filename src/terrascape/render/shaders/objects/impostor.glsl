@@ -4,7 +4,7 @@
 // side (0°) to straight above (90°) — (albedo + coverage, and normals in the mesh's frame),
 // premultiplied by coverage. The four atlas views around the viewer's direction (two
 // around, two in elevation) are blended, each sampled where it saw the point the viewing
-// ray meets (atlas_uv), and the normals lit like the mesh, so the switch from mesh to
+// ray meets (view_cell), and the normals lit like the mesh, so the switch from mesh to
 // impostor keeps its outline and colour, seen from the side or from above.
 // DEPTH_ONLY: the shadow-map pass, the quad facing the sun (u_facing.w = 0).
 #if defined VERTEX_SHADER
@@ -18,8 +18,13 @@ uniform vec2 u_up_range;    // the quad's extent along its up axis (mesh units)
 uniform float u_mid;        // height of the middle of the mesh's bounding sphere
 uniform float u_views;      // atlas views per elevation (columns)
 uniform float u_elevations; // atlas elevations per mesh (rows), 0° … 90°
-out vec3 v_local;           // the quad's point in the mesh's frame (mesh units) ...
-out vec3 v_ray;             // ... and the viewing ray's direction there (not normalised)
+// Where each of the four blended atlas views saw the point the viewing ray meets, as
+// homogeneous cell coordinates (x·w, y·w, w): linear over the quad, so interpolated
+// exactly; the fragment stage divides (atlas_uv).
+out vec3 v_cell00;          // (first view, lower row)
+out vec3 v_cell10;          // (second view, lower row)
+out vec3 v_cell01;          // (first view, upper row)
+out vec3 v_cell11;          // (second view, upper row)
 flat out vec3 v_views;      // first view, second view, weight of the second
 flat out vec3 v_rows;       // lower elevation row, upper row, weight of the upper
 flat out vec2 v_yaw;        // (cos, sin) of the instance's yaw
@@ -27,6 +32,32 @@ flat out vec2 v_yaw;        // (cos, sin) of the instance's yaw
 out vec3 v_world;
 flat out vec3 v_foot_r;     // foot x, z and the instance's radius
 #endif
+
+// The mesh-frame point q (relative to the middle of the mesh) as atlas view (view, row)
+// saw the point its ray meets: the ray cut with that view's plane through the middle, in
+// the view's orthographic frame (objects.py _bake_matrix) — homogeneous, see v_cell00.
+// The ray comes from eye e (mesh frame, relative to the middle) or, with directional,
+// runs along -e.
+vec3 view_cell(float view, float row, vec3 q, vec3 e, bool directional) {
+    float phi = 6.28318531 * view / u_views;
+    float el = 1.57079633 * row / (u_elevations - 1.0);
+    vec3 d = vec3(sin(phi) * cos(el), sin(el), cos(phi) * cos(el));
+    vec3 right = vec3(cos(phi), 0.0, -sin(phi));
+    vec3 up = cross(d, right);
+    float w;
+    vec3 p;
+    if (directional) {  // p = q + e·t on the plane: (q·w − e·(q·d)) / w, w = e·d
+        w = dot(e, d);
+        p = q * w - e * dot(q, d);
+    } else {            // p = e + (q − e)·t on the plane: (e·w − (q − e)·(e·d)) / w
+        w = dot(q - e, d);
+        p = e * w - (q - e) * dot(e, d);
+    }
+    return vec3(0.5 * w + 0.5 * dot(right, p) / u_radius,
+                (dot(up, p) + (u_mid * up.y - u_up_range.x) * w)
+                    / (u_up_range.y - u_up_range.x),
+                w);
+}
 
 void main() {
     float scale = in_place.w;
@@ -70,12 +101,18 @@ void main() {
     float along = u_mid * d.y;
 #endif
     vec3 world = in_place.xyz + scale * (right * x + up * u + d * along);
-    // into the mesh's frame (the inverse of objects/mesh.glsl's transform): the fragment
-    // stage finds where each atlas view saw the point the viewing ray passes through
+    // into the mesh's frame (the inverse of objects/mesh.glsl's transform), relative to
+    // its middle: where each blended view saw the point the viewing ray passes through
     vec3 rel = (world - in_place.xyz) / scale;
-    v_local = vec3(c * rel.x - s * rel.z, rel.y, s * rel.x + c * rel.z);
-    vec3 ray = u_facing.w > 0.5 ? world - u_facing.xyz : -u_facing.xyz;
-    v_ray = vec3(c * ray.x - s * ray.z, ray.y, s * ray.x + c * ray.z);
+    vec3 q = vec3(c * rel.x - s * rel.z, rel.y - u_mid, s * rel.x + c * rel.z);
+    bool directional = u_facing.w < 0.5;
+    vec3 eye = directional ? u_facing.xyz : (u_facing.xyz - in_place.xyz) / scale;
+    eye = vec3(c * eye.x - s * eye.z, eye.y - (directional ? 0.0 : u_mid),
+               s * eye.x + c * eye.z);
+    v_cell00 = view_cell(v_views.x, v_rows.x, q, eye, directional);
+    v_cell10 = view_cell(v_views.y, v_rows.x, q, eye, directional);
+    v_cell01 = view_cell(v_views.x, v_rows.y, q, eye, directional);
+    v_cell11 = view_cell(v_views.y, v_rows.y, q, eye, directional);
 #ifndef DEPTH_ONLY
     v_world = world;
     v_foot_r = vec3(in_place.xz, u_radius * scale);
@@ -87,43 +124,29 @@ uniform sampler2D u_atlas_color;   // linear albedo × coverage, alpha = coverag
 uniform sampler2D u_atlas_normal;  // normal in the mesh's frame × coverage, w = coverage
 uniform float u_atlas_row;         // this mesh's first row of cells (elevation 0°)
 uniform vec2 u_atlas_cells;        // (views, meshes × elevations)
-uniform float u_views;
-uniform float u_elevations;
-uniform float u_radius;
-uniform vec2 u_up_range;
-uniform float u_mid;
-in vec3 v_local;
-in vec3 v_ray;
+in vec3 v_cell00;
+in vec3 v_cell10;
+in vec3 v_cell01;
+in vec3 v_cell11;
 flat in vec3 v_views;
 flat in vec3 v_rows;
 flat in vec2 v_yaw;
 
-// Where atlas view (view, row) saw the point of the object the viewing ray meets: the ray
-// cut with that view's plane through the middle of the mesh, in the view's orthographic
-// frame (objects.py _bake_matrix). Each view is sampled where it holds the same point,
-// not at the quad's own coordinates: two views a turn apart (all views from straight
-// above differ by one) then line up instead of showing the object twice, turned — a
-// house seen from above as a blur of two rotated roofs.
-vec2 atlas_uv(float view, float row) {
-    float phi = 6.28318531 * view / u_views;
-    float el = 1.57079633 * row / (u_elevations - 1.0);
-    vec3 d = vec3(sin(phi) * cos(el), sin(el), cos(phi) * cos(el));
-    vec3 right = vec3(cos(phi), 0.0, -sin(phi));
-    vec3 up = cross(d, right);
-    vec3 o = v_local - vec3(0.0, u_mid, 0.0);
-    float along = dot(v_ray, d);
-    vec3 p = abs(along) > 1e-6 * length(v_ray) ? o - v_ray * (dot(o, d) / along) : o;
-    vec2 cell = vec2(0.5 + 0.5 * dot(right, p) / u_radius,
-                     (dot(up, p) + u_mid * up.y - u_up_range.x) / (u_up_range.y - u_up_range.x));
+// Each view sampled where it holds the same point of the object, not at the quad's own
+// coordinates: two views a turn apart (all views from straight above differ by one) then
+// line up instead of showing the object twice, turned — a house from above as a blur of
+// two rotated roofs.
+vec2 atlas_uv(float view, float row, vec3 h) {
+    vec2 cell = abs(h.z) > 1e-12 ? h.xy / h.z : vec2(0.5);
     return (vec2(view, u_atlas_row + row) + clamp(cell, 0.002, 0.998)) / u_atlas_cells;
 }
 
 // The atlas blended over the four views around the viewing direction.
 vec4 atlas(sampler2D tex) {
-    vec4 lower = mix(texture(tex, atlas_uv(v_views.x, v_rows.x)),
-                     texture(tex, atlas_uv(v_views.y, v_rows.x)), v_views.z);
-    vec4 upper = mix(texture(tex, atlas_uv(v_views.x, v_rows.y)),
-                     texture(tex, atlas_uv(v_views.y, v_rows.y)), v_views.z);
+    vec4 lower = mix(texture(tex, atlas_uv(v_views.x, v_rows.x, v_cell00)),
+                     texture(tex, atlas_uv(v_views.y, v_rows.x, v_cell10)), v_views.z);
+    vec4 upper = mix(texture(tex, atlas_uv(v_views.x, v_rows.y, v_cell01)),
+                     texture(tex, atlas_uv(v_views.y, v_rows.y, v_cell11)), v_views.z);
     return mix(lower, upper, v_rows.z);
 }
 
