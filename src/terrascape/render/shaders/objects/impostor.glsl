@@ -3,9 +3,10 @@
 // hemisphere of directions — u_views around it at each of u_elevations elevations from the
 // side (0°) to straight above (90°) — (albedo + coverage, and normals in the mesh's frame),
 // premultiplied by coverage. The four atlas views around the viewer's direction (two
-// around, two in elevation) are blended, each sampled where it saw the point the viewing
-// ray meets (view_cell), and the normals lit like the mesh, so the switch from mesh to
-// impostor keeps its outline and colour, seen from the side or from above.
+// around, two in elevation) are blended — seen from above each sampled where it saw the
+// point the viewing ray meets (view_cell) — and the normals lit like the mesh, so the
+// switch from mesh to impostor keeps its outline and colour, seen from the side or from
+// above.
 // DEPTH_ONLY: the shadow-map pass, the quad facing the sun (u_facing.w = 0).
 #if defined VERTEX_SHADER
 in vec2 in_corner;  // x in [-1, 1] across, y in [0, 1] up
@@ -25,6 +26,8 @@ out vec3 v_cell00;          // (first view, lower row)
 out vec3 v_cell10;          // (second view, lower row)
 out vec3 v_cell01;          // (first view, upper row)
 out vec3 v_cell11;          // (second view, upper row)
+out vec2 v_cell;            // the quad's own position inside a cell, [0, 1]²
+flat out float v_reproject; // weight of the reprojected cells against v_cell
 flat out vec3 v_views;      // first view, second view, weight of the second
 flat out vec3 v_rows;       // lower elevation row, upper row, weight of the upper
 flat out vec2 v_yaw;        // (cos, sin) of the instance's yaw
@@ -109,6 +112,11 @@ void main() {
     vec3 eye = directional ? u_facing.xyz : (u_facing.xyz - in_place.xyz) / scale;
     eye = vec3(c * eye.x - s * eye.z, eye.y - (directional ? 0.0 : u_mid),
                s * eye.x + c * eye.z);
+    v_cell = vec2(in_corner.x * 0.5 + 0.5, in_corner.y);
+    // From the side the views differ by how the object turns (the quad's own cell position
+    // serves), from above by a turn of the whole image: reprojected cells from 40° up,
+    // only them above 70°.
+    v_reproject = smoothstep(0.6981317, 1.2217305, asin(clamp(d.y, 0.0, 1.0)));
     v_cell00 = view_cell(v_views.x, v_rows.x, q, eye, directional);
     v_cell10 = view_cell(v_views.y, v_rows.x, q, eye, directional);
     v_cell01 = view_cell(v_views.x, v_rows.y, q, eye, directional);
@@ -128,16 +136,21 @@ in vec3 v_cell00;
 in vec3 v_cell10;
 in vec3 v_cell01;
 in vec3 v_cell11;
+in vec2 v_cell;
+flat in float v_reproject;
 flat in vec3 v_views;
 flat in vec3 v_rows;
 flat in vec2 v_yaw;
 
-// Each view sampled where it holds the same point of the object, not at the quad's own
-// coordinates: two views a turn apart (all views from straight above differ by one) then
-// line up instead of showing the object twice, turned — a house from above as a blur of
-// two rotated roofs.
+// Seen from above, each view sampled where it holds the same point of the object, not at
+// the quad's own coordinates: two views a turn apart (all views from straight above differ
+// by one) then line up instead of showing the object twice, turned — a house from above as
+// a blur of two rotated roofs.
 vec2 atlas_uv(float view, float row, vec3 h) {
-    vec2 cell = abs(h.z) > 1e-12 ? h.xy / h.z : vec2(0.5);
+    vec2 cell = v_cell;
+    if (v_reproject > 0.0) {
+        cell = mix(v_cell, abs(h.z) > 1e-12 ? h.xy / h.z : v_cell, v_reproject);
+    }
     return (vec2(view, u_atlas_row + row) + clamp(cell, 0.002, 0.998)) / u_atlas_cells;
 }
 
