@@ -362,21 +362,46 @@ def test_volumes_darken_every_lighting_mode(scene, technique, lighting):
 
 @pytest.mark.parametrize("technique", ["plain", "material"])
 def test_volumes_cut_at_the_lowest_surface_count_the_same(scene, technique):
-    from terrascape.render.shadow_volumes import ShadowVolumes
+    from terrascape.render.shadow_volumes import DEFAULT_REACH, ShadowVolumes
 
     r, _, boxes, cam = scene
     volumes = ShadowVolumes.of(r.terrain)
     params = {"object_shadows": "volumes", "sun": SUN}
-    r.render(cam, technique, params)
-    infinite = r.last_shadow_count().copy()
-    volumes.reach = "floor"
     try:
+        volumes.reach = "infinite"
+        r.render(cam, technique, params)
+        infinite = r.last_shadow_count().copy()
+        volumes.reach = "floor"
         r.render(cam, technique, params)
         assert r.terrain.last_stats["shadow_volume_triangles"] > 0
         cut = r.last_shadow_count()
     finally:
-        volumes.reach = "infinite"
+        volumes.reach = DEFAULT_REACH
     assert (infinite > 0).sum() > 300
     assert ((cut > 0) == (infinite > 0)).mean() >= 0.9995
     ref = shadow_reference(cam, r.last_depth(), SUN, instances=boxes)
     assert agreement(cut > 0, ref.object_shadow, ref.surface) >= 0.995
+
+
+def test_a_camera_below_the_cut_gets_the_volumes_to_infinity(scene):
+    """A far cap at the cut must not cross the near plane (z-fail): a camera down there
+    counts with the volumes to infinity, the same stencil as asked for them."""
+    from terrascape.render.shadow_volumes import DEFAULT_REACH, ShadowVolumes
+
+    r, _, _, _ = scene
+    volumes = ShadowVolumes.of(r.terrain)
+    # under the ground, looking up past the boxes' feet at their sides
+    low = Camera.look_at((48, -0.9, 110), (40, 6, 48), aspect=SIZE[0] / SIZE[1], near=1.0,
+                         far=1000.0)
+    params = {"object_shadows": "volumes", "sun": SUN}
+    try:
+        counts = {}
+        for reach in ("infinite", "floor"):
+            volumes.reach = reach
+            r.render(low, "plain", params)
+            counts[reach] = r.last_shadow_count().copy()
+    finally:
+        volumes.reach = DEFAULT_REACH
+    assert volumes._key[-1] is None  # no cut: the volumes to infinity were drawn
+    assert (counts["infinite"] > 0).sum() > 100
+    np.testing.assert_array_equal(counts["floor"], counts["infinite"])

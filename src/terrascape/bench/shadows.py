@@ -6,7 +6,8 @@ at 1280×720, daylight material technique. Quick: 1 000 trees and 20 buildings o
 640×360.
 
 * frame time without object shadows, with cascaded shadow maps and with stencil volumes
-  (and the volumes without shadow caster culling, and cut off at the lowest surface),
+  (and the volumes without shadow caster culling, and those of the other reach: to
+  infinity, or cut off at the lowest surface; ``DEFAULT_REACH`` is drawn),
   drawn interleaved (best of 3, each frame ends with ``ctx.finish()``);
 * per-pixel agreement with :func:`terrascape.objects.shadow_reference.shadow_reference`:
   the volumes' stencil count exactly, and both modes from their pixels (a pixel counts as
@@ -42,6 +43,8 @@ TARGET_SPIKE = 1.5  # slowest frame of a moving sun × the median
 SUN = (135.0, 35.0)
 # A pixel is shadowed in a frame when it is this much darker than without object shadows.
 DARKER = 0.85
+# the variant of the volumes of the reach that is not the default (ShadowVolumes.reach)
+_REACH_LABEL = {"floor": "volumes, cut at the lowest surface", "infinite": "volumes to infinity"}
 
 
 def _scene(n: int, trees: int, buildings: int):
@@ -120,16 +123,18 @@ class _Frames:
 def _frame_and_agreement(frames: _Frames, hm, inst, camera, quick: bool) -> list[BenchTable]:
     from terrascape.lighting.sun import sun_direction
     from terrascape.objects.shadow_reference import agreement, boundary_band, shadow_reference
-    from terrascape.render.shadow_volumes import ShadowVolumes
+    from terrascape.render.shadow_volumes import DEFAULT_REACH, ShadowVolumes
 
     modes = ("none", "cascades", "volumes")
     base = {"sun": SUN}
     volumes = ShadowVolumes.of(frames.terrain)
-    # the volumes as drawn (culled, to infinity), and the two variants they are measured by
-    variants = {"none": ("none", True, "infinite"), "cascades": ("cascades", True, "infinite"),
-                "volumes": ("volumes", True, "infinite"),
-                "volumes, no caster culling": ("volumes", False, "infinite"),
-                "volumes, cut at the lowest surface": ("volumes", True, "floor")}
+    # the volumes as drawn (culled, the default reach), and the variants they are measured by
+    other = "infinite" if DEFAULT_REACH == "floor" else "floor"
+    variants = {"none": ("none", True, DEFAULT_REACH),
+                "cascades": ("cascades", True, DEFAULT_REACH),
+                "volumes": ("volumes", True, DEFAULT_REACH),
+                "volumes, no caster culling": ("volumes", False, DEFAULT_REACH),
+                _REACH_LABEL[other]: ("volumes", True, other)}
     best = {m: math.inf for m in variants}
 
     def frame(name):
@@ -158,6 +163,11 @@ def _frame_and_agreement(frames: _Frames, hm, inst, camera, quick: bool) -> list
         frames.render(camera, {**base, "object_shadows": m, "impostor_pixels": 0})
         images[m] = _luma(frames.image())
     count = volumes.last_count
+    # the volumes of the other reach, counted on the same frame
+    volumes.reach = other
+    frames.render(camera, {**base, "object_shadows": "volumes", "impostor_pixels": 0})
+    other_count = volumes.last_count
+    volumes.reach = DEFAULT_REACH
     volumes.keep_count = False
     depth = frames.target.read_depth()
     mesh_camera = frames.terrain.last_camera  # volumes: drawn with an infinite far plane
@@ -214,12 +224,17 @@ def _frame_and_agreement(frames: _Frames, hm, inst, camera, quick: bool) -> list
                        ["mode", "what is compared", "pixels", "agree %"])
     agree.rows.append(["volumes", "stencil count ≠ 0 vs the ray hits an object, every "
                        "surface pixel", int(surface.sum()), exact])
+    agree.rows.append([_REACH_LABEL[other], "the same", int(surface.sum()),
+                       100.0 * agreement(other_count > 0, ref.object_shadow, surface)])
     for m in ("volumes", "cascades"):
         agree.rows.append([m, f"pixel darker than {DARKER:g}× the unshadowed frame, away "
                            "from shadow edges (2 px), sun-facing, not terrain-shaded "
                            "(objects drawn as meshes)", int(eligible.sum()), pix[m]])
     agree.rows.append(["cascades", "the same, the frame as drawn (impostors far away), on "
                        "the pixels no impostor covers", int(drawn_eligible.sum()), pix_drawn])
+    diff = int(((other_count > 0) != (count > 0))[surface].sum())
+    agree.notes.append(f"{_REACH_LABEL[other]}: {diff} surface pixels counted otherwise "
+                       f"than by the volumes as drawn (reach {DEFAULT_REACH!r})")
     agree.notes.append(f"ray cast: {1e3 * ref_s:.0f} ms for {int(surface.sum())} pixels "
                        f"({int(ref.object_shadow.sum())} in object shadow); impostors cover "
                        f"{int(quads.sum())} pixels of the frame as drawn")

@@ -9,7 +9,9 @@ sun's cascaded shadow maps of objects and terrain together.
   ``impostor_pixels`` is drawn as an impostor — a quad facing the viewer, textured from an
   atlas of the mesh rendered once from a hemisphere of directions (8 around it at each of
   4 elevations, 0° to straight above; Maciel & Shirley 1995), with normals, so it is lit
-  like the mesh; the four atlas views around the viewer's direction are blended.
+  like the mesh; the four atlas views around the viewer's direction are blended — seen
+  from above (40° to 70° and up) each sampled where it saw the point the viewing ray meets
+  (its plane through the middle of the mesh), so views a turn apart line up.
 * ``object_shadows="cascades"``: the sun's cascaded shadow maps
   (:mod:`terrascape.render.cascades`) drawn from the objects (meshes near, sun-facing
   impostors far), looked up by the terrain's and the objects' shading

@@ -29,6 +29,7 @@ Heidmann, T. (1991). Real shadows, real time. *Iris Universe* 18, 28-31.
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Mapping
 from typing import Any
@@ -55,9 +56,12 @@ FALLBACK_MODE = "cascades"
 # (daylight: the sun's irradiance; Phong: its diffuse and specular terms; the lightmap and
 # unlit modes: u_sun_blocked, common/lighting.glsl).
 SUN_OFF = {"u_sun_irradiance": (0.0, 0.0, 0.0), "u_kd": 0.0, "u_ks": 0.0, "u_sun_blocked": 1}
-# How far the silhouettes are extruded (ShadowVolumes.reach).
+# How far the silhouettes are extruded (ShadowVolumes.reach). "floor" by default: the same
+# count as to infinity (z-fail needs points at infinity only where a far cap could be
+# clipped; this one lies below every drawn surface, and a camera down there gets the
+# infinite volumes), far less fill (terrascape bench shadows, docs/benchmarks.md).
 VOLUME_REACH = ("floor", "infinite")
-DEFAULT_REACH = "infinite"
+DEFAULT_REACH = "floor"
 # Polygon offset (depth units) that pushes the volumes' near caps behind the sunlit faces
 # they lie on (see terrascape.render.stencil.zfail_counting).
 VOLUME_DEPTH_OFFSET = 2.0
@@ -218,8 +222,16 @@ def shade_shadow_volumes(renderer, fbo, camera, uniforms: Mapping[str, Any], *, 
     if volumes.reach not in VOLUME_REACH:
         raise InvalidParameterError(
             f"volume reach must be one of {', '.join(VOLUME_REACH)}, got {volumes.reach!r}")
-    # the cut lies a little below the lowest surface, never on a drawn one
+    # the cut lies a little below the lowest surface, never on a drawn one; z-fail needs
+    # the far caps outside the near plane, so a camera down at the cut's height (its near
+    # plane's corners within near · √(1 + tan²x + tan²y) of the eye) gets the volumes to
+    # infinity
     cut = floor - 0.01 * max(renderer.mesh.extent) if volumes.reach == "floor" else None
+    if cut is not None:
+        tan_y = math.tan(math.radians(camera.fov_y) / 2.0)
+        corner = camera.near * math.sqrt(1.0 + tan_y * tan_y * (1.0 + camera.aspect ** 2))
+        if float(camera.eye[1]) - corner <= cut:
+            cut = None
     n = volumes.set_casters(casters, sun, keep if casters is not None else None, cut)
     volumes.count(fbo, uniforms["u_view_proj"])
     volumes.last_count = read_stencil(fbo) if volumes.keep_count else None

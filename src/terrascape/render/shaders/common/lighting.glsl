@@ -35,14 +35,26 @@ vec3 unlit(vec3 albedo) {
     return u_sun_blocked != 0 ? albedo * (u_ka * u_ambient_color) : albedo;
 }
 
-vec3 phong(vec3 albedo, vec3 N, vec3 L, vec3 V) {
+// The same where a share ``sun`` of the sun is visible (a shadow map's filtered lookup):
+// between the shadowed and the unshadowed colour.
+vec3 unlit_sun(vec3 albedo, float sun) {
+    return mix(albedo * (u_ka * u_ambient_color), unlit(albedo), sun);
+}
+
+// Phong with the sun's terms (diffuse and specular) scaled by its visible share ``sun``.
+vec3 phong_sun(vec3 albedo, vec3 N, vec3 L, vec3 V, float sun) {
     float ndotl = dot(N, L);
-    vec3 color = albedo * (u_ka * u_ambient_color + u_kd * max(ndotl, 0.0) * u_diffuse_color);
+    vec3 color = albedo * (u_ka * u_ambient_color
+                           + u_kd * max(ndotl, 0.0) * sun * u_diffuse_color);
     if (ndotl > 0.0 && u_ks > 0.0) {
         vec3 R = reflect(-L, N);
-        color += u_ks * pow(max(dot(R, V), 0.0), u_shininess) * u_specular_color;
+        color += u_ks * sun * pow(max(dot(R, V), 0.0), u_shininess) * u_specular_color;
     }
     return color;
+}
+
+vec3 phong(vec3 albedo, vec3 N, vec3 L, vec3 V) {
+    return phong_sun(albedo, N, L, V, 1.0);
 }
 
 vec3 daylight_irradiance(vec3 N, float sun_visibility, float sky_visibility) {

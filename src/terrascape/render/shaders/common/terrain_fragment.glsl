@@ -145,6 +145,18 @@ vec2 sun_sky_visibility() {
     return vis;
 }
 
+// Visible share of the sun past the objects alone (their shadow cascades; 1 without
+// objects): the lighting modes other than daylight take the terrain's own shadows from
+// their lightmap or not at all, and the objects' from here.
+float object_sun_visibility() {
+#if TERRAIN_CASCADES
+    if (u_cascade_count > 0) {
+        return cascade_sun_visibility(v_world, normalize(v_normal), 0.0);
+    }
+#endif
+    return 1.0;
+}
+
 // Colour of a surface point with albedo and unit normal N under the chosen lighting mode.
 // Daylight returns linear radiance (the albedo is sRGB-decoded); finish() displays it.
 vec3 shade(vec3 albedo, vec3 N) {
@@ -153,16 +165,19 @@ vec3 shade(vec3 albedo, vec3 N) {
         return daylight_radiance(srgb_to_linear(albedo), N, vis.x, vis.y);
     }
     if (LIGHTING_MODE == 1) {
-        return phong(albedo, N, normalize(u_sun_dir), view_dir());
+        return phong_sun(albedo, N, normalize(u_sun_dir), view_dir(), object_sun_visibility());
     }
     if (LIGHTING_MODE == 2) {
         if (u_sun_blocked != 0) {  // in an object's shadow: what the lightmap has in shade
             return albedo * u_lightmap_ambient;
         }
         vec2 uv = grid_texcoord(vec2(textureSize(u_lightmap, 0)));
-        return albedo * texture(u_lightmap, uv).r;
+        float light = texture(u_lightmap, uv).r;
+        // in an object's cascaded shadow: the same shade, never brighter than the lightmap
+        float shaded = min(light, u_lightmap_ambient);
+        return albedo * mix(shaded, light, object_sun_visibility());
     }
-    return unlit(albedo);
+    return unlit_sun(albedo, object_sun_visibility());
 }
 
 // Techniques that light with phong() themselves (bump, relief) get the daylight model too
@@ -177,9 +192,16 @@ vec3 terrain_phong(vec3 albedo, vec3 N, vec3 L, vec3 V) {
         }
         return c;
     }
-    return phong(albedo, N, L, V);
+    return phong_sun(albedo, N, L, V, object_sun_visibility());
 }
 #define phong terrain_phong
+
+// The unlit colour of techniques that call unlit() themselves (bump, relief), with the
+// objects' cascaded shadows.
+vec3 terrain_unlit(vec3 albedo) {
+    return unlit_sun(albedo, object_sun_visibility());
+}
+#define unlit terrain_unlit
 
 #if defined TERRAIN_VERTEX_HAZE && !defined DEFERRED
 #if TERRAIN_VERTEX_HAZE

@@ -62,15 +62,16 @@ vec2 foot_sun_sky(vec2 foot) {
 // shadow is looked up; foot: the object's foot (x, z).
 vec4 shade_object(vec3 color, vec3 N, vec3 p, vec3 q, vec2 foot) {
     vec2 vis = foot_sun_sky(foot);
-    float sun = min(cascade_sun_visibility(q, N, CASCADE_OBJECT_OFFSET),
-                    terrain_sun_visibility(q));
+    float objects = cascade_sun_visibility(q, N, CASCADE_OBJECT_OFFSET);
+    float sun = min(objects, terrain_sun_visibility(q));
     vec3 V = normalize(u_camera_pos - p);
     if (u_lighting == 3) {
         vec3 radiance = daylight_radiance(color, N, sun, vis.y);
         return vec4(display(aerial_perspective(radiance, p, u_camera_pos)), 1.0);
     }
     vec3 albedo = linear_to_srgb(color);
-    vec3 c = unlit(albedo);
+    // unlit: the objects' shadows only, as on the unlit terrain (no shading of its own)
+    vec3 c = unlit_sun(albedo, objects);
     if (u_lighting != 0) {
         float ndl = max(dot(N, u_sun_dir), 0.0) * sun;
         c = albedo * (u_ka * u_ambient_color + u_kd * ndl * u_diffuse_color);
