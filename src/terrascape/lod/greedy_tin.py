@@ -37,6 +37,9 @@ __all__ = ["greedy_tin"]
 # state slots of the resumable kernel
 _N_POINTS, _N_EDGES, _Q_LEN, _N_PENDING, _STATUS = range(5)
 _DONE, _FULL = 0, 1
+# queue index of a triangle already within the error: it can never be refined, so it is
+# kept out of the queue (pending triangles have -1)
+_SETTLED = -2
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
@@ -130,6 +133,8 @@ def _q_pop(queue, qerr, qidx, state):
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _q_remove(queue, qerr, qidx, pending, state, t):
     i = qidx[t]
+    if i == _SETTLED:
+        return
     if i < 0:
         # not queued yet: it waits in the pending list for rasterisation
         for k in range(state[_N_PENDING]):
@@ -176,11 +181,9 @@ def _add_triangle(tris, half, qidx, pending, state, a, b, c, ab, bc, ca, e):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
-def _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, start):
-    """Restore the Delaunay condition around halfedge ``start`` by flips (depth first)."""
-    top = 0
-    stack[0] = start
-    top = 1
+def _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, top):
+    """Restore the Delaunay condition by flips, depth first from the halfedges
+    ``stack[:top]`` (the last one first, and all it flips before the next)."""
     while top > 0:
         top -= 1
         a = stack[top]
@@ -414,11 +417,14 @@ def _tile_ranges(h, tmin, tmax):
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always", _nrt=False)
 def _flush(h, tmin, tmax, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
-           state):
+           state, max_error):
     for k in range(state[_N_PENDING]):
         t = pending[k]
         _rasterise(h, tmin, tmax, bound, order, coords, tris, t, cand, cerr)
-        _q_push(queue, qerr, qidx, state, t, cerr[t])
+        if cerr[t] > max_error:
+            _q_push(queue, qerr, qidx, state, t, cerr[t])
+        else:
+            qidx[t] = _SETTLED
     state[_N_PENDING] = 0
 
 
@@ -432,8 +438,9 @@ def _add_point(coords, state, x, y):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
-def _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, a):
-    """Insert point ``pn`` lying on halfedge ``a``: split the edge's one or two triangles."""
+def _split_on_edge(tris, half, queue, qerr, qidx, pending, state, stack, pn, a):
+    """Insert point ``pn`` lying on halfedge ``a``: split the edge's one or two triangles;
+    returns how many halfedges it put on ``stack`` for legalisation."""
     a0 = a - a % 3
     al = a0 + (a + 1) % 3
     ar = a0 + (a + 2) % 3
@@ -446,9 +453,9 @@ def _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack,
     if b < 0:
         t0 = _add_triangle(tris, half, qidx, pending, state, pn, p0, pr, -1, har, -1, a0)
         t1 = _add_triangle(tris, half, qidx, pending, state, p0, pn, pl, t0, -1, hal, -1)
-        _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t0 + 1)
-        _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t1 + 2)
-        return
+        stack[0] = t1 + 2
+        stack[1] = t0 + 1
+        return 2
     b0 = b - b % 3
     bl = b0 + (b + 2) % 3
     br = b0 + (b + 1) % 3
@@ -460,10 +467,11 @@ def _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack,
     t1 = _add_triangle(tris, half, qidx, pending, state, pr, p1, pn, hbr, -1, t0 + 1, b0)
     t2 = _add_triangle(tris, half, qidx, pending, state, p1, pl, pn, hbl, -1, t1 + 1, -1)
     t3 = _add_triangle(tris, half, qidx, pending, state, pl, p0, pn, hal, t0 + 2, t2 + 1, -1)
-    _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t0)
-    _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t1)
-    _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t2)
-    _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t3)
+    stack[0] = t3
+    stack[1] = t2
+    stack[2] = t1
+    stack[3] = t0
+    return 4
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
@@ -492,12 +500,16 @@ def _refine(h, tmin, tmax, bound, order, max_error, max_tris, coords, tris, half
         px = cand[t, 0]
         py = cand[t, 1]
         pn = _add_point(coords, state, px, py)
+        # a point on an edge splits both triangles of the edge, one inside splits its own
+        e_on = -1
         if _orient(ax, ay, bx, by, px, py) == 0:
-            _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, e0)
+            e_on = e0
         elif _orient(bx, by, cx, cy, px, py) == 0:
-            _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, e1)
+            e_on = e1
         elif _orient(cx, cy, ax, ay, px, py) == 0:
-            _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, e2)
+            e_on = e2
+        if e_on >= 0:
+            top = _split_on_edge(tris, half, queue, qerr, qidx, pending, state, stack, pn, e_on)
         else:
             h0 = half[e0]
             h1 = half[e1]
@@ -507,11 +519,14 @@ def _refine(h, tmin, tmax, bound, order, max_error, max_tris, coords, tris, half
                                -1)
             t2 = _add_triangle(tris, half, qidx, pending, state, p2, p0, pn, h2, t0 + 2,
                                t1 + 1, -1)
-            _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t0)
-            _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t1)
-            _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t2)
+            stack[0] = t2
+            stack[1] = t1
+            stack[2] = t0
+            top = 3
+        # one legalisation, new edges in order (each with all it flips before the next)
+        _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, top)
         _flush(h, tmin, tmax, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
-               state)
+               state, max_error)
     state[_STATUS] = _DONE
 
 
@@ -600,7 +615,7 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
                        -1, -1)
     _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p0, p3, p1, t0, -1, -1, -1)
     _flush(h, tmin, tmax, bound, order, arr.coords, arr.tris, arr.cand, arr.cerr, arr.queue,
-           arr.qerr, arr.qidx, arr.pending, state)
+           arr.qerr, arr.qidx, arr.pending, state, float(tol))
     while True:
         _refine(h, tmin, tmax, bound, order, float(tol), budget, arr.coords, arr.tris, arr.half,
                 arr.cand, arr.cerr, arr.queue, arr.qerr, arr.qidx, arr.pending, arr.stack, state)
