@@ -117,9 +117,9 @@ def test_candidate_search_equals_brute_force(rough):
         h = np.cumsum(np.cumsum(rng.standard_normal((rows, cols)), 0), 1) * 0.1
     h = h.astype(np.float32)
     tiles = (-(-rows // gt._TILE), -(-cols // gt._TILE))
-    tmin, tmax = np.empty(tiles), np.empty(tiles)
-    gt._tile_ranges(h, tmin, tmax)
-    bound, order = np.empty(tmin.size), np.empty(tmin.size, np.int64)
+    tplane, tres = np.empty((*tiles, 3)), np.empty((*tiles, 2))
+    gt._tile_ranges(h, tplane, tres)
+    bound, order = np.empty(tres[..., 0].size), np.empty(tres[..., 0].size, np.int64)
     h64 = h.astype(np.float64)
     sizes = {"box": 0, "rows": 0, "tiles": 0}
     for k in range(300):
@@ -139,7 +139,7 @@ def test_candidate_search_equals_brute_force(rough):
         coords = p.astype(np.int64)
         tris = np.arange(3, dtype=np.int32)
         cand, cerr = np.zeros((1, 2), np.int32), np.zeros(1)
-        gt._rasterise(h, tmin, tmax, bound, order, coords, tris, 0, cand, cerr)
+        gt._rasterise(h, tplane, tres, bound, order, coords, tris, 0, cand, cerr)
         err, xs, ys = _candidate_reference(h64, coords)
         best = err.max()
         if best < 1e-6:

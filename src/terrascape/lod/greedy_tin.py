@@ -235,7 +235,7 @@ def _span(w, a, lo, hi):
 # Max-reductions vectorise only without NaN/signed-zero semantics; heights are checked
 # finite, and no sum is reassociated, so results are the same bits as without the flags.
 _RASTER_MATH = {"nnan", "ninf", "nsz"}
-# Tiles of the min/max grid that bounds the error of large triangles (samples per side).
+# Tiles of the fitted-plane grid that bounds the error of large triangles (samples per side).
 _TILE = 16
 # Triangles whose box holds more samples than this search tiles by their error bound.
 _TILED_SEARCH = 8 * _TILE * _TILE
@@ -338,16 +338,17 @@ def _tile_sift(bound, order, i, n):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
-def _rasterise(h, tmin, tmax, bound, order, coords, tris, t, cand, cerr):
+def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
     """Largest |h − plane| over the samples of triangle ``t``, and where it is.
 
     The samples inside are those where the three edge functions are ≥ 0; on each row they
     form one span, found exactly in integers, so the inner loop has no inside test. Each
     row's maximum is taken first (a loop LLVM vectorises) and its position looked up only
     when it beats the best so far. A large triangle is searched tile by tile in decreasing
-    order of an upper bound of its error there (the plane's range over the tile against the
-    tile's height range), stopping at the first tile whose bound is below the best error
-    found: the same sample as a full scan, without scanning most of the triangle.
+    order of an upper bound of its error there (the range of the triangle's plane minus the
+    tile's least-squares plane, against the range of the tile's residuals from that plane),
+    stopping at the first tile whose bound is below the best error found: the same sample as
+    a full scan, without scanning most of the triangle.
     """
     p0 = tris[3 * t]
     p1 = tris[3 * t + 1]
@@ -405,13 +406,23 @@ def _rasterise(h, tmin, tmax, bound, order, coords, tris, t, cand, cerr):
             ya = max(min_y, ty * _TILE) - min_y
             yb = min(max_y, ty * _TILE + _TILE - 1) - min_y
             # a plane's extremes over a rectangle are at its corners
-            c00 = z00 + dz_dx * xa + dz_dy * ya
-            c10 = z00 + dz_dx * xb + dz_dy * ya
-            c01 = z00 + dz_dx * xa + dz_dy * yb
-            c11 = z00 + dz_dx * xb + dz_dy * yb
-            pmin = min(min(c00, c10), min(c01, c11))
-            pmax = max(max(c00, c10), max(c01, c11))
-            bound[k] = max(pmax - tmin[ty, tx], tmax[ty, tx] - pmin) + slack
+            # the triangle's plane minus the tile's fitted plane at the rectangle's corners
+            # (tile coordinates u, v); |plane − h| = |(plane − fit) − residual|
+            q0 = tplane[ty, tx, 0]
+            qx = tplane[ty, tx, 1]
+            qy = tplane[ty, tx, 2]
+            u0 = min_x + xa - tx * _TILE
+            u1 = min_x + xb - tx * _TILE
+            v0 = min_y + ya - ty * _TILE
+            v1 = min_y + yb - ty * _TILE
+            c00 = z00 + dz_dx * xa + dz_dy * ya - (q0 + qx * u0 + qy * v0)
+            c10 = z00 + dz_dx * xb + dz_dy * ya - (q0 + qx * u1 + qy * v0)
+            c01 = z00 + dz_dx * xa + dz_dy * yb - (q0 + qx * u0 + qy * v1)
+            c11 = z00 + dz_dx * xb + dz_dy * yb - (q0 + qx * u1 + qy * v1)
+            dmin = min(min(c00, c10), min(c01, c11))
+            dmax = max(max(c00, c10), max(c01, c11))
+            bound[k] = (max(dmax - tres[ty, tx, 0], tres[ty, tx, 1] - dmin) + slack
+                        + 1e-9 * (abs(q0) + abs(qx) * _TILE + abs(qy) * _TILE))
             order[k] = k
         # tiles in decreasing bound from a max-heap built in place (usually only a few are
         # popped before the bound drops below the best error, so no full sort); ties in
@@ -442,27 +453,53 @@ def _rasterise(h, tmin, tmax, bound, order, coords, tris, t, cand, cerr):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _tile_ranges(h, tmin, tmax):
+def _tile_ranges(h, tplane, tres):
+    """Per tile: the least-squares plane of its heights (value at the tile's first sample,
+    slopes along x and y) and the range of the heights' residuals from it."""
     rows, cols = h.shape
-    for ty in range(tmin.shape[0]):
-        for tx in range(tmin.shape[1]):
+    for ty in range(tplane.shape[0]):
+        for tx in range(tplane.shape[1]):
+            y0 = ty * _TILE
+            x0 = tx * _TILE
+            ny = min(rows, y0 + _TILE) - y0
+            nx = min(cols, x0 + _TILE) - x0
+            # on a full rectangle the x and y offsets are uncorrelated: two 1-D regressions
+            xm = 0.5 * (nx - 1)
+            ym = 0.5 * (ny - 1)
+            sh = 0.0
+            sxh = 0.0
+            syh = 0.0
+            for v in range(ny):
+                for u in range(nx):
+                    z = float(h[y0 + v, x0 + u])
+                    sh += z
+                    sxh += (u - xm) * z
+                    syh += (v - ym) * z
+            sxx = ny * nx * (nx * nx - 1) / 12.0
+            syy = nx * ny * (ny * ny - 1) / 12.0
+            gx = sxh / sxx if nx > 1 else 0.0
+            gy = syh / syy if ny > 1 else 0.0
+            q0 = sh / (nx * ny) - gx * xm - gy * ym
             lo = np.inf
             hi = -np.inf
-            for y in range(ty * _TILE, min(rows, ty * _TILE + _TILE)):
-                for x in range(tx * _TILE, min(cols, tx * _TILE + _TILE)):
-                    v = float(h[y, x])
-                    lo = min(lo, v)
-                    hi = max(hi, v)
-            tmin[ty, tx] = lo
-            tmax[ty, tx] = hi
+            for v in range(ny):
+                for u in range(nx):
+                    r = float(h[y0 + v, x0 + u]) - (q0 + gx * u + gy * v)
+                    lo = min(lo, r)
+                    hi = max(hi, r)
+            tplane[ty, tx, 0] = q0
+            tplane[ty, tx, 1] = gx
+            tplane[ty, tx, 2] = gy
+            tres[ty, tx, 0] = lo
+            tres[ty, tx, 1] = hi
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always", _nrt=False)
-def _flush(h, tmin, tmax, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
+def _flush(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
            state, max_error):
     for k in range(state[_N_PENDING]):
         t = pending[k]
-        _rasterise(h, tmin, tmax, bound, order, coords, tris, t, cand, cerr)
+        _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr)
         if cerr[t] > max_error:
             _q_push(queue, qerr, qidx, state, t, cerr[t])
         else:
@@ -517,7 +554,7 @@ def _split_on_edge(tris, half, queue, qerr, qidx, pending, state, stack, pn, a):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
-def _refine(h, tmin, tmax, bound, order, max_error, max_tris, coords, tris, half, cand, cerr,
+def _refine(h, tplane, tres, bound, order, max_error, max_tris, coords, tris, half, cand, cerr,
             queue, qerr, qidx, pending, stack, state):
     """Insert worst candidates until the error is met, the budget is reached, or the arrays
     are full (then return ``_FULL`` so the caller grows them and calls again)."""
@@ -567,7 +604,7 @@ def _refine(h, tmin, tmax, bound, order, max_error, max_tris, coords, tris, half
             top = 3
         # one legalisation, new edges in order (each with all it flips before the next)
         _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, top)
-        _flush(h, tmin, tmax, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
+        _flush(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
                state, max_error)
     state[_STATUS] = _DONE
 
@@ -642,12 +679,12 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
     if not np.isfinite(h).all():
         raise InvalidParameterError("heights must be finite (fill NaN/inf first)")
     tiles = (-(-rows // _TILE), -(-cols // _TILE))
-    tmin = np.empty(tiles)
-    tmax = np.empty(tiles)
-    _tile_ranges(h, tmin, tmax)
+    tplane = np.empty((*tiles, 3))
+    tres = np.empty((*tiles, 2))
+    _tile_ranges(h, tplane, tres)
     # scratch of the tiled search: one bound and one heap slot per tile
-    bound = np.empty(tmin.size)
-    order = np.empty(tmin.size, np.int64)
+    bound = np.empty(tres.shape[0] * tres.shape[1])
+    order = np.empty(tres.shape[0] * tres.shape[1], np.int64)
     arr = _Arrays(1024)
     state = np.zeros(5, np.int64)
     x1, y1 = cols - 1, rows - 1
@@ -658,10 +695,10 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
     t0 = _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p3, p0, p2, -1, -1,
                        -1, -1)
     _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p0, p3, p1, t0, -1, -1, -1)
-    _flush(h, tmin, tmax, bound, order, arr.coords, arr.tris, arr.cand, arr.cerr, arr.queue,
+    _flush(h, tplane, tres, bound, order, arr.coords, arr.tris, arr.cand, arr.cerr, arr.queue,
            arr.qerr, arr.qidx, arr.pending, state, float(tol))
     while True:
-        _refine(h, tmin, tmax, bound, order, float(tol), budget, arr.coords, arr.tris, arr.half,
+        _refine(h, tplane, tres, bound, order, float(tol), budget, arr.coords, arr.tris, arr.half,
                 arr.cand, arr.cerr, arr.queue, arr.qerr, arr.qidx, arr.pending, arr.stack, state)
         if state[_STATUS] != _FULL:
             break
