@@ -117,7 +117,7 @@ def test_candidate_search_equals_brute_force(rough):
         h = np.cumsum(np.cumsum(rng.standard_normal((rows, cols)), 0), 1) * 0.1
     h = h.astype(np.float32)
     tiles = (-(-rows // gt._TILE), -(-cols // gt._TILE))
-    tplane, tres = np.empty((*tiles, 3)), np.empty((*tiles, 2))
+    tplane, tres = np.empty((*tiles, 3)), np.empty((*tiles, 4))
     gt._tile_ranges(h, tplane, tres)
     bound, order = np.empty(tres[..., 0].size), np.empty(tres[..., 0].size, np.int64)
     h64 = h.astype(np.float64)

@@ -345,8 +345,9 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
     form one span, found exactly in integers, so the inner loop has no inside test. Each
     row's maximum is taken first (a loop LLVM vectorises) and its position looked up only
     when it beats the best so far. A large triangle is searched tile by tile in decreasing
-    order of an upper bound of its error there (the range of the triangle's plane minus the
-    tile's least-squares plane, against the range of the tile's residuals from that plane),
+    order of an upper bound of its error there (the range of the triangle's plane against
+    the tile's height range, or that of the plane minus the tile's least-squares plane
+    against the residuals' range, whichever is smaller),
     stopping at the first tile whose bound is below the best error found: the same sample as
     a full scan, without scanning most of the triangle.
     """
@@ -415,14 +416,24 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
             u1 = min_x + xb - tx * _TILE
             v0 = min_y + ya - ty * _TILE
             v1 = min_y + yb - ty * _TILE
-            c00 = z00 + dz_dx * xa + dz_dy * ya - (q0 + qx * u0 + qy * v0)
-            c10 = z00 + dz_dx * xb + dz_dy * ya - (q0 + qx * u1 + qy * v0)
-            c01 = z00 + dz_dx * xa + dz_dy * yb - (q0 + qx * u0 + qy * v1)
-            c11 = z00 + dz_dx * xb + dz_dy * yb - (q0 + qx * u1 + qy * v1)
+            c00 = z00 + dz_dx * xa + dz_dy * ya
+            c10 = z00 + dz_dx * xb + dz_dy * ya
+            c01 = z00 + dz_dx * xa + dz_dy * yb
+            c11 = z00 + dz_dx * xb + dz_dy * yb
+            # a plane's extremes over a rectangle are at its corners: against the heights'
+            # range, and against the residuals from the fitted plane; the smaller bound holds
+            pmin = min(min(c00, c10), min(c01, c11))
+            pmax = max(max(c00, c10), max(c01, c11))
+            plain = max(pmax - tres[ty, tx, 2], tres[ty, tx, 3] - pmin)
+            c00 -= q0 + qx * u0 + qy * v0
+            c10 -= q0 + qx * u1 + qy * v0
+            c01 -= q0 + qx * u0 + qy * v1
+            c11 -= q0 + qx * u1 + qy * v1
             dmin = min(min(c00, c10), min(c01, c11))
             dmax = max(max(c00, c10), max(c01, c11))
-            bound[k] = (max(dmax - tres[ty, tx, 0], tres[ty, tx, 1] - dmin) + slack
-                        + 1e-9 * (abs(q0) + abs(qx) * _TILE + abs(qy) * _TILE))
+            fitted = (max(dmax - tres[ty, tx, 0], tres[ty, tx, 1] - dmin)
+                      + 1e-9 * (abs(q0) + abs(qx) * _TILE + abs(qy) * _TILE))
+            bound[k] = min(plain, fitted) + slack
             order[k] = k
         # tiles in decreasing bound from a max-heap built in place (usually only a few are
         # popped before the bound drops below the best error, so no full sort); ties in
@@ -455,7 +466,8 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _tile_ranges(h, tplane, tres):
     """Per tile: the least-squares plane of its heights (value at the tile's first sample,
-    slopes along x and y) and the range of the heights' residuals from it."""
+    slopes along x and y), the range of the heights' residuals from it, and the range of
+    the heights."""
     rows, cols = h.shape
     for ty in range(tplane.shape[0]):
         for tx in range(tplane.shape[1]):
@@ -482,16 +494,23 @@ def _tile_ranges(h, tplane, tres):
             q0 = sh / (nx * ny) - gx * xm - gy * ym
             lo = np.inf
             hi = -np.inf
+            h_lo = np.inf
+            h_hi = -np.inf
             for v in range(ny):
                 for u in range(nx):
-                    r = float(h[y0 + v, x0 + u]) - (q0 + gx * u + gy * v)
+                    z = float(h[y0 + v, x0 + u])
+                    r = z - (q0 + gx * u + gy * v)
                     lo = min(lo, r)
                     hi = max(hi, r)
+                    h_lo = min(h_lo, z)
+                    h_hi = max(h_hi, z)
             tplane[ty, tx, 0] = q0
             tplane[ty, tx, 1] = gx
             tplane[ty, tx, 2] = gy
             tres[ty, tx, 0] = lo
             tres[ty, tx, 1] = hi
+            tres[ty, tx, 2] = h_lo
+            tres[ty, tx, 3] = h_hi
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always", _nrt=False)
@@ -680,7 +699,7 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         raise InvalidParameterError("heights must be finite (fill NaN/inf first)")
     tiles = (-(-rows // _TILE), -(-cols // _TILE))
     tplane = np.empty((*tiles, 3))
-    tres = np.empty((*tiles, 2))
+    tres = np.empty((*tiles, 4))
     _tile_ranges(h, tplane, tres)
     # scratch of the tiled search: one bound and one heap slot per tile
     bound = np.empty(tres.shape[0] * tres.shape[1])
