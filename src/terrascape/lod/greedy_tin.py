@@ -3,7 +3,8 @@
 Start from the two triangles of the grid's corners. Every triangle knows its *candidate*:
 the grid sample it covers whose height is farthest from the triangle's plane, found by
 rasterising the triangle over every sample it covers. A priority queue keeps the triangles
-by that error; the worst candidate is inserted (splitting its triangle in three, or the two
+by that error (those already within ``max_error`` stay out of it: they can never be
+refined); the worst candidate is inserted (splitting its triangle in three, or the two
 triangles of an edge it lies on in four), the Delaunay condition is restored by edge flips,
 and only the triangles that changed are rasterised again. Refinement stops when the largest
 error left is at most ``max_error``: since every sample is covered by a triangle that was
