@@ -83,3 +83,84 @@ def test_no_more_triangles_than_pydelatin(max_error):
     peer = Delatin(hm.heights, width=257, height=257, max_error=max_error)
     ours = greedy_tin(hm, max_error=max_error)
     assert len(ours) <= len(peer.triangles) * 1.001 + 2
+
+
+def _candidate_reference(h, p):
+    """The largest |plane − height| over a triangle's samples by brute force (numpy)."""
+    (x0, y0), (x1, y1), (x2, y2) = p
+    ys, xs = np.mgrid[min(y0, y1, y2):max(y0, y1, y2) + 1, min(x0, x1, x2):max(x0, x1, x2) + 1]
+
+    def orient(ax, ay, bx, by, cx, cy):
+        return (bx - cx) * (ay - cy) - (by - cy) * (ax - cx)
+
+    w0 = orient(x1, y1, x2, y2, xs, ys)
+    w1 = orient(x2, y2, x0, y0, xs, ys)
+    w2 = orient(x0, y0, x1, y1, xs, ys)
+    area = orient(x0, y0, x1, y1, x2, y2)
+    inside = (w0 >= 0) & (w1 >= 0) & (w2 >= 0)
+    z = (h[y0, x0] * w0 + h[y1, x1] * w1 + h[y2, x2] * w2) / area
+    err = np.where(inside, np.abs(z - h[ys, xs]), -1.0)
+    return err, xs, ys
+
+
+@pytest.mark.parametrize("rough", [False, True])
+def test_candidate_search_equals_brute_force(rough):
+    """Every path of the candidate search (sample by sample, row spans, tiles searched by
+    their error bound) finds the brute-force maximum and its first sample in row order."""
+    from terrascape.lod import greedy_tin as gt
+
+    rng = np.random.default_rng(11 if rough else 12)
+    rows, cols = 150, 200
+    if rough:
+        h = rng.uniform(0.0, 50.0, (rows, cols))
+    else:
+        h = np.cumsum(np.cumsum(rng.standard_normal((rows, cols)), 0), 1) * 0.1
+    h = h.astype(np.float32)
+    tiles = (-(-rows // gt._TILE), -(-cols // gt._TILE))
+    tplane, tres = np.empty((*tiles, 3)), np.empty((*tiles, 4))
+    gt._tile_ranges(h, tplane, tres)
+    bound, order = np.empty(tres[..., 0].size), np.empty(tres[..., 0].size, np.int64)
+    h64 = h.astype(np.float64)
+    sizes = {"box": 0, "rows": 0, "tiles": 0}
+    for k in range(300):
+        span = (6, 40, 200)[k % 3]
+        p = np.stack([rng.integers(0, min(cols, span), 3), rng.integers(0, min(rows, span), 3)], 1)
+        p += [rng.integers(0, cols - p[:, 0].max()), rng.integers(0, rows - p[:, 1].max())]
+        (x0, y0), (x1, y1), (x2, y2) = p
+        area = (x1 - x2) * (y0 - y2) - (y1 - y2) * (x0 - x2)
+        if area == 0:
+            continue
+        if area < 0:
+            p = p[[0, 2, 1]]
+        box = np.ptp(p[:, 0]) + 1, np.ptp(p[:, 1]) + 1
+        n_box = int(box[0] * box[1])
+        sizes["box" if n_box <= gt._BOX_SCAN else "rows" if n_box <= gt._TILED_SEARCH
+              else "tiles"] += 1
+        coords = p.astype(np.int64)
+        tris = np.arange(3, dtype=np.int32)
+        cand, cerr = np.zeros((1, 2), np.int32), np.zeros(1)
+        gt._rasterise(h, tplane, tres, bound, order, coords, tris, 0, cand, cerr)
+        err, xs, ys = _candidate_reference(h64, coords)
+        best = err.max()
+        if best < 1e-6:
+            assert cerr[0] < 1e-6
+            continue
+        assert cerr[0] == pytest.approx(best, rel=1e-9)
+        first = np.flatnonzero(err.ravel() >= best - 1e-9 * best)[0]
+        assert (cand[0, 0], cand[0, 1]) == (xs.ravel()[first], ys.ravel()[first])
+    assert min(sizes.values()) >= 20, sizes
+
+
+def test_same_mesh_on_one_thread_or_two():
+    import numba
+
+    hm = _terrain(129, seed=4)
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = greedy_tin(hm, max_error=1.0)
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        two = greedy_tin(hm, max_error=1.0)
+    finally:
+        numba.set_num_threads(before)
+    np.testing.assert_array_equal(one, two)

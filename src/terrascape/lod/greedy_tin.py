@@ -3,7 +3,8 @@
 Start from the two triangles of the grid's corners. Every triangle knows its *candidate*:
 the grid sample it covers whose height is farthest from the triangle's plane, found by
 rasterising the triangle over every sample it covers. A priority queue keeps the triangles
-by that error; the worst candidate is inserted (splitting its triangle in three, or the two
+by that error (those already within ``max_error`` stay out of it: they can never be
+refined); the worst candidate is inserted (splitting its triangle in three, or the two
 triangles of an edge it lies on in four), the Delaunay condition is restored by edge flips,
 and only the triangles that changed are rasterised again. Refinement stops when the largest
 error left is at most ``max_error``: since every sample is covered by a triangle that was
@@ -37,6 +38,9 @@ __all__ = ["greedy_tin"]
 # state slots of the resumable kernel
 _N_POINTS, _N_EDGES, _Q_LEN, _N_PENDING, _STATUS = range(5)
 _DONE, _FULL = 0, 1
+# queue index of a triangle already within the error: it can never be refined, so it is
+# kept out of the queue (pending triangles have -1)
+_SETTLED = -2
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
@@ -130,6 +134,8 @@ def _q_pop(queue, qerr, qidx, state):
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _q_remove(queue, qerr, qidx, pending, state, t):
     i = qidx[t]
+    if i == _SETTLED:
+        return
     if i < 0:
         # not queued yet: it waits in the pending list for rasterisation
         for k in range(state[_N_PENDING]):
@@ -176,11 +182,9 @@ def _add_triangle(tris, half, qidx, pending, state, a, b, c, ab, bc, ca, e):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
-def _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, start):
-    """Restore the Delaunay condition around halfedge ``start`` by flips (depth first)."""
-    top = 0
-    stack[0] = start
-    top = 1
+def _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, top):
+    """Restore the Delaunay condition by flips, depth first from the halfedges
+    ``stack[:top]`` (the last one first, and all it flips before the next)."""
     while top > 0:
         top -= 1
         a = stack[top]
@@ -232,10 +236,12 @@ def _span(w, a, lo, hi):
 # Max-reductions vectorise only without NaN/signed-zero semantics; heights are checked
 # finite, and no sum is reassociated, so results are the same bits as without the flags.
 _RASTER_MATH = {"nnan", "ninf", "nsz"}
-# Tiles of the min/max grid that bounds the error of large triangles (samples per side).
+# Tiles of the fitted-plane grid that bounds the error of large triangles (samples per side).
 _TILE = 16
 # Triangles whose box holds more samples than this search tiles by their error bound.
 _TILED_SEARCH = 8 * _TILE * _TILE
+# Triangles whose box holds at most this many samples are scanned sample by sample.
+_BOX_SCAN = 64
 
 
 @njit(cache=CACHE, fastmath=_RASTER_MATH, _nrt=False)
@@ -281,6 +287,39 @@ def _scan_rows(h, y0, y1, x_lo, x_hi, min_x, min_y, w00, w01, w02, a12, a20, a01
     return best, bx, by
 
 
+@njit(cache=CACHE, fastmath=_RASTER_MATH, inline="always")
+def _scan_box(h, min_x, min_y, max_x, max_y, w00, w01, w02, a12, a20, a01, b12, b20, b01, z0,
+              z1, z2, dz_dx):
+    """The best ``(error, x, y)`` of a small triangle: its box sample by sample with the
+    inside test (cheaper than three row spans when rows are a few samples long); the same
+    values and the same tie rule as :func:`_scan_rows`."""
+    best = 0.0
+    bx = -1
+    by = -1
+    w0r = w00
+    w1r = w01
+    w2r = w02
+    for y in range(min_y, max_y + 1):
+        zr = z0 * w0r + z1 * w1r + z2 * w2r
+        w0 = w0r
+        w1 = w1r
+        w2 = w2r
+        for dx in range(max_x - min_x + 1):
+            if w0 >= 0 and w1 >= 0 and w2 >= 0:
+                d = abs(zr + dz_dx * dx - float(h[y, min_x + dx]))
+                if d > best:
+                    best = d
+                    bx = min_x + dx
+                    by = y
+            w0 += a12
+            w1 += a20
+            w2 += a01
+        w0r += b12
+        w1r += b20
+        w2r += b01
+    return best, bx, by
+
+
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _tile_sift(bound, order, i, n):
     """Sift slot ``i`` down the max-heap ``order[:n]`` keyed by ``bound``."""
@@ -300,16 +339,18 @@ def _tile_sift(bound, order, i, n):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
-def _rasterise(h, tmin, tmax, bound, order, coords, tris, t, cand, cerr):
+def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
     """Largest |h − plane| over the samples of triangle ``t``, and where it is.
 
     The samples inside are those where the three edge functions are ≥ 0; on each row they
     form one span, found exactly in integers, so the inner loop has no inside test. Each
     row's maximum is taken first (a loop LLVM vectorises) and its position looked up only
     when it beats the best so far. A large triangle is searched tile by tile in decreasing
-    order of an upper bound of its error there (the plane's range over the tile against the
-    tile's height range), stopping at the first tile whose bound is below the best error
-    found: the same sample as a full scan, without scanning most of the triangle.
+    order of an upper bound of its error there (the range of the triangle's plane against
+    the tile's height range, or that of the plane minus the tile's least-squares plane
+    against the residuals' range, whichever is smaller),
+    stopping at the first tile whose bound is below the best error found: the same sample as
+    a full scan, without scanning most of the triangle.
     """
     p0 = tris[3 * t]
     p1 = tris[3 * t + 1]
@@ -341,7 +382,14 @@ def _rasterise(h, tmin, tmax, bound, order, coords, tris, t, cand, cerr):
     best = 0.0
     bx = p0x
     by = p0y
-    if (max_x - min_x + 1) * (max_y - min_y + 1) <= _TILED_SEARCH:
+    box = (max_x - min_x + 1) * (max_y - min_y + 1)
+    if box <= _BOX_SCAN:
+        best, bx, by = _scan_box(h, min_x, min_y, max_x, max_y, w00, w01, w02, a12, a20, a01,
+                                 b12, b20, b01, z0, z1, z2, dz_dx)
+        if bx < 0:
+            bx = p0x
+            by = p0y
+    elif box <= _TILED_SEARCH:
         best, bx, by = _scan_rows(h, min_y, max_y, min_x, max_x, min_x, min_y, w00, w01, w02,
                                   a12, a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, best, bx, by)
     else:
@@ -360,13 +408,33 @@ def _rasterise(h, tmin, tmax, bound, order, coords, tris, t, cand, cerr):
             ya = max(min_y, ty * _TILE) - min_y
             yb = min(max_y, ty * _TILE + _TILE - 1) - min_y
             # a plane's extremes over a rectangle are at its corners
+            # the triangle's plane minus the tile's fitted plane at the rectangle's corners
+            # (tile coordinates u, v); |plane − h| = |(plane − fit) − residual|
+            q0 = tplane[ty, tx, 0]
+            qx = tplane[ty, tx, 1]
+            qy = tplane[ty, tx, 2]
+            u0 = min_x + xa - tx * _TILE
+            u1 = min_x + xb - tx * _TILE
+            v0 = min_y + ya - ty * _TILE
+            v1 = min_y + yb - ty * _TILE
             c00 = z00 + dz_dx * xa + dz_dy * ya
             c10 = z00 + dz_dx * xb + dz_dy * ya
             c01 = z00 + dz_dx * xa + dz_dy * yb
             c11 = z00 + dz_dx * xb + dz_dy * yb
+            # a plane's extremes over a rectangle are at its corners: against the heights'
+            # range, and against the residuals from the fitted plane; the smaller bound holds
             pmin = min(min(c00, c10), min(c01, c11))
             pmax = max(max(c00, c10), max(c01, c11))
-            bound[k] = max(pmax - tmin[ty, tx], tmax[ty, tx] - pmin) + slack
+            plain = max(pmax - tres[ty, tx, 2], tres[ty, tx, 3] - pmin)
+            c00 -= q0 + qx * u0 + qy * v0
+            c10 -= q0 + qx * u1 + qy * v0
+            c01 -= q0 + qx * u0 + qy * v1
+            c11 -= q0 + qx * u1 + qy * v1
+            dmin = min(min(c00, c10), min(c01, c11))
+            dmax = max(max(c00, c10), max(c01, c11))
+            fitted = (max(dmax - tres[ty, tx, 0], tres[ty, tx, 1] - dmin)
+                      + 1e-9 * (abs(q0) + abs(qx) * _TILE + abs(qy) * _TILE))
+            bound[k] = min(plain, fitted) + slack
             order[k] = k
         # tiles in decreasing bound from a max-heap built in place (usually only a few are
         # popped before the bound drops below the best error, so no full sort); ties in
@@ -397,28 +465,65 @@ def _rasterise(h, tmin, tmax, bound, order, coords, tris, t, cand, cerr):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _tile_ranges(h, tmin, tmax):
+def _tile_ranges(h, tplane, tres):
+    """Per tile: the least-squares plane of its heights (value at the tile's first sample,
+    slopes along x and y), the range of the heights' residuals from it, and the range of
+    the heights."""
     rows, cols = h.shape
-    for ty in range(tmin.shape[0]):
-        for tx in range(tmin.shape[1]):
+    for ty in range(tplane.shape[0]):
+        for tx in range(tplane.shape[1]):
+            y0 = ty * _TILE
+            x0 = tx * _TILE
+            ny = min(rows, y0 + _TILE) - y0
+            nx = min(cols, x0 + _TILE) - x0
+            # on a full rectangle the x and y offsets are uncorrelated: two 1-D regressions
+            xm = 0.5 * (nx - 1)
+            ym = 0.5 * (ny - 1)
+            sh = 0.0
+            sxh = 0.0
+            syh = 0.0
+            for v in range(ny):
+                for u in range(nx):
+                    z = float(h[y0 + v, x0 + u])
+                    sh += z
+                    sxh += (u - xm) * z
+                    syh += (v - ym) * z
+            sxx = ny * nx * (nx * nx - 1) / 12.0
+            syy = nx * ny * (ny * ny - 1) / 12.0
+            gx = sxh / sxx if nx > 1 else 0.0
+            gy = syh / syy if ny > 1 else 0.0
+            q0 = sh / (nx * ny) - gx * xm - gy * ym
             lo = np.inf
             hi = -np.inf
-            for y in range(ty * _TILE, min(rows, ty * _TILE + _TILE)):
-                for x in range(tx * _TILE, min(cols, tx * _TILE + _TILE)):
-                    v = float(h[y, x])
-                    lo = min(lo, v)
-                    hi = max(hi, v)
-            tmin[ty, tx] = lo
-            tmax[ty, tx] = hi
+            h_lo = np.inf
+            h_hi = -np.inf
+            for v in range(ny):
+                for u in range(nx):
+                    z = float(h[y0 + v, x0 + u])
+                    r = z - (q0 + gx * u + gy * v)
+                    lo = min(lo, r)
+                    hi = max(hi, r)
+                    h_lo = min(h_lo, z)
+                    h_hi = max(h_hi, z)
+            tplane[ty, tx, 0] = q0
+            tplane[ty, tx, 1] = gx
+            tplane[ty, tx, 2] = gy
+            tres[ty, tx, 0] = lo
+            tres[ty, tx, 1] = hi
+            tres[ty, tx, 2] = h_lo
+            tres[ty, tx, 3] = h_hi
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always", _nrt=False)
-def _flush(h, tmin, tmax, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
-           state):
+def _flush(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
+           state, max_error):
     for k in range(state[_N_PENDING]):
         t = pending[k]
-        _rasterise(h, tmin, tmax, bound, order, coords, tris, t, cand, cerr)
-        _q_push(queue, qerr, qidx, state, t, cerr[t])
+        _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr)
+        if cerr[t] > max_error:
+            _q_push(queue, qerr, qidx, state, t, cerr[t])
+        else:
+            qidx[t] = _SETTLED
     state[_N_PENDING] = 0
 
 
@@ -432,8 +537,9 @@ def _add_point(coords, state, x, y):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
-def _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, a):
-    """Insert point ``pn`` lying on halfedge ``a``: split the edge's one or two triangles."""
+def _split_on_edge(tris, half, queue, qerr, qidx, pending, state, stack, pn, a):
+    """Insert point ``pn`` lying on halfedge ``a``: split the edge's one or two triangles;
+    returns how many halfedges it put on ``stack`` for legalisation."""
     a0 = a - a % 3
     al = a0 + (a + 1) % 3
     ar = a0 + (a + 2) % 3
@@ -446,9 +552,9 @@ def _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack,
     if b < 0:
         t0 = _add_triangle(tris, half, qidx, pending, state, pn, p0, pr, -1, har, -1, a0)
         t1 = _add_triangle(tris, half, qidx, pending, state, p0, pn, pl, t0, -1, hal, -1)
-        _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t0 + 1)
-        _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t1 + 2)
-        return
+        stack[0] = t1 + 2
+        stack[1] = t0 + 1
+        return 2
     b0 = b - b % 3
     bl = b0 + (b + 2) % 3
     br = b0 + (b + 1) % 3
@@ -460,14 +566,15 @@ def _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack,
     t1 = _add_triangle(tris, half, qidx, pending, state, pr, p1, pn, hbr, -1, t0 + 1, b0)
     t2 = _add_triangle(tris, half, qidx, pending, state, p1, pl, pn, hbl, -1, t1 + 1, -1)
     t3 = _add_triangle(tris, half, qidx, pending, state, pl, p0, pn, hal, t0 + 2, t2 + 1, -1)
-    _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t0)
-    _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t1)
-    _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t2)
-    _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t3)
+    stack[0] = t3
+    stack[1] = t2
+    stack[2] = t1
+    stack[3] = t0
+    return 4
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
-def _refine(h, tmin, tmax, bound, order, max_error, max_tris, coords, tris, half, cand, cerr,
+def _refine(h, tplane, tres, bound, order, max_error, max_tris, coords, tris, half, cand, cerr,
             queue, qerr, qidx, pending, stack, state):
     """Insert worst candidates until the error is met, the budget is reached, or the arrays
     are full (then return ``_FULL`` so the caller grows them and calls again)."""
@@ -492,12 +599,16 @@ def _refine(h, tmin, tmax, bound, order, max_error, max_tris, coords, tris, half
         px = cand[t, 0]
         py = cand[t, 1]
         pn = _add_point(coords, state, px, py)
+        # a point on an edge splits both triangles of the edge, one inside splits its own
+        e_on = -1
         if _orient(ax, ay, bx, by, px, py) == 0:
-            _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, e0)
+            e_on = e0
         elif _orient(bx, by, cx, cy, px, py) == 0:
-            _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, e1)
+            e_on = e1
         elif _orient(cx, cy, ax, ay, px, py) == 0:
-            _split_on_edge(tris, half, coords, queue, qerr, qidx, pending, state, stack, pn, e2)
+            e_on = e2
+        if e_on >= 0:
+            top = _split_on_edge(tris, half, queue, qerr, qidx, pending, state, stack, pn, e_on)
         else:
             h0 = half[e0]
             h1 = half[e1]
@@ -507,29 +618,34 @@ def _refine(h, tmin, tmax, bound, order, max_error, max_tris, coords, tris, half
                                -1)
             t2 = _add_triangle(tris, half, qidx, pending, state, p2, p0, pn, h2, t0 + 2,
                                t1 + 1, -1)
-            _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t0)
-            _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t1)
-            _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, t2)
-        _flush(h, tmin, tmax, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
-               state)
+            stack[0] = t2
+            stack[1] = t1
+            stack[2] = t0
+            top = 3
+        # one legalisation, new edges in order (each with all it flips before the next)
+        _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, top)
+        _flush(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
+               state, max_error)
     state[_STATUS] = _DONE
 
 
 class _Arrays:
-    """The kernel's growable arrays (capacity in triangles)."""
+    """The kernel's growable arrays (capacity in triangles); indices are 32-bit to halve
+    the memory the insertion walks through (coordinates stay 64-bit for the in-circle
+    test's products)."""
 
     def __init__(self, capacity: int) -> None:
         self.capacity = capacity
         self.coords = np.zeros((capacity // 2 + 8, 2), np.int64)
-        self.tris = np.zeros(3 * capacity, np.int64)
-        self.half = np.full(3 * capacity, -1, np.int64)
-        self.cand = np.zeros((capacity, 2), np.int64)
+        self.tris = np.zeros(3 * capacity, np.int32)
+        self.half = np.full(3 * capacity, -1, np.int32)
+        self.cand = np.zeros((capacity, 2), np.int32)
         self.cerr = np.zeros(capacity, np.float64)
-        self.queue = np.zeros(capacity, np.int64)
+        self.queue = np.zeros(capacity, np.int32)
         self.qerr = np.zeros(capacity, np.float64)
-        self.qidx = np.full(capacity, -1, np.int64)
-        self.pending = np.zeros(1 << 16, np.int64)
-        self.stack = np.zeros(1 << 16, np.int64)
+        self.qidx = np.full(capacity, -1, np.int32)
+        self.pending = np.zeros(1 << 16, np.int32)
+        self.stack = np.zeros(1 << 16, np.int32)
 
     def grown(self) -> _Arrays:
         new = _Arrays(2 * self.capacity)
@@ -583,12 +699,12 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
     if not np.isfinite(h).all():
         raise InvalidParameterError("heights must be finite (fill NaN/inf first)")
     tiles = (-(-rows // _TILE), -(-cols // _TILE))
-    tmin = np.empty(tiles)
-    tmax = np.empty(tiles)
-    _tile_ranges(h, tmin, tmax)
+    tplane = np.empty((*tiles, 3))
+    tres = np.empty((*tiles, 4))
+    _tile_ranges(h, tplane, tres)
     # scratch of the tiled search: one bound and one heap slot per tile
-    bound = np.empty(tmin.size)
-    order = np.empty(tmin.size, np.int64)
+    bound = np.empty(tres.shape[0] * tres.shape[1])
+    order = np.empty(tres.shape[0] * tres.shape[1], np.int64)
     arr = _Arrays(1024)
     state = np.zeros(5, np.int64)
     x1, y1 = cols - 1, rows - 1
@@ -599,10 +715,10 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
     t0 = _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p3, p0, p2, -1, -1,
                        -1, -1)
     _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p0, p3, p1, t0, -1, -1, -1)
-    _flush(h, tmin, tmax, bound, order, arr.coords, arr.tris, arr.cand, arr.cerr, arr.queue,
-           arr.qerr, arr.qidx, arr.pending, state)
+    _flush(h, tplane, tres, bound, order, arr.coords, arr.tris, arr.cand, arr.cerr, arr.queue,
+           arr.qerr, arr.qidx, arr.pending, state, float(tol))
     while True:
-        _refine(h, tmin, tmax, bound, order, float(tol), budget, arr.coords, arr.tris, arr.half,
+        _refine(h, tplane, tres, bound, order, float(tol), budget, arr.coords, arr.tris, arr.half,
                 arr.cand, arr.cerr, arr.queue, arr.qerr, arr.qidx, arr.pending, arr.stack, state)
         if state[_STATUS] != _FULL:
             break
