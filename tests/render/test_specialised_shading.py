@@ -1,7 +1,7 @@
 """Each terrain program is compiled for its frame's lighting mode and cascade use (a
-software rasteriser pays every branch on every pixel), with daylight's haze per vertex: the
-frames are those of the one program with every branch and the haze per pixel, within a
-level, with no band or line."""
+software rasteriser pays every branch on every pixel), with daylight's haze per vertex on
+level-of-detail meshes: the frames are those of the one program with every branch and the
+haze per pixel, within a level, with no band or line."""
 
 from __future__ import annotations
 
@@ -45,3 +45,24 @@ def test_specialised_programs_draw_the_same_frames(renderer, technique, lighting
     # no band or line: no row or column differs on average by a level
     assert diff.mean(axis=(1, 2)).max() < 1.0 and diff.mean(axis=(0, 2)).max() < 1.0
     assert fast.std() > 5  # a picture
+
+
+def test_haze_per_vertex_only_on_level_of_detail_meshes(renderer):
+    # The full-resolution grid holds many vertices per pixel far away: hazed per pixel. A
+    # level-of-detail triangulation (here the grid's own triangles, set as one) per vertex:
+    # the same frame within a level.
+    terrain = renderer.terrain
+    cam = renderer.default_camera()
+    params = {"sun": (135.0, 30.0)}
+    assert not terrain._haze_per_vertex()
+    per_pixel = renderer.render(cam, "plain", params)[..., :3].astype(float)
+    terrain.set_indices(terrain.mesh.triangles)
+    try:
+        assert terrain._haze_per_vertex()
+        per_vertex = renderer.render(cam, "plain", params)[..., :3].astype(float)
+    finally:
+        terrain.set_indices(None)
+    diff = np.abs(per_pixel - per_vertex)
+    assert diff.mean() < 1.0
+    assert diff.mean(axis=(1, 2)).max() < 1.0 and diff.mean(axis=(0, 2)).max() < 1.0
+    assert diff.max() > 0  # the two programs did run

@@ -722,18 +722,25 @@ class TerrainRenderer:
             counts[i] = kept.size
         return counts
 
-    @staticmethod
-    def _shading_defines(tech: Technique, p: Mapping[str, Any], cascades: bool) -> dict:
+    def _shading_defines(self, tech: Technique, p: Mapping[str, Any], cascades: bool) -> dict:
         """The technique's defines plus the frame's lighting mode and whether the objects'
         shadow cascades are read (common/terrain_fragment.glsl): one program per
         combination, each holding only its own branches (on a software rasteriser every
         branch of a shader costs every pixel); daylight frames' haze per vertex
-        (common/terrain_vertex.glsl)."""
+        (common/terrain_vertex.glsl) when a level-of-detail triangulation is drawn."""
         # a technique's own defines win (TERRAIN_LIGHTING="u_lighting" compiles every mode)
         mode = LIGHTING_MODES[p["lighting"]]
         return {"TERRAIN_LIGHTING": mode, "TERRAIN_CASCADES": int(cascades),
-                "TERRAIN_VERTEX_HAZE": int(mode == LIGHTING_MODES["daylight"]),
+                "TERRAIN_VERTEX_HAZE": int(mode == LIGHTING_MODES["daylight"]
+                                           and self._haze_per_vertex()),
                 **(tech.defines or {})}
+
+    def _haze_per_vertex(self) -> bool:
+        """Whether this frame's mesh is cheaper hazed per vertex than per pixel: a level of
+        detail triangulation (set_indices, a world's tiles) has fewer vertices than pixels;
+        the full-resolution grid has many per pixel far away, and a software rasteriser
+        runs the vertex stage on one thread but the pixels on all of them."""
+        return bool(self._custom_count) or self.geometry is not None
 
     def _prepare(self, tech: Technique, p: Mapping[str, Any], cascades: bool = False):
         """Textures and compiled program of ``tech`` for this frame's lighting (raises
