@@ -39,7 +39,10 @@ class DeferredShading:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
-        self._gbuffer: tuple | None = None  # (size, fbo, textures) of the geometry buffer
+        #: float16 normal and tangent, only the world position and depth cleared; False:
+        #: every attachment float32 and cleared (``terrascape bench terrain_shading``)
+        self.light_gbuffer = True
+        self._gbuffer: tuple | None = None  # (key, fbo, textures, clear fbo)
         self._fullscreen_vaos: dict[int, Any] = {}
 
     def shading_program(self, technique: Technique, defines: dict | None = None):
@@ -55,14 +58,16 @@ class DeferredShading:
     def _gbuffer_for(self, size):
         import moderngl
 
-        if self._gbuffer is not None and self._gbuffer[0] == tuple(size):
+        key = (tuple(size), self.light_gbuffer)
+        if self._gbuffer is not None and self._gbuffer[0] == key:
             return self._gbuffer
         self._release_gbuffer()
         ctx = self.ctx
         # World positions as float32 (the shading pass sees the values forward shading
         # interpolates); the normal and the tangent frame as float16 (unit vectors: 2⁻¹¹
         # relative, far below a display level), two thirds of the bytes written and read.
-        colours = [ctx.texture(size, 4, dtype=dtype) for dtype in GBUFFER_DTYPES]
+        dtypes = GBUFFER_DTYPES if self.light_gbuffer else ("f4",) * len(GBUFFER_DTYPES)
+        colours = [ctx.texture(size, 4, dtype=dtype) for dtype in dtypes]
         depth = ctx.depth_texture(size)
         for tex in [*colours, depth]:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -71,14 +76,16 @@ class DeferredShading:
         # position's w (0: no terrain, common/terrain_fragment.glsl) and the depth. Every
         # terrain pixel overwrites the normal and tangent, and pixels without terrain never
         # read them for their own colour (the depth test rejects it).
-        clear = ctx.framebuffer(color_attachments=colours[:1], depth_attachment=depth)
-        self._gbuffer = (tuple(size), fbo, [*colours, depth], clear)
+        clear = (ctx.framebuffer(color_attachments=colours[:1], depth_attachment=depth)
+                 if self.light_gbuffer else fbo)
+        self._gbuffer = (key, fbo, [*colours, depth], clear)
         return self._gbuffer
 
     def _release_gbuffer(self) -> None:
         if self._gbuffer is not None:
             _, fbo, textures, clear = self._gbuffer
-            clear.release()
+            if clear is not fbo:
+                clear.release()
             fbo.release()
             for tex in textures:
                 tex.release()

@@ -63,6 +63,10 @@ HexTile hex_tile(vec2 uv, float rotation, uint seed) {
     return t;
 }
 
+vec2 hex_rotate(vec2 cs, vec2 d) {
+    return vec2(cs.x * d.x - cs.y * d.y, cs.y * d.x + cs.x * d.y);
+}
+
 // The mip level of the unrotated mapping on a texture of `size` texels (GL's isotropic
 // λ = log2 ρ). A rotation keeps the derivatives' lengths, so the three rotated lookups share
 // it: no seams at hexagon edges, and one level per pixel instead of one per lookup
@@ -72,7 +76,16 @@ float hex_lod(HexTile t, vec2 size) {
 }
 
 // Three lookups of layer `layer` of a texture array at the unrotated mapping's mip level.
+// HEX_GRAD_PER_LOOKUP (a define; `terrascape bench terrain_shading`'s reference): each
+// lookup takes its rotated derivatives (textureGrad), the level chosen per lookup.
 void hex_fetch_array(sampler2DArray tex, float layer, HexTile t, out vec4 a[3]) {
+#ifdef HEX_GRAD_PER_LOOKUP
+    for (int k = 0; k < 3; ++k) {
+        a[k] = textureGrad(tex, vec3(t.uv[k], layer), hex_rotate(t.cs[k], t.dx),
+                           hex_rotate(t.cs[k], t.dy));
+    }
+    return;
+#endif
     float lod = hex_lod(t, vec2(textureSize(tex, 0).xy));
     for (int k = 0; k < 3; ++k) {
         a[k] = textureLod(tex, vec3(t.uv[k], layer), lod);
@@ -80,6 +93,12 @@ void hex_fetch_array(sampler2DArray tex, float layer, HexTile t, out vec4 a[3]) 
 }
 
 void hex_fetch(sampler2D tex, HexTile t, out vec4 a[3]) {
+#ifdef HEX_GRAD_PER_LOOKUP
+    for (int k = 0; k < 3; ++k) {
+        a[k] = textureGrad(tex, t.uv[k], hex_rotate(t.cs[k], t.dx), hex_rotate(t.cs[k], t.dy));
+    }
+    return;
+#endif
     float lod = hex_lod(t, vec2(textureSize(tex, 0)));
     for (int k = 0; k < 3; ++k) {
         a[k] = textureLod(tex, t.uv[k], lod);

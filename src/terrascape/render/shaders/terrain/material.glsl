@@ -8,7 +8,11 @@
 // perturb the vertex normal in its tangent frame before shade(). Only a pixel's three
 // heaviest layers are sampled (MATERIAL_TOP_LAYERS; the CPU blends all of them).
 #define TERRAIN_TANGENTS
+// MATERIAL_STORED_TANGENTS (a define; the terrain_shading bench's reference): the deferred
+// pass reads the tangents from the geometry buffer instead of rebuilding them
+#ifndef MATERIAL_STORED_TANGENTS
 #define TERRAIN_HEIGHTFIELD_TANGENTS
+#endif
 #define TERRAIN_SURFACE_NORMALS
 #if defined VERTEX_SHADER
 #include "common/terrain_vertex.glsl"
