@@ -310,6 +310,7 @@ class TerrainRenderer:
         self._bbox = [(np.array(c.bbox_min), np.array(c.bbox_max)) for c in self.chunks]
         self._custom_ibo = None
         self._custom_count = 0
+        self._target_pixels = 0
         self._custom_capacity = 0
         self._vaos: dict[tuple, Any] = {}
         self._textures: dict[str, tuple[Any, Any]] = {}  # uniform -> (gl texture, key)
@@ -583,6 +584,7 @@ class TerrainRenderer:
         if not isinstance(camera, Camera):
             raise InvalidParameterError(f"camera must be a Camera, got {type(camera).__name__}")
         requested = get_technique(technique)
+        self._target_pixels = fbo.size[0] * fbo.size[1]  # for _haze_per_vertex
         objects = self._objects if self._objects is not None and self._objects.enabled else None
         requested_params = requested.resolve(params)
 
@@ -736,11 +738,14 @@ class TerrainRenderer:
                 **(tech.defines or {})}
 
     def _haze_per_vertex(self) -> bool:
-        """Whether this frame's mesh is cheaper hazed per vertex than per pixel: a level of
-        detail triangulation (set_indices, a world's tiles) has fewer vertices than pixels;
-        the full-resolution grid has many per pixel far away, and a software rasteriser
-        runs the vertex stage on one thread but the pixels on all of them."""
-        return bool(self._custom_count) or self.geometry is not None
+        """Whether this frame's mesh is cheaper hazed per vertex than per pixel: one with
+        fewer vertices than the target has pixels — a level-of-detail triangulation
+        (set_indices, a world's tiles), or a grid no larger than the frame. A software
+        rasteriser runs the vertex stage on one thread but the pixels on all of them, and a
+        larger grid puts many vertices in every far pixel."""
+        if self._custom_count or self.geometry is not None:
+            return True
+        return self.mesh.rows * self.mesh.cols <= self._target_pixels
 
     def _prepare(self, tech: Technique, p: Mapping[str, Any], cascades: bool = False):
         """Textures and compiled program of ``tech`` for this frame's lighting (raises
