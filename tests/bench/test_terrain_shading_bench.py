@@ -29,4 +29,10 @@ def test_bench_rows_on_a_small_frame(monkeypatch: pytest.MonkeyPatch) -> None:
         assert row[ratio] > 0
         assert row[mean] < 2.0  # the cuts keep the picture
     # the cuts change pixels (they are real): the default is not bit-identical to before
-    assert rows["material: + 8-bit visibility (default)"][peak] > 0
+    assert rows["material: + one mip level per pixel (default)"][peak] > 0
+    # the geometry buffer and lookup cuts keep the picture of the cut before them
+    base = rows["material: + 8-bit visibility"][mean]
+    for label in ("material: + light geometry buffer",
+                  "material: + one mip level per pixel (default)"):
+        assert abs(rows[label][mean] - base) < 0.05
+    assert "plain: + light geometry buffer" not in labels

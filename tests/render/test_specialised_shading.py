@@ -1,7 +1,7 @@
 """Each terrain program is compiled for its frame's lighting mode and cascade use (a
-software rasteriser pays every branch on every pixel), with daylight's haze per vertex: the
-frames are those of the one program with every branch and the haze per pixel, within a
-level, with no band or line."""
+software rasteriser pays every branch on every pixel), with daylight's haze per vertex on
+level-of-detail meshes: the frames are those of the one program with every branch and the
+haze per pixel, within a level, with no band or line."""
 
 from __future__ import annotations
 
@@ -45,3 +45,25 @@ def test_specialised_programs_draw_the_same_frames(renderer, technique, lighting
     # no band or line: no row or column differs on average by a level
     assert diff.mean(axis=(1, 2)).max() < 1.0 and diff.mean(axis=(0, 2)).max() < 1.0
     assert fast.std() > 5  # a picture
+
+
+def test_haze_per_vertex_only_where_vertices_are_fewer_than_pixels(gl_ctx):
+    # A grid with more vertices than the frame has pixels is hazed per pixel; a
+    # level-of-detail triangulation (here the grid's own triangles, set as one) per vertex:
+    # the same frame within a level.
+    r = OffscreenRenderer(gl_ctx, generate("diamond-square", 129, seed=3, spacing=16.0),
+                          size=(128, 72))
+    try:
+        terrain = r.terrain
+        cam = r.default_camera()
+        params = {"sun": (135.0, 30.0)}
+        per_pixel = r.render(cam, "plain", params)[..., :3].astype(float)
+        assert not terrain._haze_per_vertex()  # 129² vertices, 128×72 pixels
+        terrain.set_indices(terrain.mesh.triangles)
+        per_vertex = r.render(cam, "plain", params)[..., :3].astype(float)
+        assert terrain._haze_per_vertex()
+    finally:
+        r.release()
+    diff = np.abs(per_pixel - per_vertex)
+    assert diff.mean() < 1.0
+    assert diff.mean(axis=(1, 2)).max() < 1.0 and diff.mean(axis=(0, 2)).max() < 1.0

@@ -224,7 +224,9 @@ def test_set_indices_draws_only_given_triangles(flat):
 
 def test_frustum_culling_keeps_the_image(gl_ctx, rng):
     hm = Heightmap(rng.random((65, 65)).astype(np.float32) * 3)
-    r = OffscreenRenderer(gl_ctx, hm, size=(64, 64), chunk_size=17)
+    # more pixels than the grid has vertices: the grid is hazed per vertex, as the same
+    # triangles set as a triangulation are (TerrainRenderer._haze_per_vertex)
+    r = OffscreenRenderer(gl_ctx, hm, size=(72, 72), chunk_size=17)
     try:
         cam = Camera.look_at((5, 20, 5), (20, 0, 20), fov_y=40, near=0.5, far=500, aspect=1)
         culled = r.render(cam, "plain")

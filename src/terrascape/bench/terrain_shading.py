@@ -10,7 +10,11 @@ cuts one by one:
   sun/sky visibility (the haze reads the frame's sky table, ``u_sky_lut``, in every row);
 * ``+ 3 heaviest layers`` (``MATERIAL_TOP_LAYERS``, material only);
 * ``+ nearest mip`` (material layer textures read from one mip level);
-* ``+ 8-bit visibility`` — the default.
+* ``+ 8-bit visibility``;
+* ``+ light geometry buffer`` (material's deferred pass: float16 normals, only the world
+  position and depth cleared, the tangents rebuilt from the normals, not stored);
+* ``+ one mip level per pixel`` (hex-tiled lookups at one level, ``textureLod``, instead of
+  a ``textureGrad`` each; two-channel detail normals) — the default.
 
 Each row also gives the mean and largest difference of its last frame from ``before``'s
 (8-bit levels), so a cut that buys time by changing the picture shows.
@@ -32,14 +36,21 @@ SIZE = (1280, 720)
 ROAM_TRIANGLES = 80_000
 QUICK_SIDE, FULL_SIDE = 257, 513
 QUICK_FRAMES, QUICK_ROUNDS = 3, 3
-# (label, shader defines, trilinear layer textures, float visibility)
+# the reference paths of the last two cuts (shader defines)
+_STORED = {"MATERIAL_STORED_TANGENTS": 1}
+_GRAD = {"HEX_GRAD_PER_LOOKUP": 1}
+# (label, shader defines, trilinear layer textures, float visibility, light geometry buffer
+# and two-channel detail normals)
 VARIANTS = (
-    ("before", {"MATERIAL_TOP_LAYERS": 7}, True, True),
-    ("+ 3 heaviest layers", {}, True, True),
-    ("+ nearest mip", {}, False, True),
-    ("+ 8-bit visibility (default)", {}, False, False),
+    ("before", {"MATERIAL_TOP_LAYERS": 7, **_STORED, **_GRAD}, True, True, False),
+    ("+ 3 heaviest layers", {**_STORED, **_GRAD}, True, True, False),
+    ("+ nearest mip", {**_STORED, **_GRAD}, False, True, False),
+    ("+ 8-bit visibility", {**_STORED, **_GRAD}, False, False, False),
+    ("+ light geometry buffer", _GRAD, False, False, True),
+    ("+ one mip level per pixel (default)", {}, False, False, True),
 )
-MATERIAL_ONLY = ("+ 3 heaviest layers", "+ nearest mip")
+MATERIAL_ONLY = ("+ 3 heaviest layers", "+ nearest mip", "+ light geometry buffer",
+                 "+ one mip level per pixel (default)")
 
 
 def _session(ctx, n: int):
@@ -54,15 +65,21 @@ def _session(ctx, n: int):
     return hm, session
 
 
-def _use_variant(session, defines, trilinear, float_visibility):
+def _use_variant(session, defines, trilinear, float_visibility, light):
     """Make the session's renderer draw ``variant`` (shader defines on the technique, the
-    layer textures' mip filter, the visibility texture's type)."""
+    layer textures' mip filter, the visibility texture's type, the geometry buffer and the
+    detail normals' channels)."""
     import moderngl
 
     from terrascape.render.techniques import get_technique
 
     r = session.renderer
     r.visibility_8bit = not float_visibility
+    r._deferred.light_gbuffer = light
+    if session.state.technique == "material" and _NORMALS.get(id(r)) != light:
+        r.set_texture("u_normals", _detail_normals(session, two_channels=light))
+        r.ctx.finish()  # the upload and its mip levels before any timed frame
+        _NORMALS[id(r)] = light
     for name in ("u_layers", "u_normals"):
         if name in r._textures:
             r._textures[name][0].filter = (
@@ -76,6 +93,24 @@ def _use_variant(session, defines, trilinear, float_visibility):
         return base(r, fbo, camera, tech, params)
 
     r.render = render
+
+
+_NORMALS: dict[int, bool] = {}  # renderer id -> the detail normals it holds (two channels)
+
+
+def _detail_normals(session, *, two_channels: bool):
+    """The material's detail normal layers of the session's frames as the renderer builds
+    them (RG), or with all four channels as before (the shader reads x and y either way)."""
+    from terrascape.render.tech_material import MATERIAL_TECHNIQUE, build_layer_normals
+    from terrascape.render.techniques import TextureData
+    from terrascape.texture.photo_materials import photo_material_layers
+
+    p = MATERIAL_TECHNIQUE.resolve(session.frame_params("material"))
+    if two_channels:
+        return build_layer_normals(session.renderer.heightmap, p)
+    layers = photo_material_layers(int(p["material_size"]), seed=int(p["seed"]))
+    return TextureData(np.ascontiguousarray(layers.normals), kind="array", repeat=True,
+                       mip_blend=False)
 
 
 def run(quick: bool = False) -> list[BenchTable]:
@@ -102,12 +137,12 @@ def run(quick: bool = False) -> list[BenchTable]:
                 # variant after variant on the same camera: paired frames under one load
                 for cam in cams:
                     session.camera = cam
-                    for label, defines, trilinear, float_vis in variants:
-                        _use_variant(session, defines, trilinear, float_vis)
+                    for label, defines, trilinear, float_vis, light in variants:
+                        _use_variant(session, defines, trilinear, float_vis, light)
                         session.render(fbo, 0.0)  # LOD converged, textures, program built
                         ctx.finish()
                         # again: the first frame may have made the layer textures
-                        _use_variant(session, defines, trilinear, float_vis)
+                        _use_variant(session, defines, trilinear, float_vis, light)
                         t0 = time.perf_counter()
                         session.render(fbo, 0.0)
                         ctx.finish()

@@ -30,6 +30,8 @@ from terrascape.render.techniques import Technique
 #: Texture units of the geometry buffer in the shading pass (below the renderer's spare
 #: units, above the daylight look's).
 GBUFFER_UNIT = 12
+#: Texture types of the geometry buffer's attachments: world position, normal, tangent.
+GBUFFER_DTYPES = ("f4", "f2", "f2")
 
 
 class DeferredShading:
@@ -37,7 +39,10 @@ class DeferredShading:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
-        self._gbuffer: tuple | None = None  # (size, fbo, textures) of the geometry buffer
+        #: float16 normal and tangent, only the world position and depth cleared; False:
+        #: every attachment float32 and cleared (``terrascape bench terrain_shading``)
+        self.light_gbuffer = True
+        self._gbuffer: tuple | None = None  # (key, fbo, textures, clear fbo)
         self._fullscreen_vaos: dict[int, Any] = {}
 
     def shading_program(self, technique: Technique, defines: dict | None = None):
@@ -53,22 +58,34 @@ class DeferredShading:
     def _gbuffer_for(self, size):
         import moderngl
 
-        if self._gbuffer is not None and self._gbuffer[0] == tuple(size):
+        key = (tuple(size), self.light_gbuffer)
+        if self._gbuffer is not None and self._gbuffer[0] == key:
             return self._gbuffer
         self._release_gbuffer()
         ctx = self.ctx
-        # float32 attributes: the shading pass sees the values forward shading interpolates
-        colours = [ctx.texture(size, 4, dtype="f4") for _ in range(3)]
+        # World positions as float32 (the shading pass sees the values forward shading
+        # interpolates); the normal and the tangent frame as float16 (unit vectors: 2⁻¹¹
+        # relative, far below a display level), two thirds of the bytes written and read.
+        dtypes = GBUFFER_DTYPES if self.light_gbuffer else ("f4",) * len(GBUFFER_DTYPES)
+        colours = [ctx.texture(size, 4, dtype=dtype) for dtype in dtypes]
         depth = ctx.depth_texture(size)
         for tex in [*colours, depth]:
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         fbo = ctx.framebuffer(color_attachments=colours, depth_attachment=depth)
-        self._gbuffer = (tuple(size), fbo, [*colours, depth])
+        # Cleared per frame: only what is read where no terrain was drawn — the world
+        # position's w (0: no terrain, common/terrain_fragment.glsl) and the depth. Every
+        # terrain pixel overwrites the normal and tangent, and pixels without terrain never
+        # read them for their own colour (the depth test rejects it).
+        clear = (ctx.framebuffer(color_attachments=colours[:1], depth_attachment=depth)
+                 if self.light_gbuffer else fbo)
+        self._gbuffer = (key, fbo, [*colours, depth], clear)
         return self._gbuffer
 
     def _release_gbuffer(self) -> None:
         if self._gbuffer is not None:
-            _, fbo, textures = self._gbuffer
+            _, fbo, textures, clear = self._gbuffer
+            if clear is not fbo:
+                clear.release()
             fbo.release()
             for tex in textures:
                 tex.release()
@@ -88,10 +105,11 @@ class DeferredShading:
         tangents = "u_gbuffer_tangent" in shading
         geometry = load_program(ctx, "terrain/gbuffer",
                                 {"TERRAIN_TANGENTS": 1} if tangents else None)
-        _, gbuf, (world, normal, tangent, depth) = self._gbuffer_for(fbo.size)
+        _, gbuf, (world, normal, tangent, depth), clear = self._gbuffer_for(fbo.size)
         # --- PASS 1: surface attributes of the nearest terrain per pixel
+        clear.use()
+        clear.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         gbuf.use()
-        gbuf.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         set_uniforms(geometry, u_view_proj=view_proj)
         stats = draw_geometry(geometry)
         # --- PASS 2: the geometry pass's depth into the target (colour masked off)
@@ -141,4 +159,4 @@ class DeferredShading:
         self._release_gbuffer()
 
 
-__all__ = ["GBUFFER_UNIT", "DeferredShading"]
+__all__ = ["GBUFFER_DTYPES", "GBUFFER_UNIT", "DeferredShading"]

@@ -6,7 +6,7 @@ Textures (built from the heightmap and parameters):
 * ``u_weights0``/``u_weights1``: :func:`terrascape.texture.material_weights` packed four
   layers per RGBA texture (:func:`terrascape.texture.pack_splat_maps`), one texel per vertex;
 * ``u_layers``: the photo albedo layers (RGB + detail height in A) as a texture array;
-* ``u_normals``: their detail normal maps.
+* ``u_normals``: their detail normal maps (tangent-space x, y).
 
 Parameters: the masks ``flow``, ``deposition``, ``wear``, ``water`` (float arrays of the
 heightmap's shape, or ``None``), ``snow_line`` and ``water_level`` (world units, ``None``:
@@ -140,12 +140,14 @@ def build_layer_albedo(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
 
 
 def build_layer_normals(hm: Heightmap, params: Mapping[str, Any]) -> TextureData:
-    """Detail normal maps of the photo layers (tangent space, RGB), a tiled texture array."""
+    """Detail normal maps of the photo layers (tangent space x, y as RG), a tiled texture
+    array. The shader needs only x and y (it rebuilds z after the blend), so two channels:
+    half the texel bytes each of its nine lookups per pixel reads."""
     from terrascape.texture.photo_materials import photo_material_layers
 
     layers = photo_material_layers(int(params["material_size"]), seed=int(params["seed"]))
-    return TextureData(np.ascontiguousarray(layers.normals), kind="array", repeat=True,
-                       mip_blend=False)
+    return TextureData(np.ascontiguousarray(layers.normals[..., :2]), kind="array",
+                       repeat=True, mip_blend=False)
 
 
 MATERIAL_TECHNIQUE = register_technique(

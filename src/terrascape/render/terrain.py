@@ -310,6 +310,7 @@ class TerrainRenderer:
         self._bbox = [(np.array(c.bbox_min), np.array(c.bbox_max)) for c in self.chunks]
         self._custom_ibo = None
         self._custom_count = 0
+        self._target_pixels = 0
         self._custom_capacity = 0
         self._vaos: dict[tuple, Any] = {}
         self._textures: dict[str, tuple[Any, Any]] = {}  # uniform -> (gl texture, key)
@@ -583,6 +584,7 @@ class TerrainRenderer:
         if not isinstance(camera, Camera):
             raise InvalidParameterError(f"camera must be a Camera, got {type(camera).__name__}")
         requested = get_technique(technique)
+        self._target_pixels = fbo.size[0] * fbo.size[1]  # for _haze_per_vertex
         objects = self._objects if self._objects is not None and self._objects.enabled else None
         requested_params = requested.resolve(params)
 
@@ -722,18 +724,28 @@ class TerrainRenderer:
             counts[i] = kept.size
         return counts
 
-    @staticmethod
-    def _shading_defines(tech: Technique, p: Mapping[str, Any], cascades: bool) -> dict:
+    def _shading_defines(self, tech: Technique, p: Mapping[str, Any], cascades: bool) -> dict:
         """The technique's defines plus the frame's lighting mode and whether the objects'
         shadow cascades are read (common/terrain_fragment.glsl): one program per
         combination, each holding only its own branches (on a software rasteriser every
         branch of a shader costs every pixel); daylight frames' haze per vertex
-        (common/terrain_vertex.glsl)."""
+        (common/terrain_vertex.glsl) when a level-of-detail triangulation is drawn."""
         # a technique's own defines win (TERRAIN_LIGHTING="u_lighting" compiles every mode)
         mode = LIGHTING_MODES[p["lighting"]]
         return {"TERRAIN_LIGHTING": mode, "TERRAIN_CASCADES": int(cascades),
-                "TERRAIN_VERTEX_HAZE": int(mode == LIGHTING_MODES["daylight"]),
+                "TERRAIN_VERTEX_HAZE": int(mode == LIGHTING_MODES["daylight"]
+                                           and self._haze_per_vertex()),
                 **(tech.defines or {})}
+
+    def _haze_per_vertex(self) -> bool:
+        """Whether this frame's mesh is cheaper hazed per vertex than per pixel: one with
+        fewer vertices than the target has pixels — a level-of-detail triangulation
+        (set_indices, a world's tiles), or a grid no larger than the frame. A software
+        rasteriser runs the vertex stage on one thread but the pixels on all of them, and a
+        larger grid puts many vertices in every far pixel."""
+        if self._custom_count or self.geometry is not None:
+            return True
+        return self.mesh.rows * self.mesh.cols <= self._target_pixels
 
     def _prepare(self, tech: Technique, p: Mapping[str, Any], cascades: bool = False):
         """Textures and compiled program of ``tech`` for this frame's lighting (raises

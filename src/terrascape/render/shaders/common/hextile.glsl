@@ -6,7 +6,7 @@
 // The same grid, PCG2D hash and weights as terrascape.texture.hextile (CPU).
 //
 // Use: HexTile t = hex_tile(uv, rotation, seed); then per texture
-//   vec4 a[3]; hex_fetch_array(tex, layer, t, a);   // three lookups (gradients rotated)
+//   vec4 a[3]; hex_fetch_array(tex, layer, t, a);   // three lookups, one mip level
 //   vec3 w = hex_blend_weights(t, vec3(a[0].a, a[1].a, a[2].a), contrast, sharpness);
 //   vec4 c = w.x * a[0] + w.y * a[1] + w.z * a[2];
 // Tangent-space normals fetched this way must be rotated back: hex_unrotate(t, k, n.xy).
@@ -17,7 +17,7 @@ struct HexTile {
     vec2 uv[3];     // texture coordinates seen from the three vertices
     vec2 cs[3];     // (cos, sin) of each vertex's rotation
     vec3 w;         // barycentric weights
-    vec2 dx;        // screen derivatives of the unrotated uv
+    vec2 dx;        // screen derivatives of the unrotated uv (hex_lod)
     vec2 dy;
 };
 
@@ -67,18 +67,41 @@ vec2 hex_rotate(vec2 cs, vec2 d) {
     return vec2(cs.x * d.x - cs.y * d.y, cs.y * d.x + cs.x * d.y);
 }
 
-// Three lookups of layer `layer` of a texture array, with the rotated uv derivatives (so
-// the mip level and anisotropy are those of the unrotated mapping: no seams at hexagon edges).
+// The mip level of the unrotated mapping on a texture of `size` texels (GL's isotropic
+// λ = log2 ρ). A rotation keeps the derivatives' lengths, so the three rotated lookups share
+// it: no seams at hexagon edges, and one level per pixel instead of one per lookup
+// (textureGrad with the rotated derivatives selects the same level).
+float hex_lod(HexTile t, vec2 size) {
+    return log2(max(length(t.dx * size), length(t.dy * size)));
+}
+
+// Three lookups of layer `layer` of a texture array at the unrotated mapping's mip level.
+// HEX_GRAD_PER_LOOKUP (a define; `terrascape bench terrain_shading`'s reference): each
+// lookup takes its rotated derivatives (textureGrad), the level chosen per lookup.
 void hex_fetch_array(sampler2DArray tex, float layer, HexTile t, out vec4 a[3]) {
+#ifdef HEX_GRAD_PER_LOOKUP
     for (int k = 0; k < 3; ++k) {
         a[k] = textureGrad(tex, vec3(t.uv[k], layer), hex_rotate(t.cs[k], t.dx),
                            hex_rotate(t.cs[k], t.dy));
     }
+    return;
+#endif
+    float lod = hex_lod(t, vec2(textureSize(tex, 0).xy));
+    for (int k = 0; k < 3; ++k) {
+        a[k] = textureLod(tex, vec3(t.uv[k], layer), lod);
+    }
 }
 
 void hex_fetch(sampler2D tex, HexTile t, out vec4 a[3]) {
+#ifdef HEX_GRAD_PER_LOOKUP
     for (int k = 0; k < 3; ++k) {
         a[k] = textureGrad(tex, t.uv[k], hex_rotate(t.cs[k], t.dx), hex_rotate(t.cs[k], t.dy));
+    }
+    return;
+#endif
+    float lod = hex_lod(t, vec2(textureSize(tex, 0)));
+    for (int k = 0; k < 3; ++k) {
+        a[k] = textureLod(tex, t.uv[k], lod);
     }
 }
 

@@ -15,7 +15,20 @@ uniform sampler2D u_gbuffer_normal;   // xyz interpolated vertex normal
 vec3 v_world;
 vec3 v_normal;
 #ifdef TERRAIN_TANGENTS
+#ifdef TERRAIN_HEIGHTFIELD_TANGENTS
+// The tangent frame rebuilt from the normal (a technique's define): every terrain mesh
+// (terrascape.mesh.heightfield_tangent_frames, the world's tiles, the renderer's skirts)
+// makes its tangents from its normals, so the geometry pass need not store them — four
+// fewer interpolated values per triangle and one attachment less to write and read.
+vec4 heightfield_tangent(vec3 n) {
+    // the skirts: horizontal normals, T = N × up, handedness +1
+    if (abs(n.y) < 1e-4) return vec4(-n.z, 0.0, n.x, 1.0);
+    // the surface: T ∝ ∂P/∂x = (1, ∂h/∂x, 0) with N ∝ (-∂h/∂x, 1, -∂h/∂z), handedness -1
+    return vec4(normalize(vec3(n.y, -n.x, 0.0)), -1.0);
+}
+#else
 uniform sampler2D u_gbuffer_tangent;  // interpolated tangent.xyz + handedness w
+#endif
 vec4 v_tangent;
 #endif
 void technique_main();
@@ -36,7 +49,11 @@ void main() {
     v_world = world.xyz;
     v_normal = texelFetch(u_gbuffer_normal, p, 0).xyz;
 #ifdef TERRAIN_TANGENTS
+#ifdef TERRAIN_HEIGHTFIELD_TANGENTS
+    v_tangent = heightfield_tangent(v_normal);
+#else
     v_tangent = texelFetch(u_gbuffer_tangent, p, 0);
+#endif
 #endif
     // Pixels without terrain were rejected by the depth test (the renderer copies the
     // geometry pass's depth first and draws this pass at depth 1 with GL_GREATER), so the

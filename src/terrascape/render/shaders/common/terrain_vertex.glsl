@@ -22,10 +22,10 @@ uniform mat4 u_view_proj;
 
 out vec3 v_world;
 out vec3 v_normal;
-// TERRAIN_VERTEX_HAZE (a #define the renderer sets for daylight frames): the aerial
-// perspective per vertex, interpolated, instead of per pixel (common/terrain_fragment.glsl
-// finish). The haze changes slowly over a triangle (near, it is thin; far, the triangles
-// are small): the same frames within a level, a fifth less of a plain frame on llvmpipe.
+// TERRAIN_VERTEX_HAZE (a #define the renderer sets for daylight frames of level-of-detail
+// meshes, fewer vertices than pixels): the aerial perspective per vertex, interpolated,
+// instead of per pixel (common/terrain_fragment.glsl finish). The haze changes slowly over a
+// triangle (near, it is thin; far, the triangles are small): the same frames within a level.
 #include "common/atmosphere.glsl"
 #if defined TERRAIN_VERTEX_HAZE && TERRAIN_VERTEX_HAZE
 uniform vec3 u_camera_pos;

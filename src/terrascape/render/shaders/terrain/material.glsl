@@ -8,6 +8,11 @@
 // perturb the vertex normal in its tangent frame before shade(). Only a pixel's three
 // heaviest layers are sampled (MATERIAL_TOP_LAYERS; the CPU blends all of them).
 #define TERRAIN_TANGENTS
+// MATERIAL_STORED_TANGENTS (a define; the terrain_shading bench's reference): the deferred
+// pass reads the tangents from the geometry buffer instead of rebuilding them
+#ifndef MATERIAL_STORED_TANGENTS
+#define TERRAIN_HEIGHTFIELD_TANGENTS
+#endif
 #define TERRAIN_SURFACE_NORMALS
 #if defined VERTEX_SHADER
 #include "common/terrain_vertex.glsl"
@@ -21,7 +26,7 @@
 uniform sampler2D u_weights0;        // layers 0-3 (RGBA), one texel per vertex
 uniform sampler2D u_weights1;        // layers 4-6 (RGB)
 uniform sampler2DArray u_layers;     // RGB albedo, A detail height
-uniform sampler2DArray u_normals;    // RGB tangent-space detail normal
+uniform sampler2DArray u_normals;    // RG: tangent-space detail normal x, y
 uniform float u_tile_size;           // world units per material repeat
 uniform float u_hex_rotation;        // fraction of ±180° each hexagon may turn
 uniform float u_hex_contrast;
