@@ -7,6 +7,10 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 dest="$root/src/terrascape/export/web_assets/three"
 work="${TERRASCAPE_NODE_CACHE:-$HOME/.cache/terrascape/node}"
 mkdir -p "$work" "$dest"
+# Node trusts only its built-in certificates; add the system's (a proxy's or company's CA).
+if [ -z "${NODE_EXTRA_CA_CERTS:-}" ] && [ -f /etc/ssl/certs/ca-certificates.crt ]; then
+  export NODE_EXTRA_CA_CERTS=/etc/ssl/certs/ca-certificates.crt
+fi
 npm install --no-audit --no-fund --prefix "$work" "three@$version" >/dev/null
 src="$work/node_modules/three"
 cp "$src/build/three.core.js" "$src/build/three.module.js" "$dest/"

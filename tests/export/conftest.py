@@ -23,6 +23,20 @@ validator.validateBytes(data, {maxIssues: 50}).then(
 """
 
 
+#: The system's certificate bundle (Debian/Ubuntu's ca-certificates).
+SYSTEM_CA_BUNDLE = Path("/etc/ssl/certs/ca-certificates.crt")
+
+
+def npm_env() -> dict[str, str]:
+    """The environment for npm: Node trusts only its own built-in certificate list, so behind
+    a proxy or a company CA that the system trusts (pip and curl work) npm fails with
+    SELF_SIGNED_CERT_IN_CHAIN; the system bundle is added unless the user chose one."""
+    env = dict(os.environ)
+    if "NODE_EXTRA_CA_CERTS" not in env and SYSTEM_CA_BUNDLE.is_file():
+        env["NODE_EXTRA_CA_CERTS"] = str(SYSTEM_CA_BUNDLE)
+    return env
+
+
 def _unavailable(reason: str):
     if IN_CI:
         pytest.fail(f"CI must run the glTF validator, but {reason}")
@@ -43,7 +57,7 @@ def gltf_validator():
             _unavailable("npm is not installed")
         done = subprocess.run([npm, "install", "--no-audit", "--no-fund", "--prefix",
                                str(NODE_DIR), "gltf-validator"], capture_output=True,
-                              text=True, timeout=300)
+                              text=True, timeout=300, env=npm_env())
         if done.returncode != 0 or not package.exists():
             _unavailable(f"npm install gltf-validator failed: {done.stderr[-300:]}")
     runner = NODE_DIR / "validate_glb.js"
@@ -110,7 +124,7 @@ def gltf_transform_reader():
             _unavailable("npm is not installed")
         done = subprocess.run([npm, "install", "--no-audit", "--no-fund", "--prefix",
                                str(NODE_DIR), *_READER_PACKAGES], capture_output=True,
-                              text=True, timeout=300)
+                              text=True, timeout=300, env=npm_env())
         if done.returncode != 0 or not all(p.exists() for p in needed):
             _unavailable(f"npm install of glTF-Transform failed: {done.stderr[-300:]}")
     runner = NODE_DIR / "read_glb.mjs"
