@@ -223,8 +223,8 @@ def run(quick: bool = False) -> list[BenchTable]:
         "frames while tiles load draw their loaded parents; the worst frame includes the "
         f"uploads of that frame (at most 4 ms or {UPLOAD_BYTES / 2**20:g} MiB of them, at "
         "least one tile); a loader process reads the store and builds the tile meshes",
-        r["note"] + f"; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; figures from a "
-        "loaded 2-core machine shared with other jobs",
+        r["note"] + f"; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; load average "
+        f"{os.getloadavg()[0]:.1f} at the end (other jobs on the cores slow every frame)",
     ]
     tables = [table, breakdown_table(results)]
     if side <= 8193:  # the old table of a larger world takes minutes to build
