@@ -121,3 +121,32 @@ def test_hud_program_comes_from_the_shared_loader(gl_ctx):
             hud.release()
             fbo.release()
         assert load_program(gl_ctx, PROGRAM) is not None  # still usable after release
+
+
+def test_every_symbol_the_viewer_writes_has_a_glyph_or_a_stand_in():
+    # The HUD drew "error ? 3.0 px": "≤" was in a message but not in the atlas's charset.
+    import ast
+    from pathlib import Path
+
+    import terrascape.viewer
+    from terrascape.viewer.font import CHARSET, SUBSTITUTES
+
+    missing = {}
+    for path in Path(terrascape.viewer.__file__).parent.glob("*.py"):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        docstrings = {id(node.body[0].value) for node in ast.walk(tree)
+                      if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef,
+                                           ast.AsyncFunctionDef))
+                      and node.body and isinstance(node.body[0], ast.Expr)
+                      and isinstance(node.body[0].value, ast.Constant)}
+        for node in ast.walk(tree):
+            if (isinstance(node, ast.Constant) and isinstance(node.value, str)
+                    and id(node) not in docstrings):
+                for ch in node.value:
+                    private_use = 0xE000 <= ord(ch) <= 0xF8FF  # the font's own probe
+                    if (ord(ch) > 126 and not private_use and ch not in CHARSET
+                            and ch not in SUBSTITUTES):
+                        missing.setdefault(ch, path.name)
+    assert not missing, f"characters without a glyph in the HUD's charset: {missing}"
+    font = build_font(12)
+    assert FALLBACK not in font.expand("error ≤ 3.0 px ▶ 10 min/s ◀")

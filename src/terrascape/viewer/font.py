@@ -17,11 +17,12 @@ from terrascape._validate import check_int
 from terrascape.errors import InvalidParameterError
 
 # Printable ASCII plus the symbols the HUD and help panel use (degrees, ±, ∓, ×, ·, …).
-CHARSET = "".join(chr(c) for c in range(32, 127)) + "°±∓×·…→↑↓←–—"
+CHARSET = "".join(chr(c) for c in range(32, 127)) + "°±∓×·…→↑↓←–—≤≥▶◀"
 FALLBACK = "?"
 # ASCII stand-ins for symbols the default font may lack (it draws an empty box for those).
 SUBSTITUTES = {"∓": "-/+", "±": "+/-", "…": "...", "→": "->", "←": "<-", "↑": "^", "↓": "v",
-               "–": "-", "—": "-", "×": "x", "·": ".", "°": " deg"}
+               "–": "-", "—": "-", "×": "x", "·": ".", "°": " deg", "≤": "<=", "≥": ">=",
+               "▶": ">", "◀": "<"}
 _MISSING_PROBE = "\ue000"  # a private-use code point no font maps: its glyph is "missing"
 
 
