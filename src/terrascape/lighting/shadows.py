@@ -254,6 +254,20 @@ def _largest_magnitude(smax, smin):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
+def _walk_step(hit, here, there, r0, r1, s, f, above):
+    """One step of the near walk for samples ``r0 … r1`` of a grid line (heights ``here``):
+    their crossing ``s + f`` samples on along grid line ``there`` meets terrain above
+    ``above`` over their own height → ``hit``."""
+    if f == 0.0:
+        for b in range(r0, r1 + 1):
+            hit[b] |= float(there[b + s]) > float(here[b]) + above
+    else:
+        for b in range(r0, r1 + 1):
+            v0 = float(there[b + s])
+            hit[b] |= v0 + f * (float(there[b + s + 1]) - v0) > float(here[b]) + above
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
 def _near_part(h, a, da, db, rise, near, b_first, b_last, hit, smax, smin, slack, by_runs,
                skipped):
     """The first ``near`` steps of the rays of samples ``b_first … b_last`` on grid line
@@ -295,13 +309,7 @@ def _near_part(h, a, da, db, rise, near, b_first, b_last, hit, smax, smin, slack
         there = h[pa]
         skipped[k] = 0
         if not by_runs[k]:
-            if f == 0.0:
-                for b in range(lo, hi + 1):
-                    hit[b] |= float(there[b + s]) > float(here[b]) + above
-            else:
-                for b in range(lo, hi + 1):
-                    v0 = float(there[b + s])
-                    hit[b] |= v0 + f * (float(there[b + s + 1]) - v0) > float(here[b]) + above
+            _walk_step(hit, here, there, lo, hi, s, f, above)
             continue
         top = smax[pa]
         low = smin[a]
@@ -313,14 +321,8 @@ def _near_part(h, a, da, db, rise, near, b_first, b_last, hit, smax, smin, slack
             # (r0 + s) // _SEGMENT or the next: smax holds the higher of the two
             if top[(r0 + s) // _SEGMENT] < low[m] + above - slack:
                 count += 1
-                continue
-            if f == 0.0:
-                for b in range(r0, r1 + 1):
-                    hit[b] |= float(there[b + s]) > float(here[b]) + above
             else:
-                for b in range(r0, r1 + 1):
-                    v0 = float(there[b + s])
-                    hit[b] |= v0 + f * (float(there[b + s + 1]) - v0) > float(here[b]) + above
+                _walk_step(hit, here, there, r0, r1, s, f, above)
         skipped[k] = count
 
 
