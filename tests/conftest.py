@@ -28,3 +28,31 @@ def gl_ctx():
         pytest.skip(f"no headless OpenGL: {exc}")
     yield ctx
     ctx.release()
+
+
+def _box_mesh(size=(2.0, 6.0, 2.0), color=(0.45, 0.3, 0.2), name="box"):
+    """An axis-aligned flat-shaded box (24 vertices, face normals) standing on the origin."""
+    from terrascape.objects import ObjectMesh
+
+    pos, nrm, tri = [], [], []
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            n = np.zeros(3)
+            n[axis] = sign
+            u = np.zeros(3)
+            u[(axis + 1) % 3] = 1.0
+            v = np.cross(n, u)
+            base = len(pos)
+            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+                pos.append(0.5 * (n + a * u + b * v))
+                nrm.append(n)
+            tri += [[base, base + 1, base + 2], [base, base + 2, base + 3]]
+    p = np.array(pos) * size + [0.0, size[1] / 2, 0.0]
+    return ObjectMesh(name, p, np.array(nrm), np.tile(color, (len(p), 1)), np.array(tri))
+
+
+@pytest.fixture(scope="session")
+def box_mesh():
+    """``box_mesh(size, color, name) -> ObjectMesh``: the test scenes' box (a fixture: with
+    ``--import-mode=importlib`` test modules cannot import one another)."""
+    return _box_mesh

@@ -30,26 +30,6 @@ HUTS = np.array([[12.0, 0.0, 52.0], [45.0, 0.0, 14.0]])  # two nodes drawing one
 HUT_SCALE = np.array([1.0, 2.0])
 
 
-def _box(size, colour):
-    """Positions, normals, colours, indices of an axis-aligned box standing on the origin."""
-    pos, nrm, tri = [], [], []
-    for axis in range(3):
-        for sign in (-1.0, 1.0):
-            n = np.zeros(3)
-            n[axis] = sign
-            u = np.zeros(3)
-            u[(axis + 1) % 3] = 1.0
-            v = np.cross(n, u)
-            base = len(pos)
-            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
-                pos.append(0.5 * (n + a * u + b * v))
-                nrm.append(n)
-            tri += [[base, base + 1, base + 2], [base, base + 2, base + 3]]
-    p = np.array(pos) * size + [0.0, size[1] / 2, 0.0]
-    return (p.astype(np.float32), np.array(nrm, np.float32),
-            np.tile(np.float32(colour), (len(p), 1)), np.array(tri, np.uint16))
-
-
 def _quat(axis, angle):
     a = np.asarray(axis, np.float64) * math.sin(angle / 2)
     return np.r_[a, math.cos(angle / 2)]
@@ -62,7 +42,7 @@ def _quat_mul(p, q):
                      w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2, w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2])
 
 
-def write_copies_glb(path):
+def write_copies_glb(path, box_mesh):
     doc = pygltflib.GLTF2(asset=pygltflib.Asset(version="2.0"))
     blob = bytearray()
 
@@ -84,7 +64,8 @@ def write_copies_glb(path):
 
     for name, size, colour in (("tower", (2.0, 6.0, 2.0), (0.8, 0.05, 0.05)),
                                ("hut", (4.0, 3.0, 4.0), (0.05, 0.1, 0.8))):
-        p, n, c, t = _box(size, colour)
+        box = box_mesh(size, colour, name)
+        p, n, c, t = box.positions, box.normals, box.colors, box.indices.astype(np.uint16)
         attrs = pygltflib.Attributes(POSITION=accessor(p, "VEC3", pygltflib.ARRAY_BUFFER),
                                      NORMAL=accessor(n, "VEC3", pygltflib.ARRAY_BUFFER),
                                      COLOR_0=accessor(c, "VEC3", pygltflib.ARRAY_BUFFER))
@@ -125,8 +106,8 @@ def expected_feet():
     return x, z
 
 
-def test_instancing_and_shared_meshes_are_read_as_every_copy(tmp_path):
-    path = write_copies_glb(tmp_path / "copies.glb")
+def test_instancing_and_shared_meshes_are_read_as_every_copy(tmp_path, box_mesh):
+    path = write_copies_glb(tmp_path / "copies.glb", box_mesh)
     assert places_copies(path)
     copies = load_gltf_copies(path)
     assert len(copies) == 7 and [m.name for m in copies.meshes] == ["tower", "hut"]
@@ -141,8 +122,8 @@ def test_instancing_and_shared_meshes_are_read_as_every_copy(tmp_path):
     assert load_gltf_mesh(path).triangles == 3 * 12
 
 
-def test_copies_stand_on_the_terrain_where_the_file_puts_them(tmp_path, terrain):
-    path = write_copies_glb(tmp_path / "copies.glb")
+def test_copies_stand_on_the_terrain_where_the_file_puts_them(tmp_path, terrain, box_mesh):
+    path = write_copies_glb(tmp_path / "copies.glb", box_mesh)
     with pytest.warns(OutsideTerrainWarning, match="1 of its 7 copies"):
         inst = load_objects(str(path), terrain, exaggeration=2.0)
     x, z = expected_feet()
@@ -169,10 +150,10 @@ def test_copies_stand_on_the_terrain_where_the_file_puts_them(tmp_path, terrain)
     assert abs(lean - 30.0) < 1e-3, lean
 
 
-def test_copies_are_drawn(gl_ctx, tmp_path, terrain):
+def test_copies_are_drawn(gl_ctx, tmp_path, terrain, box_mesh):
     from terrascape.render.offscreen import OffscreenRenderer
 
-    path = write_copies_glb(tmp_path / "copies.glb")
+    path = write_copies_glb(tmp_path / "copies.glb", box_mesh)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OutsideTerrainWarning)
         inst = load_objects(str(path), terrain)
@@ -203,11 +184,11 @@ def test_copies_are_drawn(gl_ctx, tmp_path, terrain):
             assert rgb[2] > rgb[0] + 40 and rgb[2] > rgb[1] + 20, (k, rgb)  # a blue hut
 
 
-def test_cli_lists_every_copy(tmp_path, terrain):
+def test_cli_lists_every_copy(tmp_path, terrain, box_mesh):
     from terrascape.cli.app import run_app
     from terrascape.export.instances import read_instances_json
 
-    path = write_copies_glb(tmp_path / "copies.glb")
+    path = write_copies_glb(tmp_path / "copies.glb", box_mesh)
     np.save(tmp_path / "hm.npy", terrain.heights)
     out = tmp_path / "objects.json"
     with warnings.catch_warnings():
@@ -220,8 +201,8 @@ def test_cli_lists_every_copy(tmp_path, terrain):
     np.testing.assert_allclose(back["positions"][:, [0, 2]], np.c_[x, z], atol=1e-4)
 
 
-def test_copies_nowhere_on_the_terrain_or_too_many_are_clear_errors(tmp_path, terrain):
-    path = write_copies_glb(tmp_path / "copies.glb")
+def test_copies_nowhere_on_the_terrain_or_too_many_are_clear_errors(tmp_path, terrain, box_mesh):
+    path = write_copies_glb(tmp_path / "copies.glb", box_mesh)
     small = fbm(9, scale=4.0, octaves=2, amplitude=1.0, seed=1, spacing=0.5)  # 4 m × 4 m
     with pytest.raises(FileFormatError, match="none of its 7 copies stands on the terrain"):
         load_objects(str(path), small)
@@ -233,7 +214,7 @@ def test_copies_nowhere_on_the_terrain_or_too_many_are_clear_errors(tmp_path, te
             load_objects(str(path), terrain, max_objects=5)
 
 
-def test_damaged_copies_files_give_one_clear_error(tmp_path, terrain):
+def test_damaged_copies_files_give_one_clear_error(tmp_path, terrain, box_mesh):
     """Bytes of the copies glb changed at random: instances or one TerrascapeError line,
     never another exception (hypothesis, capped examples)."""
     from hypothesis import given, settings
@@ -241,7 +222,7 @@ def test_damaged_copies_files_give_one_clear_error(tmp_path, terrain):
 
     from terrascape.errors import TerrascapeError
 
-    good = write_copies_glb(tmp_path / "copies.glb").read_bytes()
+    good = write_copies_glb(tmp_path / "copies.glb", box_mesh).read_bytes()
 
     @settings(max_examples=120, deadline=None, derandomize=True)
     @given(edits=st.lists(st.tuples(st.integers(0, len(good) - 1), st.integers(0, 255)),

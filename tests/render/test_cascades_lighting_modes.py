@@ -8,7 +8,7 @@ import pytest
 from terrascape.camera import Camera
 from terrascape.heightmap import Heightmap
 from terrascape.lighting.sun import sun_direction
-from terrascape.objects import Instances, ObjectMesh
+from terrascape.objects import Instances
 from terrascape.objects.shadow_reference import agreement, boundary_band, shadow_reference
 
 pytestmark = pytest.mark.gl
@@ -18,34 +18,17 @@ SUN = (45.0, 35.0)  # the shadows fall toward the camera
 DARKER = 0.85
 
 
-def box(size):
-    """A flat-shaded box (24 vertices, face normals) standing on the origin."""
-    pos, nrm, tri = [], [], []
-    for axis in range(3):
-        for sign in (-1.0, 1.0):
-            n = np.zeros(3)
-            n[axis] = sign
-            u = np.zeros(3)
-            u[(axis + 1) % 3] = 1.0
-            v = np.cross(n, u)
-            base = len(pos)
-            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
-                pos.append(0.5 * (n + a * u + b * v))
-                nrm.append(n)
-            tri += [[base, base + 1, base + 2], [base, base + 2, base + 3]]
-    p = np.array(pos) * size + [0.0, size[1] / 2, 0.0]
-    return ObjectMesh("test-box", p, np.array(nrm), np.full((len(p), 3), 0.7), np.array(tri))
-
-
 @pytest.fixture(scope="module")
-def scene(gl_ctx):
+def scene(gl_ctx, box_mesh):
     from terrascape.render.offscreen import OffscreenRenderer
 
     hm = Heightmap(np.zeros((97, 97), np.float32), spacing=(1.0, 1.0))
     r = OffscreenRenderer(gl_ctx, hm, size=SIZE)
     # a tall box, a short one standing in its shadow (objects receive too), and a third
     # out in the sun
-    boxes = Instances((box((10.0, 18.0, 8.0)), box((6.0, 6.0, 6.0))), [0, 1, 0],
+    grey = (0.7, 0.7, 0.7)
+    boxes = Instances((box_mesh((10.0, 18.0, 8.0), grey, "test-box"),
+                       box_mesh((6.0, 6.0, 6.0), grey, "test-box")), [0, 1, 0],
                       [[48, 0, 48], [38, 0, 58], [22, 0, 70]], [1.0, 1.0, 0.7],
                       [0.0, 0.3, 0.6])
     r.terrain.set_objects(boxes)

@@ -24,25 +24,6 @@ LUMA = np.array([0.2126, 0.7152, 0.0722])
 SUN = (135.0, 40.0)
 
 
-def box_mesh(name="box", size=(2.0, 6.0, 2.0), color=(0.45, 0.3, 0.2)) -> ObjectMesh:
-    """An axis-aligned box standing on the origin (flat-shaded, 24 vertices)."""
-    pos, nrm, tri = [], [], []
-    for axis in range(3):
-        for sign in (-1.0, 1.0):
-            n = np.zeros(3)
-            n[axis] = sign
-            u = np.zeros(3)
-            u[(axis + 1) % 3] = 1.0
-            v = np.cross(n, u)
-            base = len(pos)
-            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
-                pos.append(0.5 * (n + a * u + b * v))
-                nrm.append(n)
-            tri += [[base, base + 1, base + 2], [base, base + 2, base + 3]]
-    p = np.array(pos) * size + [0.0, size[1] / 2, 0.0]
-    return ObjectMesh(name, p, np.array(nrm), np.tile(color, (len(p), 1)), np.array(tri))
-
-
 def flat(n=65, spacing=1.0) -> Heightmap:
     return Heightmap(np.zeros((n, n), np.float32), spacing=(spacing, spacing))
 
@@ -80,7 +61,7 @@ def luma(img):
 
 
 @pytest.fixture(scope="module")
-def boxes():
+def boxes(box_mesh):
     mesh = box_mesh()
     pos = np.array([[20.0, 0.0, 24.0], [40.0, 0.0, 30.0], [30.0, 0.0, 44.0]])
     return Instances((mesh,), np.zeros(3, int), pos, np.array([1.0, 1.5, 0.8]),
@@ -267,7 +248,7 @@ def test_cascade_shadows_fall_where_the_cpu_ray_cast_puts_them(gl_ctx, boxes):
 
 
 @pytest.mark.gl
-def test_cascade_shadows_point_away_from_the_sun(gl_ctx):
+def test_cascade_shadows_point_away_from_the_sun(gl_ctx, box_mesh):
     """One tall box: the darkened ground lies on the side away from the sun's azimuth."""
     mesh = box_mesh(size=(2.0, 10.0, 2.0))
     one = Instances((mesh,), [0], [[32.0, 0.0, 32.0]], [1.0], [0.0])
@@ -285,7 +266,7 @@ def test_cascade_shadows_point_away_from_the_sun(gl_ctx):
 
 
 @pytest.mark.gl
-def test_impostors_switch_in_without_a_jump_in_colour(gl_ctx):
+def test_impostors_switch_in_without_a_jump_in_colour(gl_ctx, box_mesh):
     mesh = box_mesh(size=(3.0, 8.0, 3.0), color=(0.2, 0.35, 0.12))
     rng = np.random.default_rng(3)
     n = 60
@@ -458,7 +439,7 @@ def test_cascades_on_hills_agree_with_the_ray_cast_reference(gl_ctx):
 
 
 @pytest.mark.gl
-def test_objects_in_a_ridges_shadow_are_dark_and_the_others_lit(gl_ctx):
+def test_objects_in_a_ridges_shadow_are_dark_and_the_others_lit(gl_ctx, box_mesh):
     """The terrain's shadow on objects (ray-cast through the height texture): a box behind
     a ridge, away from the sun, gets only sky light on its sunward face; one in the open
     keeps the sun."""

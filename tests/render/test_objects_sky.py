@@ -9,32 +9,13 @@ import pytest
 from terrascape.camera import Camera
 from terrascape.heightmap import Heightmap
 from terrascape.lighting.solar_position import sky_at
-from terrascape.objects.model import Instances, ObjectMesh
+from terrascape.objects.model import Instances
 from terrascape.render.offscreen import OffscreenRenderer
 
 pytestmark = pytest.mark.gl
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 PLACE = (45.8, 16.0)
-
-
-def box_mesh(size, color) -> ObjectMesh:
-    """An axis-aligned box standing on the origin (flat-shaded)."""
-    pos, nrm, tri = [], [], []
-    for axis in range(3):
-        for sign in (-1.0, 1.0):
-            n = np.zeros(3)
-            n[axis] = sign
-            u = np.zeros(3)
-            u[(axis + 1) % 3] = 1.0
-            v = np.cross(n, u)
-            base = len(pos)
-            for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
-                pos.append(0.5 * (n + a * u + b * v))
-                nrm.append(n)
-            tri += [[base, base + 1, base + 2], [base, base + 2, base + 3]]
-    p = np.array(pos) * size + [0.0, size[1] / 2, 0.0]
-    return ObjectMesh("box", p, np.array(nrm), np.tile(color, (len(p), 1)), np.array(tri))
 
 
 def luma(img):
@@ -64,7 +45,7 @@ def render_pair(ctx, hm, cam, inst, params, size):
                          ids=["meshes", "impostors", "volumes"])
 @pytest.mark.parametrize("time", ["12:00", "19:45"])
 def test_far_objects_take_the_haze_colour_of_the_terrain_behind_them(gl_ctx, time, shadows,
-                                                                     impostor_pixels):
+                                                                     impostor_pixels, box_mesh):
     """A row of dark red boxes 3 km away in thick haze: their pixels are the colour of the
     terrain at the same distance beside them (both the sky's horizon colour, within a few
     levels) — not the box's own red, not black. Without haze the same boxes stand out."""
@@ -106,7 +87,7 @@ def test_far_objects_take_the_haze_colour_of_the_terrain_behind_them(gl_ctx, tim
 
 
 @pytest.mark.parametrize("shadows", ["cascades", "volumes"])
-def test_objects_at_night_are_moonlit_like_the_terrain(gl_ctx, shadows):
+def test_objects_at_night_are_moonlit_like_the_terrain(gl_ctx, shadows, box_mesh):
     """Seen from above, the top of a flat dark box and the ground around it keep their ratio
     of brightness from noon to night (23:30, moon and night sky): lit by the same light, not
     black and not glowing."""
@@ -162,7 +143,7 @@ def test_render_cli_objects_at_night_neither_glow_nor_vanish(tmp_path, shadows):
                          [("plain", "cascades"), ("plain", "volumes"),
                           ("material", "volumes")])
 def test_every_program_that_reads_the_sky_table_has_it_bound(gl_ctx, monkeypatch, technique,
-                                                             shadows):
+                                                             shadows, box_mesh):
     """Each program a daylight frame with objects, water and sky draws with, that declares
     ``u_sky_lut`` (it includes common/atmosphere.glsl), samples the unit the table is on."""
     import importlib
