@@ -151,9 +151,24 @@ def test_masks_drive_sediment_wear_and_water(terrain):
     deposit[150:170, 150:170] = 0.2  # ... and a thin film
     wd = material_weights(terrain, masks={"deposition": deposit})
     rockless = w[L["rock"]] < 0.01
-    # most of it (scree on its steeper cells keeps a share)
-    assert wd[L["sediment"]][55:65, 55:65][rockless[55:65, 55:65]].mean() > 0.5
+    core = rockless[55:65, 55:65]
+    # With no running water a thick deposit is a floodplain: mostly meadow, some bare
+    # sediment; a thin film stays as it was.
+    fill_meadow = wd[L["meadow"]][55:65, 55:65][core].mean()
+    fill_sediment = wd[L["sediment"]][55:65, 55:65][core].mean()
+    green = (wd[L["meadow"]] + wd[L["grass"]])[55:65, 55:65][core]
+    meadow_of_green = wd[L["meadow"]][55:65, 55:65][core][green > 0.05] / green[green > 0.05]
+    assert meadow_of_green.size > 0.5 * green.size and np.median(meadow_of_green) > 0.7
+    assert fill_meadow > 1.5 * fill_sediment and fill_sediment > 0.05
     assert wd[L["sediment"]][150:170, 150:170].max() == 0
+    # Where water runs over it, the deposit is bare sediment.
+    channel = np.zeros(shape, np.float32)
+    channel[50:70, 50:70] = 50.0
+    channel[0:4, 0:4] = 1.0  # so the 95th percentile is the channel's
+    wc = material_weights(terrain, masks={"deposition": deposit, "flow": channel})
+    assert wc[L["sediment"]][55:65, 55:65][core].mean() > 0.5
+    assert wc[L["sediment"]][55:65, 55:65][core].mean() > (
+        wd[L["sediment"]][55:65, 55:65][core].mean() + 0.3)
     with pytest.raises(InvalidParameterError, match="flow mask contains NaN"):
         material_weights(terrain, masks={"flow": np.full(shape, np.nan, np.float32)})
     with pytest.raises(InvalidParameterError, match="shape"):

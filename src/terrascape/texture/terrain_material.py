@@ -74,7 +74,9 @@ class MaterialRules:
 
     ``snow_line=None``: 78 % of the way from the lowest to the highest height, on terrain
     whose relief is at least ``SNOW_RELIEF`` (8 %) of its extent (none on gentle country);
-    ``water_level=None``: no water except where the ``water`` mask says so.
+    ``water_level=None``: no water except where the ``water`` mask says so;
+    ``floodplain_bare``: the share of thick deposits away from running water left as bare
+    sediment (the rest is meadow: a filled basin reads as an alluvial flat).
     """
 
     rock_slope: tuple[float, float] = (34.0, 48.0)
@@ -83,6 +85,7 @@ class MaterialRules:
     snow_max_slope: tuple[float, float] = (30.0, 42.0)
     water_level: float | None = None
     meadow_share: float = 0.35
+    floodplain_bare: float = 0.2
 
     def __post_init__(self) -> None:
         for name in ("rock_slope", "scree_slope", "snow_max_slope"):
@@ -92,6 +95,7 @@ class MaterialRules:
             if hi <= lo:
                 raise InvalidParameterError(f"{name} needs start < end, got ({lo}, {hi})")
         check_range(self.meadow_share, "meadow_share", 0.0, 1.0)
+        check_range(self.floodplain_bare, "floodplain_bare", 0.0, 1.0)
 
 
 def _smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:
@@ -270,17 +274,31 @@ def _weight_rows(ctx: _WeightContext, r0: int, r1: int) -> np.ndarray:
     below = _smoothstep(0.0, 2.0 * max(dx, dz), rock_h - h)
     scree = np.maximum(_smoothstep(*rules.scree_slope, slope + 3.0 * n1),
                        np.clip(2.5 * near, 0.0, 1.0) * below)
-    del below, near, rock_h, n1
+    del below, near, rock_h
     scree *= 1.0 - rock
     # Sediment: channels (flow on gentle slopes) and deposits.
     sediment = np.zeros_like(h)
+    active = np.zeros_like(h)
     if "flow" in m:
         flow = _scaled_rows(_smoothed_mask(m["flow"], r0, r1), ctx.flow_scale)
         sediment = np.maximum(sediment, flow * (1.0 - _smoothstep(12.0, 28.0, slope)))
+        active = _smoothstep(0.15, 0.6, flow)
+        del flow
+    floodplain = np.zeros_like(h)
     if "deposition" in m:
-        # Thin deposits (a film in every hollow) stay grass; thick ones become sediment.
+        # Thin deposits (a film in every hollow) stay grass; thick ones are sediment where
+        # water still runs over them. Away from the channels a filled basin is a floodplain:
+        # vegetated (dry meadow grass) with bare patches, as alluvial flats are, instead of
+        # one flat sediment colour. Noise on the threshold frays the fill's rim, which is
+        # otherwise one contour line of the fill level.
         deposits = _scaled_rows(_smoothed_mask(m["deposition"], r0, r1), ctx.deposition_scale)
-        sediment = np.maximum(sediment, _smoothstep(0.25, 0.85, deposits))
+        fill = _smoothstep(0.25, 0.85, deposits + 0.3 * n1)
+        bare = np.clip(rules.floodplain_bare + 0.5 * n1, 0.0, 1.0)
+        share = np.maximum(active, bare)
+        sediment = np.maximum(sediment, fill * share)
+        floodplain = fill * (1.0 - share)
+        del deposits, fill, bare, share
+    del n1, active
     sediment = np.clip(sediment, 0.0, 1.0) * (1.0 - rock)
     # Snow: above the line only (noise raises the edge, never lowers it), on flats.
     line = ctx.line
@@ -311,7 +329,7 @@ def _weight_rows(ctx: _WeightContext, r0: int, r1: int) -> np.ndarray:
         w[_L["scree"]] += rest * wear
         rest = rest * (1.0 - wear)
     meadow = rules.meadow_share * np.clip(1.0 + 1.6 * n2 - 0.4 * curv, 0.0, 2.0)
-    meadow = np.clip(meadow, 0.0, 1.0)
+    meadow = np.clip(np.maximum(meadow, floodplain), 0.0, 1.0)
     w[_L["meadow"]] = rest * meadow
     w[_L["grass"]] = rest * (1.0 - meadow)
     w = np.clip(w, 0.0, None)
