@@ -129,6 +129,9 @@ def test_levels_above_the_exact_ones_bound_the_error(heights):
             np.testing.assert_allclose(pyr.error[k], true, rtol=1e-6, atol=1e-4)
         else:
             assert (true <= pyr.error[k] + 1e-4).all() and (pyr.error[k] > true).any()
+            # bounded through a finer exact level, not by summing every level's error
+            # (the sum gave 0.53-0.66 of the true error here)
+            assert np.median(true / pyr.error[k]) > 0.75
         # the sum over every level (level 1's own error is its real one): never below
         assert (pyr.error[k] <= summed.error[k] + 1e-9).all()
         assert k == 1 or (summed.error[k] > pyr.error[k]).any()

@@ -220,7 +220,7 @@ def test_tile_table_of_a_store_is_cached_and_exact(world):
     )
 
     h = _heights(world)
-    cache = world / "terrascape_lod2_32.npz"
+    cache = world / "terrascape_lod3_32.npz"
     cache.unlink(missing_ok=True)
     reader = StoreReader(world, cache_bytes=3 * 64 * 64 * 4)  # three zarr chunks
     built = world_pyramid(world, tile=32, reader=reader)

@@ -83,7 +83,7 @@ VERTEX_BYTES = 40
 #: Full-resolution rows of the tiles whose errors the tile table holds exactly (levels
 #: ``1 … log2(EXACT_ROWS / tile)``; the levels above hold the hierarchical bound).
 EXACT_ROWS = 1024
-_CACHE_NAME = "terrascape_lod2_{tile}.npz"  # 2: exact errors of the low levels
+_CACHE_NAME = "terrascape_lod3_{tile}.npz"  # 3: the upper levels bounded through a finer one
 
 #: Reads samples ``[a0:a1, b0:b1]`` of pyramid level ``level`` (0 = full resolution).
 LevelReader = Callable[[int, int, int, int, int], np.ndarray]
@@ -278,7 +278,10 @@ def _band_rows(grid: TileGrid, level: int, block: int) -> int:
 def _exact_error_kernel(band, r0, level, tile, rows, cols, out):  # pragma: no cover - jitted
     """``out[i, j]`` = max ``|h_0 − I_level|`` over the full-resolution samples of the
     level-``level`` tile ``(i_first + i, j)`` (closed ranges), ``band`` holding full-
-    resolution rows ``r0 …`` of the whole width; ``rows``, ``cols``: the map's cells."""
+    resolution rows ``r0 …`` of the whole width; ``rows``, ``cols``: the map's cells.
+
+    Cell by cell of the level's grid: each sample belongs to the cell it starts (a tile's
+    last row and column to its last cell), whose four corners are read once."""
     s = 1 << level
     span = tile * s
     inv = 1.0 / s
@@ -286,31 +289,54 @@ def _exact_error_kernel(band, r0, level, tile, rows, cols, out):  # pragma: no c
     for ti in range(out.shape[0]):
         ga0 = (i_first + ti) * span
         ga1 = min(ga0 + span, rows)
+        a_first, a_last = ga0 // s, ga1 // s - 1
         for tj in range(out.shape[1]):
             gb0 = tj * span
             gb1 = min(gb0 + span, cols)
+            b_first, b_last = gb0 // s, gb1 // s - 1
             worst = 0.0
-            for r in range(ga0, ga1 + 1):
-                a = min(r // s, ga1 // s - 1)  # the tile's last row: its last cell's
+            for a in range(a_first, a_last + 1):
                 ra = a * s - r0
-                v = (r - a * s) * inv
-                for c in range(gb0, gb1 + 1):
-                    b = min(c // s, gb1 // s - 1)
+                r_end = s if a < a_last else ga1 - a * s + 1
+                for b in range(b_first, b_last + 1):
                     cb = b * s
-                    u = (c - cb) * inv
+                    c_end = s if b < b_last else gb1 - cb + 1
                     h00 = np.float64(band[ra, cb])
                     h01 = np.float64(band[ra, cb + s])
                     h10 = np.float64(band[ra + s, cb])
-                    # the cell is split along (a+1, b)–(a, b+1), as grid_triangles
-                    if u + v <= 1.0:
-                        interp = h00 + u * (h01 - h00) + v * (h10 - h00)
-                    else:
-                        h11 = np.float64(band[ra + s, cb + s])
-                        interp = h11 + (1.0 - u) * (h10 - h11) + (1.0 - v) * (h01 - h11)
-                    e = abs(np.float64(band[r - r0, c]) - interp)
-                    if e > worst:
-                        worst = e
+                    h11 = np.float64(band[ra + s, cb + s])
+                    for dr in range(r_end):
+                        v = dr * inv
+                        row = band[ra + dr]
+                        for dc in range(c_end):
+                            u = dc * inv
+                            # the cell is split along (a+1, b)–(a, b+1), as grid_triangles
+                            if u + v <= 1.0:
+                                interp = h00 + u * (h01 - h00) + v * (h10 - h00)
+                            else:
+                                interp = h11 + (1.0 - u) * (h10 - h11) + (1.0 - v) * (h01 - h11)
+                            e = abs(np.float64(row[cb + dc]) - interp)
+                            if e > worst:
+                                worst = e
             out[ti, tj] = worst
+
+
+@njit(cache=CACHE)
+def _tile_range_kernel(band, tile, low, high):  # pragma: no cover - jitted
+    """``low[i, j]``, ``high[i, j]``: the least and greatest sample of tile ``(i, j)`` of a
+    band whose rows are ``low.shape[0]`` rows of tiles (closed: a tile's last row and
+    column are its neighbours' first)."""
+    n_r, n_c = band.shape
+    for i in range(low.shape[0]):
+        for j in range(low.shape[1]):
+            lo, hi = np.inf, -np.inf
+            for r in range(i * tile, min((i + 1) * tile + 1, n_r)):
+                for c in range(j * tile, min((j + 1) * tile + 1, n_c)):
+                    x = np.float64(band[r, c])
+                    lo = min(lo, x)
+                    hi = max(hi, x)
+            low[i, j] = lo
+            high[i, j] = hi
 
 
 def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *,
@@ -341,10 +367,7 @@ def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *
         i1 = min(nr0, i0 + per)
         a0, a1 = i0 * t, min(i1 * t, rows)
         band = np.ascontiguousarray(reader(0, a0, a1 + 1, 0, cols + 1), dtype=np.float32)
-        for i in range(i0, i1):
-            part = band[(i - i0) * t:(i - i0 + 1) * t + 1]
-            low0[i] = _tile_reduce(part, t, nc0, np.min)
-            high0[i] = _tile_reduce(part, t, nc0, np.max)
+        _tile_range_kernel(band, t, low0[i0:i1], high0[i0:i1])
         for k in range(1, exact_top + 1):
             k0, k1 = i0 >> k, -(-i1 // (1 << k))
             _exact_error_kernel(band, a0, k, t, rows, cols, exact[k - 1][k0:k1])
@@ -376,8 +399,40 @@ def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *
             for i in range(i0, i1):
                 own[i] = _tile_reduce(err[(i - i0) * 2 * t:(i - i0 + 1) * 2 * t + 1],
                                       2 * t, nc, np.max)
-        error.append(own + child_err)
+        bound = own + child_err
+        # a second bound through a finer level j = k − exact_top, exact there:
+        # |h_0 − I_k| ≤ |h_0 − I_j| + |I_j − I_k|, the last linear on level-j triangles, so
+        # its largest value is at a level-j sample (the exact kernel on level j, in bands as
+        # tall as the level-0 ones). Two terms instead of one per level: the sum's terms
+        # seldom peak at one point, and a 32769² world's mid-distance tiles (levels 6–10)
+        # were split for an error they did not have.
+        j = k - exact_top
+        if j >= 1:
+            bound = np.minimum(bound, _relayed_error(reader, grid, error[j], j, k, block))
+        error.append(bound)
     return TilePyramid(grid, error, low, high)
+
+
+def _relayed_error(reader: LevelReader, grid: TileGrid, fine_error: np.ndarray, j: int,
+                   k: int, block: int) -> np.ndarray:
+    """Per level-``k`` tile: the largest bound ``fine_error`` of its level-``j`` tiles
+    plus max ``|h_j − I_k|`` over its level-``j`` samples."""
+    t, d = grid.tile, k - j
+    nr, nc = grid.count(k)
+    fr, fc = grid.cells(j)
+    # the level-j tiles inside each level-k tile (2**d a side; the last ones may be fewer)
+    pad = np.zeros((nr << d, nc << d))
+    pad[:fine_error.shape[0], :fine_error.shape[1]] = fine_error
+    inner = pad.reshape(nr, 1 << d, nc, 1 << d).max(axis=(1, 3))
+    span = t << d  # level-j rows of a level-k tile
+    per = max(1, block // span)
+    rel = np.zeros((nr, nc))
+    for i0 in range(0, nr, per):
+        i1 = min(nr, i0 + per)
+        a0, a1 = i0 * span, min(i1 * span, fr)
+        band = np.ascontiguousarray(reader(j, a0, a1 + 1, 0, fc + 1), dtype=np.float32)
+        _exact_error_kernel(band, a0, d, t, fr, fc, rel[i0:i1])
+    return inner + rel
 
 
 def array_reader(heights: np.ndarray) -> LevelReader:
@@ -452,14 +507,14 @@ class StoreReader:
 def world_pyramid(path, *, tile: int = DEFAULT_TILE, reader: StoreReader | None = None,
                   cache: bool = True) -> TilePyramid:
     """The :class:`TilePyramid` of a world store, built once and cached in the store
-    (``terrascape_lod2_<tile>.npz``, keyed by the recipe's hash)."""
+    (``terrascape_lod3_<tile>.npz``, keyed by the recipe's hash)."""
     from terrascape.io.atomic import atomic_output
 
     reader = reader or StoreReader(path)
     recipe = reader.recipe
     shape = (int(recipe.rows), int(recipe.cols))
     cache_path = Path(path) / _CACHE_NAME.format(tile=tile)
-    digest = hashlib.sha256(f"{recipe.digest()}:{tile}:2".encode()).hexdigest()
+    digest = hashlib.sha256(f"{recipe.digest()}:{tile}:3".encode()).hexdigest()
     if cache_path.is_file():
         try:
             with np.load(cache_path) as z:
