@@ -169,13 +169,62 @@ def test_casters_in_view_keep_what_can_shadow_the_view():
     assert r[4] == pytest.approx(10.0 * r[0])
 
 
-def test_bounded_volume_is_closed_outward_and_ends_at_the_floor():
-    from terrascape.objects.silhouette import bounded_volume
+def _cut_reference(triangles, light, floor):
+    """The cut volume from the volume to infinity in plain numpy (the implementation before
+    the numba kernels): near caps, far caps slid onto y = floor and reversed, two triangles
+    per side."""
+    tri = np.asarray(triangles, np.float32)
+    d = np.asarray(light, np.float64)
+    d = d / np.linalg.norm(d)
 
+    def down(v):
+        t = np.maximum(v[:, 1].astype(np.float64) - floor, 0.0) / d[1]
+        out = np.empty_like(v)
+        out[:, :3] = v[:, :3] - (t[:, None] * d).astype(np.float32)
+        out[:, 1] = np.where(v[:, 1] > floor, np.float32(floor), v[:, 1])
+        out[:, 3] = 1.0
+        return out
+
+    side = tri[:, 2, 3] == 0.0
+    caps, sides = tri[~side], tri[side]
+    far = down(caps.reshape(-1, 4)).reshape(-1, 3, 4)[:, ::-1]
+    q, p = sides[:, 0], sides[:, 1]
+    p2, q2 = down(p), down(q)
+    return np.concatenate([caps, far, np.stack([q, p, p2], axis=1),
+                           np.stack([q, p2, q2], axis=1)])
+
+
+def _scene(n, seed):
+    from terrascape.objects import builtin_meshes
+
+    meshes = builtin_meshes()
+    rng = np.random.default_rng(seed)
+    kinds = tuple(meshes[k] for k in ("conifer", "broadleaf", "house", "rock"))
+    return Instances(kinds, rng.integers(0, 4, n), rng.uniform(-50, 50, (n, 3)),
+                     rng.uniform(0.5, 2.0, n), rng.uniform(0, 2 * np.pi, n))
+
+
+@pytest.mark.parametrize("light", [(0.3, 0.8, 0.5), (-0.7, 0.2, 0.1), (0.0, 1.0, 0.0),
+                                   (0.05, 0.1, -1.0)])
+@pytest.mark.parametrize("seed", [1, 2])
+def test_cut_volume_equals_the_numpy_reference(light, seed):
+    inst = _scene(60, seed)
+    keep = np.random.default_rng(seed).random(len(inst)) < 0.8
+    floor = -60.0
+    ref = _cut_reference(shadow_volume(inst, light, keep), light, floor)
+    got = shadow_volume(inst, light, keep, floor=floor)
+    assert got.dtype == np.float32 and np.array_equal(got, ref)
+    # written into a buffer with room: the same rows, the buffer's leading ones
+    buf = np.full((len(ref) + 7, 3, 4), np.nan, np.float32)
+    again = shadow_volume(inst, light, keep, floor=floor, out=buf)
+    assert again.base is buf and np.array_equal(again, ref)
+    assert np.isnan(buf[len(ref):]).all()
+
+
+def test_bounded_volume_is_closed_outward_and_ends_at_the_floor():
     light = (0.3, 0.8, 0.5)
-    m = np.eye(4)
-    m[1, 3] = 2.0  # the box floats from y = 2 to 3
-    vol = bounded_volume(mesh_volume(box(), m[None], light), light, floor=-1.0)
+    inst = Instances((box(),), [0], [[0.0, 2.0, 0.0]], [1.0], [0.0])  # from y = 2 to 3
+    vol = shadow_volume(inst, light, floor=-1.0)
     assert vol.shape == (2 * 6 + 2 * 6, 3, 4) and np.all(vol[..., 3] == 1.0)
     assert vol[..., 1].min() == pytest.approx(-1.0)
     edges = _closed_counts(vol)
@@ -190,4 +239,6 @@ def test_bounded_volume_is_closed_outward_and_ends_at_the_floor():
     # prism below its lit faces' projection — bounded below by box + footprint·3
     assert signed > 1.0 + 3.0
     with pytest.raises(InvalidParameterError, match="above the horizon"):
-        bounded_volume(vol, (0.0, -1.0, 0.0), 0.0)
+        shadow_volume(inst, (0.0, -1.0, 0.0), floor=0.0)
+    with pytest.raises(InvalidParameterError, match="finite"):
+        shadow_volume(inst, light, floor=float("nan"))

@@ -24,9 +24,11 @@ Lengyel, E. (2002). The mechanics of robust stencil shadows. *Gamasutra*, Octobe
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from terrascape._numba import CACHE, FASTMATH, njit, prange
@@ -123,7 +125,9 @@ def _world_vertices(pos, mat, out):
 
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _lit_faces(wp, tri, light, lit):
-    """lit[t] = the plane of triangle t (world vertices wp) faces the homogeneous light."""
+    """lit[t] = the plane of triangle t (world vertices wp) faces the homogeneous light;
+    returns how many do."""
+    n = 0
     for t in range(tri.shape[0]):
         a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
         e1x, e1y, e1z = wp[b, 0] - wp[a, 0], wp[b, 1] - wp[a, 1], wp[b, 2] - wp[a, 2]
@@ -133,31 +137,48 @@ def _lit_faces(wp, tri, light, lit):
         nz = e1x * e2y - e1y * e2x
         d = -(nx * wp[a, 0] + ny * wp[a, 1] + nz * wp[a, 2])
         lit[t] = nx * light[0] + ny * light[1] + nz * light[2] + d * light[3] > 0.0
+        if lit[t]:
+            n += 1
+    return n
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _boundary(tri, half_edge, half_sign, lit, count):
-    """count[e] = signed multiplicity of edge e in the boundary of the lit faces."""
+    """count[e] = signed multiplicity of edge e in the boundary of the lit faces; returns
+    the number of side quads, the sum of |count|."""
     count[:] = 0
     for t in range(tri.shape[0]):
         if lit[t]:
             for k in range(3):
                 count[half_edge[t, k]] += half_sign[t, k]
+    n = 0
+    for e in range(count.shape[0]):
+        n += abs(count[e])
+    return n
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _silhouette(pos, tri, half_edge, half_sign, mat, light, wp, lit, count):
+    """World vertices ``wp``, lit faces and boundary ``count`` of one instance; returns
+    (lit faces, side quads)."""
+    _world_vertices(pos, mat, wp)
+    caps = _lit_faces(wp, tri, light, lit)
+    return caps, _boundary(tri, half_edge, half_sign, lit, count)
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _volume_counts(pos, tri, half_edge, half_sign, n_edges, mats, light, counts):
-    point = light[3] != 0.0
-    for i in prange(mats.shape[0]):
+def _volume_sizes(pos, tri, half_edge, half_sign, mats, light, chunks, lit, count, caps,
+                  sides):
+    """Instance i's lit faces lit[i] and silhouette count[i] (kept for the fill), and how
+    many of each: caps[i], side quads sides[i]."""
+    n = mats.shape[0]
+    for c in prange(chunks):
+        # scratch once per block of instances: an allocation per instance cost as much as
+        # the silhouette itself
         wp = np.empty((pos.shape[0], 3))
-        lit = np.empty(tri.shape[0], np.bool_)
-        count = np.empty(n_edges, np.int32)
-        _world_vertices(pos, mats[i], wp)
-        _lit_faces(wp, tri, light, lit)
-        _boundary(tri, half_edge, half_sign, lit, count)
-        caps = lit.sum()
-        sides = np.abs(count).sum()
-        counts[i] = caps * 2 + sides * 2 if point else caps + sides
+        for i in range(c * n // chunks, (c + 1) * n // chunks):
+            caps[i], sides[i] = _silhouette(pos, tri, half_edge, half_sign, mats[i], light,
+                                            wp, lit[i], count[i])
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -169,49 +190,107 @@ def _put(out, k, x, y, z, w):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _volume_fill(pos, tri, half_edge, half_sign, edges, mats, light, offsets, out):
-    """Volume triangles of every instance (homogeneous world vertices, 3 rows each) from
-    row 3·offsets[i]: near caps, far caps (point light), then the extruded silhouette."""
+def _volume_fill(pos, tri, edges, mats, light, lit, count, chunks, offsets, out):
+    """Volume triangles to infinity of every instance (homogeneous world vertices, 3 rows
+    each) from row 3·offsets[i]: near caps, far caps (point light), then the extruded
+    silhouette."""
+    n = mats.shape[0]
     point = light[3] != 0.0
     lx, ly, lz, lw = light[0], light[1], light[2], light[3]
-    for i in prange(mats.shape[0]):
+    for c in prange(chunks):
         wp = np.empty((pos.shape[0], 3))
-        lit = np.empty(tri.shape[0], np.bool_)
-        count = np.empty(edges.shape[0], np.int32)
-        _world_vertices(pos, mats[i], wp)
-        _lit_faces(wp, tri, light, lit)
-        _boundary(tri, half_edge, half_sign, lit, count)
-        k = 3 * offsets[i]
-        for t in range(tri.shape[0]):
-            if not lit[t]:
-                continue
-            for c in range(3):
-                v = tri[t, c]
-                _put(out, k, wp[v, 0], wp[v, 1], wp[v, 2], 1.0)
-                k += 1
-            if point:  # far cap: the same face at infinity, reversed
-                for c in range(2, -1, -1):
-                    v = tri[t, c]
-                    _put(out, k, wp[v, 0] * lw - lx, wp[v, 1] * lw - ly, wp[v, 2] * lw - lz, 0.0)
+        for i in range(c * n // chunks, (c + 1) * n // chunks):
+            _world_vertices(pos, mats[i], wp)
+            k = 3 * offsets[i]
+            for t in range(tri.shape[0]):
+                if not lit[i, t]:
+                    continue
+                for j in range(3):
+                    v = tri[t, j]
+                    _put(out, k, wp[v, 0], wp[v, 1], wp[v, 2], 1.0)
                     k += 1
-        for e in range(edges.shape[0]):
-            m = count[e]
-            if m == 0:
-                continue
-            # the side runs p -> q as in the lit face's winding; its quad (q, p, p', q')
-            p, q = (edges[e, 0], edges[e, 1]) if m > 0 else (edges[e, 1], edges[e, 0])
-            for _ in range(abs(m)):
-                px, py, pz = wp[p, 0] * lw - lx, wp[p, 1] * lw - ly, wp[p, 2] * lw - lz
-                _put(out, k, wp[q, 0], wp[q, 1], wp[q, 2], 1.0)
-                _put(out, k + 1, wp[p, 0], wp[p, 1], wp[p, 2], 1.0)
-                _put(out, k + 2, px, py, pz, 0.0)
-                k += 3
-                if point:
+                if point:  # far cap: the same face at infinity, reversed
+                    for j in range(2, -1, -1):
+                        v = tri[t, j]
+                        _put(out, k, wp[v, 0] * lw - lx, wp[v, 1] * lw - ly,
+                             wp[v, 2] * lw - lz, 0.0)
+                        k += 1
+            for e in range(edges.shape[0]):
+                m = count[i, e]
+                if m == 0:
+                    continue
+                # the side runs p -> q as in the lit face's winding; its quad (q, p, p', q')
+                p, q = (edges[e, 0], edges[e, 1]) if m > 0 else (edges[e, 1], edges[e, 0])
+                for _ in range(abs(m)):
+                    px, py, pz = wp[p, 0] * lw - lx, wp[p, 1] * lw - ly, wp[p, 2] * lw - lz
                     _put(out, k, wp[q, 0], wp[q, 1], wp[q, 2], 1.0)
-                    _put(out, k + 1, px, py, pz, 0.0)
-                    _put(out, k + 2, wp[q, 0] * lw - lx, wp[q, 1] * lw - ly,
-                         wp[q, 2] * lw - lz, 0.0)
+                    _put(out, k + 1, wp[p, 0], wp[p, 1], wp[p, 2], 1.0)
+                    _put(out, k + 2, px, py, pz, 0.0)
                     k += 3
+                    if point:
+                        _put(out, k, wp[q, 0], wp[q, 1], wp[q, 2], 1.0)
+                        _put(out, k + 1, px, py, pz, 0.0)
+                        _put(out, k + 2, wp[q, 0] * lw - lx, wp[q, 1] * lw - ly,
+                             wp[q, 2] * lw - lz, 0.0)
+                        k += 3
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _corner(out, row, j, src, v):
+    out[row, j, 0] = src[v, 0]
+    out[row, j, 1] = src[v, 1]
+    out[row, j, 2] = src[v, 2]
+    out[row, j, 3] = 1.0
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
+def _cut_fill(pos, tri, edges, mats, sun, floor, lit, count, chunks, cap_at, side_at,
+              far_base, upper_base, lower_base, out):
+    """Volumes of a sun cut at height ``floor`` into ``out`` (K, 3, 4) float32, every
+    w = 1. Instance i's near caps from row cap_at[i], their far caps from far_base +
+    cap_at[i], its side quads' upper triangles (q, p, p↓) from upper_base + side_at[i] and
+    lower ones (q, p↓, q↓) from lower_base + side_at[i]; ↓ slides a corner along −sun onto
+    y = floor (corners below it stay). The corners are rounded to float32 before they slide,
+    as the volume to infinity stores them."""
+    n = mats.shape[0]
+    nv = pos.shape[0]
+    sx, sy, sz = sun[0], sun[1], sun[2]
+    f32 = np.float32(floor)
+    for c in prange(chunks):
+        wp = np.empty((nv, 3))
+        top = np.empty((nv, 3), np.float32)
+        low = np.empty((nv, 3), np.float32)
+        for i in range(c * n // chunks, (c + 1) * n // chunks):
+            _world_vertices(pos, mats[i], wp)
+            for v in range(nv):
+                x, y, z = np.float32(wp[v, 0]), np.float32(wp[v, 1]), np.float32(wp[v, 2])
+                top[v, 0], top[v, 1], top[v, 2] = x, y, z
+                t = max(np.float64(y) - floor, 0.0) / sy
+                low[v, 0] = x - np.float32(t * sx)
+                low[v, 1] = f32 if y > f32 else y
+                low[v, 2] = z - np.float32(t * sz)
+            k = cap_at[i]
+            for t in range(tri.shape[0]):
+                if not lit[i, t]:
+                    continue
+                for j in range(3):  # the far cap: the face slid down, reversed
+                    _corner(out, k, j, top, tri[t, j])
+                    _corner(out, far_base + k, 2 - j, low, tri[t, j])
+                k += 1
+            s = side_at[i]
+            for e in range(edges.shape[0]):
+                m = count[i, e]
+                if m == 0:
+                    continue
+                p, q = (edges[e, 0], edges[e, 1]) if m > 0 else (edges[e, 1], edges[e, 0])
+                for _ in range(abs(m)):
+                    _corner(out, upper_base + s, 0, top, q)
+                    _corner(out, upper_base + s, 1, top, p)
+                    _corner(out, upper_base + s, 2, low, p)
+                    _corner(out, lower_base + s, 0, top, q)
+                    _corner(out, lower_base + s, 1, low, p)
+                    _corner(out, lower_base + s, 2, low, q)
+                    s += 1
 
 
 _WARNED: set[str] = set()
@@ -255,8 +334,88 @@ def _prepared(mesh: ObjectMesh) -> _Prepared:
     return prep
 
 
+def _chunks(n: int) -> int:
+    """How many blocks the kernels split ``n`` instances into (each block's scratch is
+    allocated once; a few blocks per thread balance the threads)."""
+    return max(1, min(n, 8 * numba.get_num_threads()))
+
+
+def _matrices(matrices) -> np.ndarray:
+    mats = np.ascontiguousarray(matrices, dtype=np.float64)
+    if mats.ndim != 3 or mats.shape[1:] != (4, 4) or not np.isfinite(mats).all():
+        raise InvalidParameterError(f"matrices must be finite (N, 4, 4), got {mats.shape}")
+    return mats
+
+
+def _silhouettes(prep: _Prepared, mats: np.ndarray, lt: np.ndarray) -> tuple:
+    """``(prep, mats, lit (N, T), count (N, E), caps (N,), sides (N,))``: the lit faces and
+    the silhouette of each copy ``mats`` of the prepared mesh, and how many of each."""
+    n, e = len(mats), prep.edges
+    lit = np.empty((n, len(prep.triangles)), np.bool_)
+    # a multiplicity is at most the number of triangles on one edge
+    count = np.empty((n, len(e.edges)), np.int16)
+    caps = np.empty(n, np.int64)
+    sides = np.empty(n, np.int64)
+    _volume_sizes(prep.positions, prep.triangles, e.half_edge, e.half_sign, mats, lt,
+                  _chunks(n), lit, count, caps, sides)
+    return prep, mats, lit, count, caps, sides
+
+
+def _starts(counts: np.ndarray, base: int = 0) -> np.ndarray:
+    """Exclusive running sum of ``counts`` from ``base``: where each instance's rows start."""
+    at = np.empty(len(counts), np.int64)
+    if len(counts):
+        at[0] = base
+        np.cumsum(counts[:-1], out=at[1:])
+        at[1:] += base
+    return at
+
+
+def _rows(out: np.ndarray | None, rows: int) -> np.ndarray:
+    """``rows`` volume triangles to write: the leading rows of ``out`` when it has room, else
+    of a new array with a quarter more (so that a caller who keeps ``result.base`` for the
+    next rebuild, whose size changes a little with the sun, rarely allocates again)."""
+    if out is not None:
+        if (not isinstance(out, np.ndarray) or out.dtype != np.float32 or out.ndim != 3
+                or out.shape[1:] != (3, 4) or not out.flags.c_contiguous):
+            raise InvalidParameterError(
+                "out must be a C-contiguous float32 (K, 3, 4) array, got "
+                f"{getattr(out, 'dtype', type(out).__name__)} {getattr(out, 'shape', '')}")
+        if len(out) >= rows:
+            return out[:rows]
+        return np.empty((rows + rows // 4, 3, 4), np.float32)[:rows]
+    return np.empty((rows, 3, 4), np.float32)
+
+
+def _fill(parts: list, lt: np.ndarray, floor: float | None,
+          out: np.ndarray | None) -> np.ndarray:
+    """The volume triangles of ``parts`` (:func:`_silhouettes`), mesh after mesh."""
+    if floor is None:
+        per = [(caps + sides) * (2 if lt[3] != 0.0 else 1) for *_, caps, sides in parts]
+        res = _rows(out, sum(int(p.sum()) for p in per))
+        flat = res.reshape(-1, 4)
+        base = 0
+        for (prep, mats, lit, count, _, _), rows in zip(parts, per, strict=True):
+            _volume_fill(prep.positions, prep.triangles, prep.edges.edges, mats, lt, lit,
+                         count, _chunks(len(mats)), _starts(rows, base), flat)
+            base += int(rows.sum())
+        return res
+    # all near caps, all far caps, all upper side triangles, all lower ones
+    n_cap = sum(int(caps.sum()) for *_, caps, _ in parts)
+    n_side = sum(int(sides.sum()) for *_, sides in parts)
+    res = _rows(out, 2 * n_cap + 2 * n_side)
+    cap_base = side_base = 0
+    for prep, mats, lit, count, caps, sides in parts:
+        _cut_fill(prep.positions, prep.triangles, prep.edges.edges, mats, lt, floor, lit,
+                  count, _chunks(len(mats)), _starts(caps, cap_base),
+                  _starts(sides, side_base), n_cap, 2 * n_cap, 2 * n_cap + n_side, res)
+        cap_base += int(caps.sum())
+        side_base += int(sides.sum())
+    return res
+
+
 def mesh_volume(mesh: ObjectMesh, matrices: np.ndarray, light) -> np.ndarray:
-    """Shadow volume triangles of copies of one mesh.
+    """Shadow volume triangles of copies of one mesh, extruded to infinity.
 
     Parameters
     ----------
@@ -271,25 +430,14 @@ def mesh_volume(mesh: ObjectMesh, matrices: np.ndarray, light) -> np.ndarray:
     -------
     numpy.ndarray
         float32 ``(M, 3, 4)``: M triangles of homogeneous world vertices, counter-clockwise
-        seen from outside the volume (w = 0: a point at infinity).
+        seen from outside the volume (w = 0: a point at infinity), instance after instance:
+        its near caps (and far caps, for a point light), then its sides.
     """
     if not isinstance(mesh, ObjectMesh):
         raise InvalidParameterError(f"expected an ObjectMesh, got {type(mesh).__name__}")
-    mats = np.ascontiguousarray(matrices, dtype=np.float64)
-    if mats.ndim != 3 or mats.shape[1:] != (4, 4) or not np.isfinite(mats).all():
-        raise InvalidParameterError(f"matrices must be finite (N, 4, 4), got {mats.shape}")
+    mats = _matrices(matrices)
     lt = _light4(light)
-    prep = _prepared(mesh)
-    pos, tri, edges = prep.positions, prep.triangles, prep.edges
-    counts = np.zeros(len(mats), np.int64)
-    _volume_counts(pos, tri, edges.half_edge, edges.half_sign, len(edges.edges), mats, lt,
-                   counts)
-    offsets = np.zeros(len(mats), np.int64)
-    np.cumsum(counts[:-1], out=offsets[1:])
-    out = np.empty((int(counts.sum()) * 3, 4), np.float32)
-    _volume_fill(pos, tri, edges.half_edge, edges.half_sign, edges.edges, mats, lt, offsets,
-                 out)
-    return out.reshape(-1, 3, 4)
+    return _fill([_silhouettes(_prepared(mesh), mats, lt)], lt, None, None)
 
 
 def bounding_spheres(instances: Instances) -> tuple[np.ndarray, np.ndarray]:
@@ -356,72 +504,54 @@ def casters_in_view(instances: Instances, planes: np.ndarray, light, floor: floa
     return ~outside.any(axis=1)
 
 
-def bounded_volume(triangles: np.ndarray, light, floor: float) -> np.ndarray:
-    """The volume triangles of :func:`mesh_volume` for a sun (directional light) cut off at
-    height ``floor``: the silhouette is extruded down to the plane ``y = floor`` instead of
-    to infinity, and the near caps, projected onto that plane and reversed, close it there.
+def shadow_volume(instances: Instances, light, keep: np.ndarray | None = None,
+                  floor: float | None = None, out: np.ndarray | None = None) -> np.ndarray:
+    """Shadow volume triangles of every instance, or of those ``keep`` marks (a bool
+    ``(N,)`` mask such as :func:`casters_in_view`), mesh after mesh.
 
-    Below the lowest drawn surface a volume contains nothing visible, so the count is the
-    same on every pixel; what changes is the fill: each volume covers the screen only down
-    to the ground instead of to the vanishing point of the sun's direction, and no vertex is
-    at infinity. (The same closed-volume argument as Everitt & Kilgard's §3; Lengyel 2002
-    bounds volumes by the light's range the same way.)
+    Without ``floor`` the silhouettes are extruded to infinity (:func:`mesh_volume`). With
+    it (a sun above the horizon) they are extruded only down to the plane ``y = floor``, and
+    the near caps, slid along the sun's direction onto that plane and reversed, close them
+    there. Below the lowest drawn surface a volume contains nothing visible, so the count is
+    the same on every pixel; what changes is the fill: each volume covers the screen only
+    down to the ground instead of to the vanishing point of the sun's direction, and no
+    vertex is at infinity. (The same closed-volume argument as Everitt & Kilgard's §3;
+    Lengyel 2002 bounds volumes by the light's range the same way.)
 
     Parameters
     ----------
-    triangles
-        float32 ``(M, 3, 4)`` from :func:`mesh_volume` / :func:`shadow_volume` for the
-        directional ``light``: near caps (three w = 1 corners) and sides ``(q, p, −L∞)``.
     light
-        The direction toward the sun they were built for (above the horizon).
+        Toward-sun direction (3 numbers, or ``(x, y, z, 0)``) or a point light
+        ``(x, y, z, 1)`` (volumes to infinity only).
     floor
-        Height of the cut, below every surface that can be shadowed.
+        Height of the cut, below every surface that can be shadowed; None: to infinity.
+    out
+        A C-contiguous float32 ``(K, 3, 4)`` array to write into when it has room: the
+        result is then its leading rows. A rebuild every frame (a moving sun) that passes
+        the previous result's ``base`` back spares the allocation and first touch of
+        tens of megabytes.
 
     Returns
     -------
     numpy.ndarray
-        float32 ``(M', 3, 4)``, every w = 1: near caps, far caps, two triangles per side.
+        float32 ``(M, 3, 4)`` homogeneous world vertices, counter-clockwise seen from
+        outside. To infinity: see :func:`mesh_volume`. Cut at ``floor`` (every w = 1): all
+        near caps, then all far caps (in the same order), then the upper triangle
+        ``(q, p, p↓)`` of every side quad, then the lower ones ``(q, p↓, q↓)``, where ``↓``
+        slides a corner along the sun's direction down onto the floor (a corner already
+        below it stays).
     """
-    tri = np.asarray(triangles, dtype=np.float32)
-    if tri.ndim != 3 or tri.shape[1:] != (3, 4):
-        raise InvalidParameterError(f"volume triangles must be (M, 3, 4), got {tri.shape}")
-    lt = _light4(light)
-    if lt[3] != 0.0 or lt[1] <= 0.0:
-        raise InvalidParameterError(
-            f"bounded volumes need a sun above the horizon (a direction with y > 0), got "
-            f"{light!r}")
-    d = lt[:3]
-    floor = float(floor)
-
-    def down(v):  # (K, 4) corners slid along −d onto the plane y = floor
-        t = np.maximum(v[:, 1].astype(np.float64) - floor, 0.0) / d[1]
-        out = np.empty_like(v)
-        out[:, :3] = v[:, :3] - (t[:, None] * d).astype(np.float32)
-        out[:, 1] = np.where(v[:, 1] > floor, np.float32(floor), v[:, 1])
-        out[:, 3] = 1.0
-        return out
-
-    side = tri[:, 2, 3] == 0.0
-    caps, sides = tri[~side], tri[side]
-    n_cap, n_side = len(caps), len(sides)
-    out = np.empty((2 * n_cap + 2 * n_side, 3, 4), np.float32)
-    out[:n_cap] = caps
-    far = down(caps.reshape(-1, 4)).reshape(-1, 3, 4)
-    out[n_cap:2 * n_cap] = far[:, ::-1]
-    q, p = sides[:, 0], sides[:, 1]
-    p2, q2 = down(p), down(q)
-    k = 2 * n_cap
-    out[k:k + n_side] = np.stack([q, p, p2], axis=1)
-    out[k + n_side:] = np.stack([q, p2, q2], axis=1)
-    return out
-
-
-def shadow_volume(instances: Instances, light, keep: np.ndarray | None = None) -> np.ndarray:
-    """Shadow volume triangles of every instance (or of those ``keep`` marks, a bool
-    ``(N,)`` mask such as :func:`casters_in_view`): float32 ``(M, 3, 4)`` homogeneous world
-    vertices (see :func:`mesh_volume`), mesh after mesh."""
     if not isinstance(instances, Instances):
         raise InvalidParameterError(f"expected Instances, got {type(instances).__name__}")
+    lt = _light4(light)
+    if floor is not None:
+        floor = float(floor)
+        if not math.isfinite(floor):
+            raise InvalidParameterError(f"floor must be a finite height, got {floor}")
+        if lt[3] != 0.0 or lt[1] <= 0.0:
+            raise InvalidParameterError(
+                f"volumes cut at a floor need a sun above the horizon (a direction with "
+                f"y > 0), got {light!r}")
     mats = instances.matrices()
     if keep is None:
         keep = np.ones(len(instances), bool)
@@ -429,18 +559,15 @@ def shadow_volume(instances: Instances, light, keep: np.ndarray | None = None) -
     if keep.shape != (len(instances),):
         raise InvalidParameterError(
             f"keep must be a bool mask of the {len(instances)} instances, got {keep.shape}")
-    groups = [(mesh, np.flatnonzero((instances.kind == k) & keep))
-              for k, mesh in enumerate(instances.meshes)]
-    parts = [mesh_volume(mesh, mats[sel], light) for mesh, sel in groups if len(sel)]
-    if not parts:
-        return np.zeros((0, 3, 4), np.float32)
-    return np.concatenate(parts)
+    parts = [_silhouettes(_prepared(mesh), np.ascontiguousarray(mats[sel], np.float64), lt)
+             for k, mesh in enumerate(instances.meshes)
+             if len(sel := np.flatnonzero((instances.kind == k) & keep))]
+    return _fill(parts, lt, floor, out)
 
 
 __all__ = [
     "MeshEdges",
     "OpenMeshWarning",
-    "bounded_volume",
     "bounding_spheres",
     "casters_in_view",
     "mesh_edges",

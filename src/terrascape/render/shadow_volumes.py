@@ -38,7 +38,7 @@ import numpy as np
 
 from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.objects.model import Instances
-from terrascape.objects.silhouette import bounded_volume, casters_in_view, shadow_volume
+from terrascape.objects.silhouette import casters_in_view, shadow_volume
 from terrascape.render.objects import OBJECT_SHADOW_MODES, ObjectShadowFallbackWarning
 from terrascape.render.shaders import load_program, set_uniforms
 from terrascape.render.stencil import (
@@ -113,7 +113,7 @@ class ShadowVolumes:
         # (silhouette.casters_in_view); off for comparisons
         self.cull = True
         # reach: "floor" extrudes the silhouettes down to just below the lowest drawn
-        # surface (silhouette.bounded_volume: the same count, far less fill), "infinite"
+        # surface (silhouette.shadow_volume with a floor: the same count, far less fill), "infinite"
         # to points at infinity (Everitt & Kilgard's volumes, drawn with the infinite far
         # plane)
         self.reach = DEFAULT_REACH
@@ -152,7 +152,7 @@ class ShadowVolumes:
                     keep: np.ndarray | None = None, floor: float | None = None) -> int:
         """Volumes of ``casters`` (those ``keep`` marks: :func:`casters_in_view`) for the sun
         toward ``sun_dir``, extruded to infinity or, with ``floor``, down to that height
-        (:func:`bounded_volume`); rebuilt only when any of these changed. Returns the number
+        (:func:`shadow_volume`); rebuilt only when any of these changed. Returns the number
         of volume triangles."""
         import time
 
@@ -164,9 +164,7 @@ class ShadowVolumes:
         self.build_seconds = 0.0
         t0 = time.perf_counter()
         tri = (np.zeros((0, 3, 4), np.float32) if casters is None or not len(casters)
-               else shadow_volume(casters, d, keep))
-        if floor is not None and len(tri):
-            tri = bounded_volume(tri, d, floor)
+               else shadow_volume(casters, d, keep, floor))
         self.build_seconds = time.perf_counter() - t0
         return self.set_triangles(tri, key)
 
