@@ -319,3 +319,23 @@ def test_sweep_kernel_sees_one_array_type_for_every_light_direction(terrain, mon
     assert len(seen) == 1, seen
     [(h_type, out_type)] = seen
     assert not h_type.mutable and h_type.layout == "C" and out_type.layout == "C"
+
+
+@pytest.mark.parametrize("az", [45.0, 135.0, 225.0, 315.0])
+def test_diagonal_suns_sweep_the_map_untransposed_with_the_same_mask(az, monkeypatch):
+    from terrascape.lighting import shadows
+    from terrascape.lighting.sun import sun_direction
+
+    rng = np.random.default_rng(5)
+    hm = Heightmap((rng.random((97, 97)) * 30.0).astype(np.float32), 1.0)
+    for el in (5.0, 20.0, 40.0):
+        light = np.asarray(sun_direction(az, el))
+        transpose, da, db, rise = shadows._sweep_geometry(hm, light)
+        assert not transpose and abs(db) == 1.0
+        mask = shadows._fast_mask_for_light(hm, light)
+        assert 0 < mask.sum() < mask.size
+        # the same step on the transposed map (where a one-ulp tie used to send it)
+        monkeypatch.setattr(shadows, "_sweep_geometry",
+                            lambda *_, g=(True, int(db), float(da), rise): g)
+        assert np.array_equal(shadows._fast_mask_for_light(hm, light), mask)
+        monkeypatch.undo()

@@ -93,6 +93,11 @@ def _sweep_geometry(
     g_row = sz / dz
     if abs(g_row) >= abs(g_col):
         transpose, major, minor = False, g_row, g_col
+    elif abs(g_col) - abs(g_row) <= _SNAP * abs(g_col):
+        # A diagonal up to rounding (at 135° cos is one ulp below sin): either orientation
+        # walks the same cells and climbs the same, so keep the map and save the two
+        # transposed copies.
+        transpose, major, minor = False, math.copysign(abs(g_col), g_row), g_col
     else:
         transpose, major, minor = True, g_col, g_row
     db = minor / abs(major)
