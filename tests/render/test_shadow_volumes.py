@@ -405,3 +405,26 @@ def test_a_camera_below_the_cut_gets_the_volumes_to_infinity(scene):
     assert volumes._key[-1] is None  # no cut: the volumes to infinity were drawn
     assert (counts["infinite"] > 0).sum() > 100
     np.testing.assert_array_equal(counts["floor"], counts["infinite"])
+
+
+def test_a_moving_sun_rebuilds_into_the_same_array_and_uploads_the_fresh_volumes(scene):
+    """The rebuild of a moving sun writes into the previous rebuild's array; what reaches
+    the GL buffer must still be exactly the volumes built from scratch for each sun."""
+    from terrascape.objects.silhouette import shadow_volume
+    from terrascape.render.shadow_volumes import ShadowVolumes
+
+    r, _, boxes, _ = scene
+    volumes = ShadowVolumes(r.ctx)
+    try:
+        arrays = []
+        for az in (40.0, 41.0, 200.0, 40.0):
+            d = sun_direction(az, 35.0)
+            n = volumes.set_casters(boxes, d, floor=-1.0)
+            fresh = shadow_volume(boxes, tuple(float(v) for v in d), None, -1.0)
+            assert n == len(fresh) > 0
+            uploaded = np.frombuffer(volumes._buffer.read(size=fresh.nbytes), np.float32)
+            np.testing.assert_array_equal(uploaded.reshape(fresh.shape), fresh)
+            arrays.append(volumes._scratch)
+        assert all(a is arrays[0] for a in arrays)  # one allocation for all four suns
+    finally:
+        volumes.release()

@@ -117,6 +117,9 @@ class ShadowVolumes:
         # to points at infinity (Everitt & Kilgard's volumes, drawn with the infinite far
         # plane)
         self.reach = DEFAULT_REACH
+        # the last rebuild's array, written into again by the next (a moving sun rebuilds
+        # every frame; allocating and first touching tens of megabytes each time is waste)
+        self._scratch: np.ndarray | None = None
 
     @classmethod
     def of(cls, renderer) -> ShadowVolumes:
@@ -133,16 +136,18 @@ class ShadowVolumes:
         tri = np.ascontiguousarray(triangles, dtype=np.float32)
         if tri.ndim != 3 or tri.shape[1:] != (3, 4):
             raise InvalidParameterError(f"volume triangles must be (M, 3, 4), got {tri.shape}")
-        data = tri.tobytes()
-        if len(data) > self._capacity:
+        nbytes = tri.nbytes
+        if nbytes > self._capacity:
             if self._buffer is not None:
                 self._vao.release()
                 self._buffer.release()
-            self._capacity = max(len(data) + len(data) // 4, 48)
+            self._capacity = max(nbytes + nbytes // 4, 48)
             self._buffer = self.ctx.buffer(reserve=self._capacity, dynamic=True)
             self._vao = self.ctx.vertex_array(self.program, [(self._buffer, "4f", "in_position")])
-        if data:
-            self._buffer.write(data)
+        if nbytes:
+            # the array itself (buffer protocol): a bytes copy of tens of megabytes would
+            # cost as much as the upload
+            self._buffer.write(tri)
         self._count = len(tri)
         self._key = key
         self.build_seconds += time.perf_counter() - t0
@@ -163,8 +168,11 @@ class ShadowVolumes:
             return self._count
         self.build_seconds = 0.0
         t0 = time.perf_counter()
-        tri = (np.zeros((0, 3, 4), np.float32) if casters is None or not len(casters)
-               else shadow_volume(casters, d, keep, floor))
+        if casters is None or not len(casters):
+            tri = np.zeros((0, 3, 4), np.float32)
+        else:
+            tri = shadow_volume(casters, d, keep, floor, out=self._scratch)
+            self._scratch = tri if tri.base is None else tri.base
         self.build_seconds = time.perf_counter() - t0
         return self.set_triangles(tri, key)
 
@@ -188,6 +196,8 @@ class ShadowVolumes:
             self._buffer.release()
             self._buffer = self._vao = None
             self._capacity = self._count = 0
+        self._scratch = None
+        self._key = None
 
 
 def shade_shadow_volumes(renderer, fbo, camera, uniforms: Mapping[str, Any], *, program,
