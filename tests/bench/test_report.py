@@ -55,9 +55,43 @@ def test_quick_report_runs_every_benchmark_section(tmp_path, gl_ctx):
     """The whole `bench report --quick` on this machine: every section, table and plot."""
     path = write_report(tmp_path, quick=True, tiny=True)
     text = path.read_text()
-    for title in ("Relief texturing", "ROAM analysis", "Rendering", "Level of detail"):
+    for title in ("Relief texturing", "ROAM analysis", "Rendering", "Level of detail",
+                  "Objects' shadows"):
         assert f"## {title}" in text
     for image in ("relief_quality.png", "relief_seed_drop.png", "roam_vs_map_size.png",
-                  "render_modes.png"):
+                  "render_modes.png", "object_shadow_cost.png"):
         assert (tmp_path / image).exists() and f"]({image})" in text
     assert "Average frame-rate drop against texture mapping" in text
+
+
+def test_shadow_analysis_answers_the_thesis_from_the_tables(tmp_path):
+    from terrascape.bench import BenchTable
+    from terrascape.bench.report_analysis import ANALYSES
+
+    cost = BenchTable("frame time by object shadow mode (x)",
+                      ["mode", "ms/frame", "× no object shadows"],
+                      [["none", 100.0, 1.0], ["cascades", 130.0, 1.3],
+                       ["volumes", 290.0, 2.9]])
+    agree = BenchTable("agreement with the CPU ray cast (per pixel)",
+                       ["mode", "what is compared", "pixels", "agree %"],
+                       [["volumes", "stencil", 1000, 99.88], ["cascades", "darker", 900, 99.82]])
+    moving = BenchTable("a sun moving 1° per frame with volumes (12 frames)",
+                        ["frames", "median ms", "slowest ms", "slowest × median",
+                         "volume rebuild ms (median)"], [[12, 2000.0, 2200.0, 1.1, 45.4]])
+    lod = BenchTable("terrain shadow volumes under LOD (x)",
+                     ["casting mesh", "drawn mesh", "triangles", "terrain pixels", "shadowed %",
+                      "changed vs full detail %"],
+                     [["full detail", "full detail", 100, 50, 2.2, 0.0],
+                      ["geomipmap 2 px", "full detail", 10, 50, 48.9, 47.8],
+                      ["geomipmap 2 px", "the same LOD", 10, 50, 1.35, 1.4],
+                      ["geomipmap 8 px", "full detail", 5, 50, 48.7, 47.9],
+                      ["geomipmap 8 px", "the same LOD", 5, 50, 1.06, 1.8]])
+    text, images = ANALYSES["shadows"]([cost, agree, moving, lod], tmp_path)
+    assert images == ["object_shadow_cost.png"]
+    assert (tmp_path / "object_shadow_cost.png").read_bytes()[:4] == b"\x89PNG"
+    assert "marks 99.88 % of the surface pixels" in text
+    assert "agree on 99.82 %" in text
+    assert "volumes make the frame 2.9×" in text and "shadow maps 1.3×" in text
+    assert "(45.4 ms a frame)" in text and "1.1× the median" in text
+    assert "shadows 2.2 %" in text and "48.7–48.9 % are shadowed" in text
+    assert "1.4–1.8 % of the pixels change" in text

@@ -200,6 +200,8 @@ REPORT_SECTIONS: list[tuple[str, list[str]]] = [
     ("ROAM analysis: ROAM, Turner's ROAM and geomipmapping on one flight (Filipović 2008 §5.3)",
      ["lod_flight", "lod_roam"]),
     ("Level of detail: geomipmapping, culling, static meshes and peers", ["lod", "lod_peers"]),
+    ("Objects' shadows: stencil shadow volumes against shadow maps (Filipović 2008 §3.2.1)",
+     ["shadows"]),
 ]
 
 
