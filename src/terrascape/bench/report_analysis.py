@@ -428,6 +428,7 @@ def analyse_shadows(tables: Sequence[BenchTable], out: Path) -> Analysis:
         ax.set_xlabel("frame time × the frame without object shadows")
         ax.invert_yaxis()
         ax.grid(True, axis="x", alpha=0.3)
+        fig.tight_layout()  # the long mode names would be cut off at the left edge
         images.append(save_figure(fig, out, "object_shadow_cost.png"))
         md.append("![frame cost per object shadow mode](object_shadow_cost.png)\n")
     parts: list[str] = []
