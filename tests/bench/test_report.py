@@ -95,3 +95,23 @@ def test_shadow_analysis_answers_the_thesis_from_the_tables(tmp_path):
     assert "(45.4 ms a frame)" in text and "1.1× the median" in text
     assert "shadows 2.2 %" in text and "48.7–48.9 % are shadowed" in text
     assert "1.4–1.8 % of the pixels change" in text
+
+
+def test_log_axes_label_plain_numbers_without_overlapping_minor_labels():
+    # a short log range (3–40 frames/s) made matplotlib label every minor tick as 3×10⁰,
+    # 4×10⁰, …, and the labels ran into each other
+    from terrascape.bench.report_analysis import _plain_log_ticks, _pyplot
+
+    plt = _pyplot()
+    fig, ax = plt.subplots()
+    ax.barh(["a", "b"], [3.5, 40.0])
+    ax.set_xscale("log")
+    ax.set_xlim(3.0, 45.0)
+    _plain_log_ticks(ax.xaxis)
+    fig.canvas.draw()
+    major = [t.get_text() for t in ax.xaxis.get_ticklabels() if t.get_visible()]
+    minor = [t.get_text() for t in ax.xaxis.get_ticklabels(minor=True) if t.get_text()]
+    plt.close(fig)
+    shown = [m for m in major if m]
+    assert {"5", "10", "20"} <= set(shown)
+    assert minor == []

@@ -68,6 +68,19 @@ def _pyplot():
     return plt
 
 
+def _plain_log_ticks(axis) -> None:
+    """Label a log axis at 1, 2, 5 × 10^k in plain numbers, minor ticks unlabelled.
+
+    Matplotlib's default labels the minor ticks of a short log range as 3×10⁰, 4×10⁰, …,
+    which run into each other on a narrow plot.
+    """
+    from matplotlib import ticker
+
+    axis.set_major_locator(ticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(ticker.FuncFormatter(lambda v, _pos: f"{v:g}"))
+    axis.set_minor_formatter(ticker.NullFormatter())
+
+
 def save_figure(fig, out: Path, name: str) -> str:
     """Save atomically (temp file + rename) and close; returns ``name``."""
     plt = _pyplot()
@@ -345,6 +358,7 @@ def analyse_terrain_vs_relief(tables: Sequence[BenchTable], out: Path) -> Analys
         fps = [as_number(v) for v in column(table, "frames/s")]
         ax.barh(methods, fps)
         ax.set_xscale("log")
+        _plain_log_ticks(ax.xaxis)
         ax.set_xlabel("frames/s (log)")
         ax.invert_yaxis()
         ax.tick_params(axis="y", labelsize=7)
