@@ -262,14 +262,26 @@ def _largest_magnitude(smax, smin):
 def _walk_step(hit, here, there, r0, r1, s, f, above):
     """One step of the near walk for samples ``r0 … r1`` of a grid line (heights ``here``):
     their crossing ``s + f`` samples on along grid line ``there`` meets terrain above
-    ``above`` over their own height → ``hit``."""
+    ``above`` over their own height → ``hit``.
+
+    The loops run over slices from index 0 (``r0 + s`` is never negative): with indices
+    that may be negative numba adds a wrap-around test to every load, which kept LLVM from
+    vectorising the loop; from 0 it proves them non-negative and the loop runs in SIMD.
+    """
+    n = r1 - r0 + 1
+    if n <= 0:
+        return
+    marks = hit[r0:r1 + 1]
+    own = here[r0:r1 + 1]
+    left = there[r0 + s:r0 + s + n]
     if f == 0.0:
-        for b in range(r0, r1 + 1):
-            hit[b] |= float(there[b + s]) > float(here[b]) + above
+        for i in range(n):
+            marks[i] |= float(left[i]) > float(own[i]) + above
     else:
-        for b in range(r0, r1 + 1):
-            v0 = float(there[b + s])
-            hit[b] |= v0 + f * (float(there[b + s + 1]) - v0) > float(here[b]) + above
+        right = there[r0 + s + 1:r0 + s + 1 + n]
+        for i in range(n):
+            v0 = float(left[i])
+            marks[i] |= v0 + f * (float(right[i]) - v0) > float(own[i]) + above
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -329,6 +341,62 @@ def _near_part(h, a, da, db, rise, near, b_first, b_last, hit, smax, smin, slack
             else:
                 _walk_step(hit, here, there, r0, r1, s, f, above)
         skipped[k] = count
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _far_part(marks, here, near_hit, far, b0, b1, i0, fr, drop):
+    """Decide samples ``b0 … b1`` of a grid line (heights ``here``, row ``marks`` of the
+    output) from their near walk and the shadow heights ``far`` of the ray lines around
+    them, ``near`` lines upstream (``drop`` = the ray's climb over those lines); sample
+    ``b0``'s left ray line is ``far[i0]``, and ``fr`` how far past it the sample lies.
+
+    Slices from index 0 for the same reason as in :func:`_walk_step`.
+    """
+    n = b1 - b0 + 1
+    if n <= 0:
+        return
+    out = marks[b0:b1 + 1]
+    own = here[b0:b1 + 1]
+    walked = near_hit[b0:b1 + 1]
+    left = far[i0:i0 + n]
+    if fr == 0.0:
+        for i in range(n):
+            out[i] = (walked[i] != 0) | (float(own[i]) < left[i] - drop)
+        return
+    right = far[i0 + 1:i0 + 1 + n]
+    neg_inf = -np.inf
+    for i in range(n):
+        s0 = left[i]
+        s1 = right[i]
+        # A ray line that has just entered the map has no occluder yet (-inf): use the
+        # other one rather than interpolate with infinity.
+        sf = s0 + (1.0 - fr) * (s1 - s0)
+        sf = s1 if s0 == neg_inf else (s0 if s1 == neg_inf else sf)
+        out[i] = (walked[i] != 0) | (float(own[i]) < sf - drop)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _advance_ray_lines(sl, here, j_first, j_last, base, fr, rise):
+    """Move the ray lines ``j_first … j_last`` one grid line away from the light: take in
+    this line's terrain crossing (ray line ``jj``'s left sample is ``jj + base``, ``fr`` past
+    it), then let the ray climb ``rise``. Slices from index 0 as in :func:`_walk_step`."""
+    n = j_last - j_first + 1
+    if n <= 0:
+        return
+    lines = sl[j_first:j_last + 1]
+    left = here[j_first + base:j_first + base + n]
+    if fr == 0.0:
+        for i in range(n):
+            tv = float(left[i])
+            cur = lines[i]
+            lines[i] = (tv if tv > cur else cur) - rise
+        return
+    right = here[j_first + base + 1:j_first + base + 1 + n]
+    for i in range(n):
+        v0 = float(left[i])
+        tv = v0 + fr * (float(right[i]) - v0)
+        cur = lines[i]
+        lines[i] = (tv if tv > cur else cur) - rise
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -393,20 +461,7 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_
         here = h[a]
         for b in range(b_first, min(f_lo - 1, b_last) + 1):
             out[a, b] = near_hit[b] != 0
-        if fr == 0.0:
-            for b in range(f_lo, f_hi + 1):
-                far_hit = float(here[b]) < far[b - fl - j_lo - lo] - drop
-                out[a, b] = (near_hit[b] != 0) | far_hit
-        else:
-            for b in range(f_lo, f_hi + 1):
-                i0 = b - fl - 1 - j_lo - lo
-                s0 = far[i0]
-                s1 = far[i0 + 1]
-                # A ray line that has just entered the map has no occluder yet (-inf): use
-                # the other one rather than interpolate with infinity.
-                sf = s0 + (1.0 - fr) * (s1 - s0)
-                sf = s1 if s0 == neg_inf else (s0 if s1 == neg_inf else sf)
-                out[a, b] = (near_hit[b] != 0) | (float(here[b]) < sf - drop)
+        _far_part(out[a], here, near_hit, far, f_lo, f_hi, f_lo - shift - lo, fr, drop)
         for b in range(max(f_hi + 1, f_lo, b_first), b_last + 1):
             out[a, b] = near_hit[b] != 0
         # Remember this line's ray-line state for the samples `near` lines downstream. (A
@@ -422,17 +477,7 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_
         j_last = min(width - 1, n1 - 1 - base - (0 if fr == 0.0 else 1))
         sl[:max(0, min(j_first, width))] = neg_inf
         sl[max(0, j_last + 1):] = neg_inf
-        if fr == 0.0:
-            for jj in range(j_first, j_last + 1):
-                tv = float(here[jj + base])
-                cur = sl[jj]
-                sl[jj] = (tv if tv > cur else cur) - rise
-        else:
-            for jj in range(j_first, j_last + 1):
-                v0 = float(here[jj + base])
-                tv = v0 + fr * (float(here[jj + base + 1]) - v0)
-                cur = sl[jj]
-                sl[jj] = (tv if tv > cur else cur) - rise
+        _advance_ray_lines(sl, here, j_first, j_last, base, fr, rise)
         a -= da
 
 
