@@ -109,9 +109,8 @@ def test_log_axes_label_plain_numbers_without_overlapping_minor_labels():
     ax.set_xlim(3.0, 45.0)
     _plain_log_ticks(ax.xaxis)
     fig.canvas.draw()
-    major = [t.get_text() for t in ax.xaxis.get_ticklabels() if t.get_visible()]
+    major = {t.get_text() for t in ax.xaxis.get_ticklabels()}
     minor = [t.get_text() for t in ax.xaxis.get_ticklabels(minor=True) if t.get_text()]
     plt.close(fig)
-    shown = [m for m in major if m]
-    assert {"5", "10", "20"} <= set(shown)
+    assert {"5", "10", "20"} <= major
     assert minor == []
