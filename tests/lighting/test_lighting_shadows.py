@@ -277,6 +277,44 @@ def test_sweep_in_blocks_equals_one_sweep(terrain, shape, az):
         np.testing.assert_array_equal(shadow_mask(hm, az, el), results[0])
 
 
+@pytest.mark.parametrize("az", [0.0, 75.0, 105.0, 280.0])
+def test_sweep_writes_a_transposed_mask_as_the_transposed_sweep(terrain, az):
+    """Light near the x axis: the sweep of the transposed heights writes the mask in the
+    map's own orientation (sample (a, b) to out[b, a]), the transpose of its own mask."""
+    from terrascape.lighting import shadows as sh
+
+    hm = Heightmap(terrain(90, 4, cols=71))
+    transpose, da, db, rise = sh._sweep_geometry(hm, sh.sun_above_horizon(az, 9.0))
+    h = np.ascontiguousarray(hm.heights.T if transpose else hm.heights)
+    own = np.zeros(h.shape, dtype=np.bool_)
+    sh._line_sweep_kernel(h, da, db, rise, sh._NEAR, own, 3)
+    turned = np.zeros(h.shape[::-1], dtype=np.bool_)
+    sh._line_sweep_kernel(h, da, db, rise, sh._NEAR, turned, 3, 0, 0, True)
+    np.testing.assert_array_equal(turned, own.T)
+    assert 0.02 < own.mean() < 0.9
+    expected = own.T if transpose else own
+    np.testing.assert_array_equal(shadow_mask(hm, az, 9.0), expected)
+
+
+def test_block_bounds_share_the_work():
+    """Blocks of the ray lines: in order, covering every line once, of about equal work."""
+    from terrascape.lighting import shadows as sh
+
+    n0, n1 = 400, 300
+    for e in (0.0, 0.4, -1.0, 1.0):
+        first = -(n0 - 1) * max(e, 0.0) - 2.0
+        nj = int(n1 + (n0 - 1) * abs(e)) + 5
+        bounds = sh._block_bounds(n0, n1, e, first, nj, 4)
+        assert bounds[0] == 0 and bounds[-1] == nj
+        assert np.all(np.diff(bounds) >= 0)
+        # crossings per line, counted sample by sample
+        a = np.arange(n0)
+        work = np.array([np.count_nonzero((first + i + a * e >= 0) & (first + i + a * e <= n1 - 1))
+                         for i in range(nj)]) + 0.125 * n0
+        shares = [work[bounds[k]:bounds[k + 1]].sum() / work.sum() for k in range(4)]
+        assert max(shares) < 0.25 + 0.02, (e, shares)
+
+
 def test_sweep_same_map_on_one_thread_and_two(terrain):
     import numba
 

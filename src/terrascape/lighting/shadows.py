@@ -401,8 +401,10 @@ def _advance_ray_lines(sl, here, j_first, j_last, base, fr, rise):
 
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_org=0,
-                 b_org=0):
-    """Sweep the ray lines ``lo … hi`` (indices from ``j_lo``) and shade their samples.
+                 b_org=0, out_transposed=False):
+    """Sweep the ray lines ``lo … hi`` (indices from ``j_lo``) and shade their samples into
+    ``out`` (of ``h``'s shape, or with ``out_transposed`` of its transpose: sample
+    ``(a, b)`` goes to ``out[b, a]``).
 
     Ray line ``j`` crosses grid line ``a`` at ``p_j(a) = j + a·e`` with ``e = da·db``. Grid
     lines are processed from the side facing the light; ``sl[j]`` holds the shadow height of
@@ -433,9 +435,13 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_
     by_runs = np.ones(near + 1, dtype=np.uint8)
     all_runs = np.ones(near + 1, dtype=np.uint8)
     skipped = np.zeros(near + 1, dtype=np.int64)
+    # a transposed output is written a grid line at a time from this row (a column of
+    # ``out``): cheaper than transposing the whole mask after the sweep
+    scratch = np.zeros(n1 if out_transposed else 0, dtype=np.bool_)
     a = n0 - 1 if da > 0 else 0
     for t in range(n0):
         fl, fr = _line_offset(a, a_org, b_org, e)
+        row = scratch if out_transposed else out[a]
         far = ring[t % near]  # shadow heights of the ray lines at grid line a + near·da
         have_far = t >= near
         # Samples of this block: i0 = b - fl - 1 - j_lo (or b - fl - j_lo on a grid line
@@ -460,10 +466,13 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_
         drop = near * rise
         here = h[a]
         for b in range(b_first, min(f_lo - 1, b_last) + 1):
-            out[a, b] = near_hit[b] != 0
-        _far_part(out[a], here, near_hit, far, f_lo, f_hi, f_lo - shift - lo, fr, drop)
+            row[b] = near_hit[b] != 0
+        _far_part(row, here, near_hit, far, f_lo, f_hi, f_lo - shift - lo, fr, drop)
         for b in range(max(f_hi + 1, f_lo, b_first), b_last + 1):
-            out[a, b] = near_hit[b] != 0
+            row[b] = near_hit[b] != 0
+        if out_transposed:
+            for b in range(b_first, b_last + 1):
+                out[b, a] = row[b]
         # Remember this line's ray-line state for the samples `near` lines downstream. (A
         # loop, not `far[:] = sl`: numba's slice copy brings its shape-mismatch error message,
         # whose string formatting took longer to compile than the whole sweep.)
@@ -488,12 +497,16 @@ def _transpose_tiles(src, dst):
     tile = 64
     for ti in prange((n1 + tile - 1) // tile):
         j0 = ti * tile
-        j1 = min(n1, j0 + tile)
+        w = min(n1, j0 + tile) - j0
         for i0 in range(0, n0, tile):
-            i1 = min(n0, i0 + tile)
-            for j in range(j0, j1):
-                for i in range(i0, i1):
-                    dst[j, i] = src[i, j]
+            h = min(n0, i0 + tile) - i0
+            # tiles as views indexed from 0: numba then drops its negative-index test from
+            # every load and store (half the time)
+            s = src[i0:i0 + h, j0:j0 + w]
+            d = dst[j0:j0 + w, i0:i0 + h]
+            for j in range(w):
+                for i in range(h):
+                    d[j, i] = s[i, j]
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:
@@ -518,8 +531,10 @@ def _transposed(a: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0):
-    """The shadow-height sweep over ``blocks`` independent blocks of ray lines, in parallel.
+def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0,
+                       out_transposed=False):
+    """The shadow-height sweep over ``blocks`` independent blocks of ray lines, in parallel,
+    into ``out`` (``h``'s shape, or with ``out_transposed`` its transpose's).
 
     Each sample is written by exactly one block and decided from the same values whatever
     the number of blocks or threads: the result is identical to one serial sweep.
@@ -529,7 +544,7 @@ def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0):
     e = da * db
     fl0, fr0 = _line_offset(np.int64(0), a_org, b_org, e)  # not a literal: one compile
     j_lo, nj = _ray_line_span(n0, n1, e, fl0 + fr0)
-    size = (nj + blocks - 1) // blocks
+    bounds = _block_bounds(n0, n1, e, j_lo + fl0 + fr0, nj, blocks)
     segments = (n1 + _SEGMENT - 1) // _SEGMENT
     smax = np.empty((n0, segments), dtype=np.float64)
     smin = np.empty((n0, segments), dtype=np.float64)
@@ -539,23 +554,62 @@ def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0):
             _segment_extrema(h[a], smax[a], smin[a])
     slack = _SKIP_MARGIN * (_largest_magnitude(smax, smin) + 1.0)
     for k in prange(blocks):
-        lo = k * size
-        hi = min(nj - 1, lo + size - 1)
+        lo = bounds[k]
+        hi = bounds[k + 1] - 1
         if lo <= hi:
             _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_org,
-                         b_org)
+                         b_org, out_transposed)
+
+
+@njit(cache=CACHE)
+def _block_bounds(n0, n1, e, first, nj, blocks):
+    """Where ``blocks`` blocks of the ``nj`` ray lines start (and the last ends): shares of
+    equal work, ``bounds[k] … bounds[k + 1] - 1``.
+
+    Ray line ``i`` crosses grid line ``a`` at ``first + i + a·e``; its work is the samples
+    it crosses on the grid, plus a share for the grid lines every block steps through. For
+    light off the axes the lines near the map's corners cross few samples, so blocks of
+    equal line counts would differ in work.
+    """
+    work = np.empty(nj + 1, dtype=np.float64)
+    work[0] = 0.0
+    for i in range(nj):
+        c = first + i
+        if e == 0.0:
+            crossings = n0 if 0.0 <= c <= n1 - 1 else 0
+        else:
+            lo = (0.0 - c) / e
+            hi = (n1 - 1 - c) / e
+            if lo > hi:
+                lo, hi = hi, lo
+            lo = max(lo, 0.0)
+            hi = min(hi, n0 - 1.0)
+            crossings = max(0, math.floor(hi) - math.ceil(lo) + 1)
+        work[i + 1] = work[i] + crossings + 0.125 * n0
+    bounds = np.empty(blocks + 1, dtype=np.int64)
+    bounds[0] = 0
+    bounds[blocks] = nj
+    i = 0
+    for k in range(1, blocks):
+        target = work[nj] * k / blocks
+        while i < nj and work[i] < target:
+            i += 1
+        bounds[k] = i
+    return bounds
 
 
 def _sweep_blocks(n_cols: int) -> int:
-    """How many blocks of ray lines the sweep splits into.
+    """How many blocks of ray lines the sweep splits into: one on one thread, two of equal
+    work (:func:`_block_bounds`) per thread otherwise, handed out one at a time (chunk size
+    1) so a thread that finishes early — the other core busy with other work — takes
+    another.
 
-    Several per thread, handed out one at a time (chunk size 1), so a thread that finishes
-    early takes another: for light off the axes the ray lines near the map's corners cross
-    few samples, and equal static shares of blocks left one thread idle. Each block carries
-    one extra ray line and a ring buffer of ``_NEAR`` lines, so blocks stay at least 64
-    lines wide.
+    Few: every block steps through all grid lines with its own near walk and ring buffer,
+    a cost that grows with the number of blocks (``scripts/compare_shadow_sweep.py``
+    measures it against an earlier revision). Blocks stay at least 64 lines wide.
     """
-    return max(1, min(8 * numba.get_num_threads(), n_cols // 64))
+    threads = numba.get_num_threads()
+    return max(1, min(1 if threads == 1 else 2 * threads, n_cols // 64))
 
 
 def _fast_mask_for_light(hm: Heightmap, light: np.ndarray,
@@ -570,11 +624,11 @@ def _fast_mask_for_light(hm: Heightmap, light: np.ndarray,
     # them): for light closer to the x axis it sweeps a transposed copy, which costs less
     # than reading a column-major view one cache line per sample.
     h = _read_only(_transposed(hm.heights) if transpose else hm.heights)
-    out = np.zeros(h.shape, dtype=np.bool_)
+    out = np.zeros(hm.shape, dtype=np.bool_)
     with numba.parallel_chunksize(1):  # blocks differ in work: hand them out one by one
         _line_sweep_kernel(h, da, db, rise, _NEAR, out, _sweep_blocks(h.shape[1]), a_org,
-                           b_org)
-    return _transposed(out) if transpose else out
+                           b_org, transpose)
+    return out
 
 
 def shadow_mask(heightmap: Any, sun_azimuth: float, sun_elevation: float, *,
