@@ -249,12 +249,12 @@ def _segment_extrema(row, smax, smin):
 
 @njit(cache=CACHE)
 def _largest_magnitude(smax, smin):
-    """max |v| over both arrays, in a plain loop: an array expression inside the parallel
-    sweep kernel would become a parallel loop handed out one element at a time."""
+    """max |v| over one grid line's run extrema, in a plain loop: an array expression
+    inside the parallel sweep kernel would become a parallel loop handed out one element at
+    a time."""
     top = 0.0
-    for a in range(smax.shape[0]):
-        for m in range(smax.shape[1]):
-            top = max(top, abs(smax[a, m]), abs(smin[a, m]))
+    for m in range(smax.shape[0]):
+        top = max(top, abs(float(smax[m])), abs(float(smin[m])))
     return top
 
 
@@ -336,7 +336,7 @@ def _near_part(h, a, da, db, rise, near, b_first, b_last, hit, smax, smin, slack
             r1 = min(hi, m * _SEGMENT + _SEGMENT - 1)
             # the run's crossings read samples r0 + s … r1 + s + 1, which lie in run
             # (r0 + s) // _SEGMENT or the next: smax holds the higher of the two
-            if top[(r0 + s) // _SEGMENT] < low[m] + above - slack:
+            if float(top[(r0 + s) // _SEGMENT]) < float(low[m]) + above - slack:
                 count += 1
             else:
                 _walk_step(hit, here, there, r0, r1, s, f, above)
@@ -546,13 +546,20 @@ def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0,
     j_lo, nj = _ray_line_span(n0, n1, e, fl0 + fr0)
     bounds = _block_bounds(n0, n1, e, j_lo + fl0 + fr0, nj, blocks)
     segments = (n1 + _SEGMENT - 1) // _SEGMENT
-    smax = np.empty((n0, segments), dtype=np.float64)
-    smin = np.empty((n0, segments), dtype=np.float64)
-    # in bands of lines: the caller hands prange's iterations out one at a time
-    for band in prange((n0 + 63) // 64):
+    # the heights' own type: extrema of float32 heights are exact in float32, and half the
+    # bytes of float64 (this pass streams the whole map from memory: it does not speed up
+    # with threads)
+    smax = np.empty((n0, segments), dtype=h.dtype)
+    smin = np.empty((n0, segments), dtype=h.dtype)
+    # in bands of lines: the caller hands prange's iterations out one at a time; each band
+    # also keeps its largest magnitude (no second pass over the extrema)
+    bands = (n0 + 63) // 64
+    magnitude = np.zeros(bands, dtype=np.float64)
+    for band in prange(bands):
         for a in range(band * 64, min(n0, band * 64 + 64)):
             _segment_extrema(h[a], smax[a], smin[a])
-    slack = _SKIP_MARGIN * (_largest_magnitude(smax, smin) + 1.0)
+            magnitude[band] = max(magnitude[band], _largest_magnitude(smax[a], smin[a]))
+    slack = _SKIP_MARGIN * (magnitude.max() + 1.0)
     for k in prange(blocks):
         lo = bounds[k]
         hi = bounds[k + 1] - 1
