@@ -396,6 +396,29 @@ def test_deferred_shading_draws_what_forward_shading_draws(gl_ctx, tech):
     assert (diff == 0).mean() > 0.8
 
 
+@pytest.mark.parametrize("lighting", ["daylight", "vertex"])
+def test_deferred_frames_without_sky_keep_the_background_of_forward_frames(gl_ctx, lighting):
+    """No sky drawn: the pixels without terrain keep the frame's clear (horizon) colour in a
+    deferred frame as in a forward one; the deferred pass's depth copy must not write colour
+    (it once painted them black)."""
+    r = OffscreenRenderer(gl_ctx, _far_terrain(side=65), size=(160, 90), deferred_shading=True,
+                          small_triangle_cull=True)
+    try:
+        cam = Camera.look_at((-10, 30, -10), (32, 5, 32), fov_y=50, aspect=16 / 9)
+        params = {"sky": False, "lighting": lighting}
+        deferred = r.render(cam, "material", params)
+        assert r.terrain.last_stats["deferred"] == 1
+        depth = r.last_depth()
+        forward = r.render(cam, "plain", params)
+        assert "deferred" not in r.terrain.last_stats
+    finally:
+        r.release()
+    background = depth >= 1.0
+    assert 0.1 < background.mean() < 0.9  # terrain and background both in the frame
+    assert deferred[..., :3][background].max(-1).min() > 60  # never black
+    np.testing.assert_array_equal(deferred[background], forward[background])
+
+
 def test_deferred_shading_follows_the_technique_and_the_switch(gl_ctx):
     r = OffscreenRenderer(gl_ctx, _far_terrain(side=65), size=(160, 90), deferred_shading=True,
                           small_triangle_cull=True)

@@ -120,10 +120,12 @@ class DeferredShading:
         copy["u_gbuffer_depth"].value = GBUFFER_UNIT
         ctx.depth_func = "1"
         fbo.color_mask = (False, False, False, False)
+        fbo.use()  # moderngl applies a colour mask when the framebuffer is bound
         try:
             self.fullscreen(copy)
         finally:
             fbo.color_mask = (True, True, True, True)
+            fbo.use()
         # --- PASS 3: the technique's shading, once per terrain pixel: drawn at depth 1 with
         # GL_GREATER and no depth writes, so sky pixels fail the early depth test
         units = {"u_gbuffer_world": world, "u_gbuffer_normal": normal,
