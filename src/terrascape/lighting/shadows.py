@@ -258,7 +258,7 @@ def _largest_magnitude(smax, smin):
     return top
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
 def _walk_step(hit, here, there, r0, r1, s, f, above):
     """One step of the near walk for samples ``r0 … r1`` of a grid line (heights ``here``):
     their crossing ``s + f`` samples on along grid line ``there`` meets terrain above
@@ -284,7 +284,7 @@ def _walk_step(hit, here, there, r0, r1, s, f, above):
             marks[i] |= v0 + f * (float(right[i]) - v0) > float(own[i]) + above
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
 def _near_part(h, a, da, db, rise, near, b_first, b_last, hit, smax, smin, slack, by_runs,
                skipped):
     """The first ``near`` steps of the rays of samples ``b_first … b_last`` on grid line
@@ -343,7 +343,7 @@ def _near_part(h, a, da, db, rise, near, b_first, b_last, hit, smax, smin, slack
         skipped[k] = count
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
 def _far_part(marks, here, near_hit, far, b0, b1, i0, fr, drop):
     """Decide samples ``b0 … b1`` of a grid line (heights ``here``, row ``marks`` of the
     output) from their near walk and the shadow heights ``far`` of the ray lines around
@@ -375,7 +375,7 @@ def _far_part(marks, here, near_hit, far, b0, b1, i0, fr, drop):
         out[i] = (walked[i] != 0) | (float(own[i]) < sf - drop)
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
 def _advance_ray_lines(sl, here, j_first, j_last, base, fr, rise):
     """Move the ray lines ``j_first … j_last`` one grid line away from the light: take in
     this line's terrain crossing (ray line ``jj``'s left sample is ``jj + base``, ``fr`` past
@@ -423,8 +423,7 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_
     the block also carries line ``hi + 1``, its right neighbour's first line, so every
     sample is decided from the same values as in one sweep over all lines.
     """
-    n0, n1 = h.shape
-    e = da * db
+    n1 = h.shape[1]
     neg_inf = -np.inf
     width = hi - lo + 2  # lines lo … hi + 1
     sl = np.full(width, neg_inf, dtype=np.float64)
@@ -438,6 +437,24 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_
     # a transposed output is written a grid line at a time from this row (a column of
     # ``out``): cheaper than transposing the whole mask after the sweep
     scratch = np.zeros(n1 if out_transposed else 0, dtype=np.bool_)
+    _sweep_lines(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_org, b_org,
+                 out_transposed, sl, ring, near_hit, by_runs, all_runs, skipped, scratch)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
+def _sweep_lines(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_org, b_org,
+                 out_transposed, sl, ring, near_hit, by_runs, all_runs, skipped, scratch):
+    """The grid-line loop of :func:`_sweep_block` over its buffers (``sl``, ``ring``,
+    ``near_hit``, the near walk's run-test state, the transposed output's row).
+
+    Compiled without numba's reference counting: the loop makes dozens of row views and
+    slices a line, and counting each one (an atomic update of the whole array's count,
+    shared by both threads' blocks) cost time on every line.
+    """
+    n0, n1 = h.shape
+    e = da * db
+    neg_inf = -np.inf
+    width = hi - lo + 2  # lines lo … hi + 1
     a = n0 - 1 if da > 0 else 0
     for t in range(n0):
         fl, fr = _line_offset(a, a_org, b_org, e)
