@@ -231,8 +231,10 @@ def _line_offset(a, a_org, b_org, e):
 def _segment_extrema(row, smax, smin):
     """Lowest height of every run of ``_SEGMENT`` samples of one grid line,
     ``smin[m]`` over ``row[m·_SEGMENT … (m + 1)·_SEGMENT - 1]``, and the highest of that run
-    and the next, ``smax[m]``."""
+    and the next, ``smax[m]``; returns the line's largest |height| (the skip's rounding
+    slack)."""
     n1 = row.shape[0]
+    top = 0.0
     for m in range(smax.shape[0]):
         b0 = m * _SEGMENT
         hi = float(row[b0])
@@ -243,18 +245,9 @@ def _segment_extrema(row, smax, smin):
             lo = v if v < lo else lo
         smax[m] = hi
         smin[m] = lo
+        top = max(top, abs(hi), abs(lo))
     for m in range(smax.shape[0] - 1):
         smax[m] = max(smax[m], smax[m + 1])
-
-
-@njit(cache=CACHE)
-def _largest_magnitude(smax, smin):
-    """max |v| over one grid line's run extrema, in a plain loop: an array expression
-    inside the parallel sweep kernel would become a parallel loop handed out one element at
-    a time."""
-    top = 0.0
-    for m in range(smax.shape[0]):
-        top = max(top, abs(float(smax[m])), abs(float(smin[m])))
     return top
 
 
@@ -518,7 +511,7 @@ def _transpose_tiles(src, dst):
         for i0 in range(0, n0, tile):
             h = min(n0, i0 + tile) - i0
             # tiles as views indexed from 0: numba then drops its negative-index test from
-            # every load and store (half the time)
+            # every load and store
             s = src[i0:i0 + h, j0:j0 + w]
             d = dst[j0:j0 + w, i0:i0 + h]
             for j in range(w):
@@ -574,8 +567,7 @@ def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0,
     magnitude = np.zeros(bands, dtype=np.float64)
     for band in prange(bands):
         for a in range(band * 64, min(n0, band * 64 + 64)):
-            _segment_extrema(h[a], smax[a], smin[a])
-            magnitude[band] = max(magnitude[band], _largest_magnitude(smax[a], smin[a]))
+            magnitude[band] = max(magnitude[band], _segment_extrema(h[a], smax[a], smin[a]))
     slack = _SKIP_MARGIN * (magnitude.max() + 1.0)
     for k in prange(blocks):
         lo = bounds[k]
