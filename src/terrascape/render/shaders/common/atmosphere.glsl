@@ -66,14 +66,26 @@ vec3 aces_filmic(vec3 x) {
     return clamp(x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
 }
 
+// The sRGB transfer curves as polynomials: a software rasteriser evaluates pow() as a log2
+// and an exp2 series per channel, a tenth of a plain terrain frame on llvmpipe for the two
+// curves; these take a few multiply-adds (and two square roots). Minimax fits to the
+// standard's curves (IEC 61966-2-1), refit with scripts/fit_srgb_curves.py:
+// 1.055·c^(1/2.4) − 0.055 on [0.0031308, 1] as a quartic in c^(1/4), within 0.017/255;
+// ((c + 0.055)/1.055)^2.4 on [0.04045, 1] as a quintic in c, within 0.027/255 once encoded
+// back — below the 8-bit step, so frames are the same to one level.
 vec3 linear_to_srgb(vec3 c) {
     c = clamp(c, 0.0, 1.0);
-    return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
+    vec3 t = sqrt(sqrt(c));
+    vec3 curve = -0.0661686867 + t * (0.2095252061 + t * (1.0831764558
+                 + t * (-0.2877598526 + t * 0.0611607983)));
+    return mix(12.92 * c, curve, step(0.0031308, c));
 }
 
 vec3 srgb_to_linear(vec3 c) {
     c = clamp(c, 0.0, 1.0);
-    return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), step(0.04045, c));
+    vec3 curve = 0.0009679013 + c * (0.0309949028 + c * (0.5365178597 + c * (0.6060151960
+                 + c * (-0.2216193675 + c * 0.0468864463))));
+    return mix(c / 12.92, curve, step(0.04045, c));
 }
 
 // Linear radiance → display value (exposure, filmic tone map, sRGB).
