@@ -328,3 +328,38 @@ def test_loader_process_is_asked_for_the_front_of_the_queue(world):
         assert loader._last == keys[8:8 + LOADER_QUEUE]
     finally:
         loader.close()
+
+
+@pytest.mark.gl
+def test_tiles_submitted_in_parts_draw_the_same_frame(world, gl_ctx, monkeypatch):
+    """The frame's tiles handed to the rasteriser in parts (a flush after each but the
+    last): the same pixels as one submission, and one flush between parts."""
+    import terrascape.render.tiled_terrain as tiled
+    from terrascape.render.context import flush_commands
+    from terrascape.render.tiled_terrain import stream_world
+    from terrascape.viewer.session import ViewerSession
+    from terrascape.world.window import overview_window
+
+    assert flush_commands()  # PyOpenGL (the render extra) is there
+    flushes = []
+    monkeypatch.setattr(tiled, "flush_commands", lambda: flushes.append(1) or flush_commands())
+    proxy = overview_window(world, budget=1 << 30, max_side=65).heightmap
+    geo = stream_world(gl_ctx, world, budget_bytes=64 << 20, tolerance=0.5, background=False)
+    s = ViewerSession(gl_ctx, proxy, size=SIZE, hud=False, technique="plain", geometry=geo,
+                      moving_sun_shadows=False, warn=lambda m: None)
+    fbo = gl_ctx.simple_framebuffer(SIZE)
+    frames = {}
+    try:
+        s.camera = _last_flight_camera(proxy)
+        for parts in (1, 3):
+            geo.submit_parts = parts
+            flushes.clear()
+            s.render(fbo, 0.0)
+            frames[parts] = _frame(fbo)
+            assert len(flushes) == parts - 1, (parts, len(geo.drawn))
+        assert len(geo.drawn) >= 3
+    finally:
+        fbo.release()
+        s.release()
+    assert np.array_equal(frames[1], frames[3])
+    assert frames[1][SIZE[1] // 2:].std() > 5.0  # the terrain is in the frame

@@ -149,6 +149,34 @@ def headless_context(*, require=(3, 3), backend: str = "egl") -> Iterator[Any]:
             lib.eglMakeCurrent(*saved)
 
 
+@functools.lru_cache(maxsize=1)
+def _gl_flush():
+    try:
+        from OpenGL import platform
+    except ImportError:  # PyOpenGL comes with the "render" extra
+        return None
+    # the GL library's own entry point: PyOpenGL's wrappers (raw ones too) check
+    # glGetError afterwards and would blame an earlier call's pending error on the flush
+    return platform.PLATFORM.GL.glFlush
+
+
+def flush_commands() -> bool:
+    """Hand the GL commands issued so far on the current context to the driver without
+    waiting for them (``glFlush``, which moderngl does not expose); False when PyOpenGL is
+    missing (nothing is flushed early, the frame is the same).
+
+    On llvmpipe a draw call shades its vertices and bins its triangles in the calling
+    thread, and the rasteriser threads start on the binned triangles only at a flush: a
+    flush part-way through a frame lets them rasterise the first part while this thread
+    shades the vertices of the rest.
+    """
+    fn = _gl_flush()
+    if fn is None:
+        return False
+    fn()
+    return True
+
+
 _DEPTH: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 

@@ -24,6 +24,7 @@ import numpy as np
 from terrascape.camera import Camera
 from terrascape.errors import MemoryLimitError
 from terrascape.memory import format_bytes
+from terrascape.render.context import flush_commands
 from terrascape.world.chunked_lod import (
     EDGE_STEPS,
     ProcessTileLoader,
@@ -50,6 +51,8 @@ VIEW_TOLERANCE = 3.0
 RENDER_TOLERANCE = 0.5
 #: Vertex bytes a streamed frame uploads at most (at least one tile): about 40 full 32² tiles.
 UPLOAD_BYTES = 2 << 20
+#: Parts a frame's tiles are handed to the rasteriser in (TiledGeometry.submit_parts).
+SUBMIT_PARTS = 2
 
 
 @dataclass
@@ -122,6 +125,10 @@ class TiledGeometry:
         self.every_skirt = False
         #: Draw the tiles nearest first (False: in the quadtree's order).
         self.sort_tiles = True
+        #: The frame's tiles go to the rasteriser in this many parts, each flushed when
+        #: drawn (:func:`~terrascape.render.context.flush_commands`): the nearest tiles
+        #: are rasterised while the vertices of the farther ones are shaded (1: one part).
+        self.submit_parts = SUBMIT_PARTS
         self._build = build
         self.cache = TileCache(int(budget_bytes), size_of=lambda t: t.nbytes,
                                release=lambda t: t.release())
@@ -267,7 +274,10 @@ class TiledGeometry:
         planes = camera.frustum_planes()
         neighbours = frozenset(self.drawn)
         tris = drawn = 0
-        for key in self.drawn:  # front to back
+        part = -(-len(self.drawn) // max(1, self.submit_parts))
+        for i, key in enumerate(self.drawn):  # front to back
+            if i and i % part == 0:
+                flush_commands()
             tile = self.cache.get(key)
             if tile is None or not _in_frustum(planes, tile.box):
                 continue
