@@ -197,7 +197,9 @@ def run(quick: bool = False) -> list[BenchTable]:
             round(st["tile_peak"] / 2**20, 1), round(_peak_gb(st), 3)])
     plain = results["plain"]
     load_t = [x for x, busy in zip(plain["times"], plain["loading"], strict=True) if busy]
-    table.check_target("median frame rate (plain)", table.value("plain", "median fps"),
+    # checked unrounded: 14.95 frames/s shows as 15 in the table but misses 15
+    table.check_target("median frame rate (plain)",
+                       round(1000.0 / statistics.median(plain["times"]), 3),
                        at_least=FPS_TARGET, unit=" fps")
     table.check_target("worst frame while tiles load (plain)",
                        max(load_t) if load_t else None, at_most=WORST_MS_TARGET, unit=" ms")
