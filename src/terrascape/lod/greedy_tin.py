@@ -16,8 +16,8 @@ around it later. Each interior vertex, newest first, is taken out of its star, t
 filled again by clipping ears (an ear whose circumcircle holds none of the hole's other
 corners when there is one), and the removal is kept when every sample of the new triangles
 is within ``max_error`` (the same exact rasterisation); a vertex is tried again when a
-neighbour went. This takes about a fifth of the triangles away (``terrascape bench
-peers``), and the mesh is no longer exactly Delaunay.
+neighbour went. This takes a tenth to a fifth of the triangles away (``terrascape bench
+peers``, 2026-12-04), and the mesh is no longer exactly Delaunay.
 
 Compared with the right-triangulated network of :mod:`terrascape.lod.rtin`, vertices go
 anywhere on the grid, not only at bintree midpoints, so the same error takes fewer
