@@ -658,12 +658,12 @@ def _prev_edge(e):
     return e - e % 3 + (e + 2) % 3
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _fill_hole(coords, ring, d, pprev, pnext, out):
-    """Triangulate the polygon ``ring[:d]`` (the link of a removed vertex, in the mesh's
-    winding) by clipping ears, taking an ear whose circumcircle holds no other polygon
-    vertex when there is one; ``out[k]`` = ring positions of triangle k. False when no ear
-    is left (a degenerate polygon)."""
+@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
+def _fill_hole(rx, ry, d, pprev, pnext, out):
+    """Triangulate the polygon of corners ``(rx[i], ry[i])``, ``i < d`` (the link of a
+    removed vertex, in the mesh's winding) by clipping ears, taking an ear whose circumcircle
+    holds no other polygon corner when there is one; ``out[k]`` = corner numbers of triangle
+    k. False when no ear is left (a degenerate polygon)."""
     for i in range(d):
         pprev[i] = (i - 1 + d) % d
         pnext[i] = (i + 1) % d
@@ -677,15 +677,15 @@ def _fill_hole(coords, ring, d, pprev, pnext, out):
         for _ in range(alive):
             p = pprev[i]
             n = pnext[i]
-            ax, ay = coords[ring[p], 0], coords[ring[p], 1]
-            bx, by = coords[ring[i], 0], coords[ring[i], 1]
-            cx, cy = coords[ring[n], 0], coords[ring[n], 1]
+            ax, ay = rx[p], ry[p]
+            bx, by = rx[i], ry[i]
+            cx, cy = rx[n], ry[n]
             if _orient(ax, ay, bx, by, cx, cy) > 0:
                 valid = True
                 empty = True
                 j = pnext[n]
                 while j != p:
-                    qx, qy = coords[ring[j], 0], coords[ring[j], 1]
+                    qx, qy = rx[j], ry[j]
                     if (_orient(bx, by, cx, cy, qx, qy) >= 0
                             and _orient(cx, cy, ax, ay, qx, qy) >= 0
                             and _orient(ax, ay, bx, by, qx, qy) >= 0):
@@ -716,8 +716,7 @@ def _fill_hole(coords, ring, d, pprev, pnext, out):
     a = start
     b = pnext[a]
     c = pnext[b]
-    if _orient(coords[ring[a], 0], coords[ring[a], 1], coords[ring[b], 0], coords[ring[b], 1],
-               coords[ring[c], 0], coords[ring[c], 1]) <= 0:
+    if _orient(rx[a], ry[a], rx[b], ry[b], rx[c], ry[c]) <= 0:
         return False
     out[k, 0] = a
     out[k, 1] = b
@@ -735,12 +734,16 @@ def _remove_vertices(h, tplane, tres, bound, order, coords, tris, half, n_points
     The greedy insertion adds a vertex where the error was largest at that moment; vertices
     inserted later near it can make it unnecessary. Removing it takes two triangles away
     and changes no other sample's error."""
-    rows, cols = h.shape
     vedge = np.full(n_points, -1, np.int64)  # one halfedge leaving each vertex
     for e in range(n_edges):
         if tris[e] >= 0:
             vedge[tris[e]] = e
+    # a vertex is tried again only when a neighbour went (its star changed)
+    dirty = np.ones(n_points, np.bool_)
     ring = np.empty(_MAX_DEGREE, np.int64)
+    rx = np.empty(_MAX_DEGREE, np.int64)  # the link's coordinates and heights
+    ry = np.empty(_MAX_DEGREE, np.int64)
+    rz = np.empty(_MAX_DEGREE, np.float64)
     ring_e = np.empty(_MAX_DEGREE, np.int64)
     outer = np.empty(_MAX_DEGREE, np.int64)
     pprev = np.empty(_MAX_DEGREE, np.int64)
@@ -749,8 +752,7 @@ def _remove_vertices(h, tplane, tres, bound, order, coords, tris, half, n_points
     stris = np.empty(3 * _MAX_DEGREE, np.int32)
     scand = np.empty((_MAX_DEGREE, 2), np.int32)
     scerr = np.empty(_MAX_DEGREE, np.float64)
-    # a vertex is tried again only when a neighbour went (its star changed)
-    dirty = np.ones(n_points, np.bool_)
+    rows, cols = h.shape
     removed = 0
     for _ in range(passes):
         before = removed
@@ -769,7 +771,11 @@ def _remove_vertices(h, tplane, tres, bound, order, coords, tris, half, n_points
             closed = False
             while d < _MAX_DEGREE:
                 ring_e[d] = e
-                ring[d] = tris[_next_edge(e)]
+                r = tris[_next_edge(e)]
+                ring[d] = r
+                rx[d] = coords[r, 0]
+                ry[d] = coords[r, 1]
+                rz[d] = h[ry[d], rx[d]]
                 outer[d] = half[_next_edge(e)]
                 d += 1
                 e = half[_prev_edge(e)]
@@ -785,29 +791,27 @@ def _remove_vertices(h, tplane, tres, bound, order, coords, tris, half, n_points
             lo = np.inf
             hi = -np.inf
             for k in range(d):
-                z = float(h[coords[ring[k], 1], coords[ring[k], 0]])
-                lo = min(lo, z)
-                hi = max(hi, z)
+                lo = min(lo, rz[k])
+                hi = max(hi, rz[k])
             if hv > hi + max_error or hv < lo - max_error:
                 continue
-            if not _fill_hole(coords, ring, d, pprev, pnext, fill):
+            if not _fill_hole(rx, ry, d, pprev, pnext, fill):
                 continue
             # quick test next: v's own sample against the new triangle over it
             fits = True
             for k in range(d - 2):
-                p0 = ring[fill[k, 0]]
-                p1 = ring[fill[k, 1]]
-                p2 = ring[fill[k, 2]]
-                x0, y0 = coords[p0, 0], coords[p0, 1]
-                x1, y1 = coords[p1, 0], coords[p1, 1]
-                x2, y2 = coords[p2, 0], coords[p2, 1]
+                i0 = fill[k, 0]
+                i1 = fill[k, 1]
+                i2 = fill[k, 2]
+                x0, y0 = rx[i0], ry[i0]
+                x1, y1 = rx[i1], ry[i1]
+                x2, y2 = rx[i2], ry[i2]
                 w0 = _orient(x1, y1, x2, y2, x, y)
                 w1 = _orient(x2, y2, x0, y0, x, y)
                 w2 = _orient(x0, y0, x1, y1, x, y)
                 if w0 >= 0 and w1 >= 0 and w2 >= 0:
                     area = float(_orient(x0, y0, x1, y1, x2, y2))
-                    z = (float(h[y0, x0]) * w0 + float(h[y1, x1]) * w1
-                         + float(h[y2, x2]) * w2) / area
+                    z = (rz[i0] * w0 + rz[i1] * w1 + rz[i2] * w2) / area
                     fits = abs(z - hv) <= max_error
                     break
             if not fits:
