@@ -296,6 +296,54 @@ def test_sweep_writes_a_transposed_mask_as_the_transposed_sweep(terrain, az):
     np.testing.assert_array_equal(shadow_mask(hm, az, 9.0), expected)
 
 
+@pytest.mark.parametrize("shape", [(150, 211), (211, 150), (64, 97)])
+@pytest.mark.parametrize("az", [75.0, 105.0, 260.0, 290.0])
+def test_sweep_along_columns_equals_the_sweep_of_a_transposed_copy(terrain, shape, az):
+    """Light near the x axis: sweeping the map's columns through bands of lines copied in
+    cache (no transposed copy of the map) decides every sample as the sweep of the
+    transposed copy does, for any number of blocks, a window's origin, a grid-line count
+    that is not a whole number of bands, and either orientation of the output."""
+    from terrascape.lighting import shadows as sh
+
+    hm = Heightmap(terrain(shape[0], 6, cols=shape[1]))
+    h = np.ascontiguousarray(hm.heights)
+    copy = np.ascontiguousarray(h.T)
+    for el in (4.0, 20.0):
+        transpose, da, db, rise = sh._sweep_geometry(hm, sh.sun_above_horizon(az, el))
+        assert transpose
+        for blocks in (1, 3, 8):
+            for a_org, b_org in ((0, 0), (37, 5)):
+                for out_transposed in (False, True):
+                    oshape = h.shape if out_transposed else copy.shape
+                    want = np.zeros(oshape, dtype=np.bool_)
+                    sh._line_sweep_kernel(copy, da, db, rise, sh._NEAR, want, blocks, a_org,
+                                          b_org, out_transposed)
+                    got = np.ones(oshape, dtype=np.bool_)  # every sample must be written
+                    sh._line_sweep_kernel(h, da, db, rise, sh._NEAR, got, blocks, a_org,
+                                          b_org, out_transposed, True)
+                    np.testing.assert_array_equal(got, want)
+        assert 0.01 < want.mean() < 0.95
+
+
+def test_column_extrema_are_the_extrema_of_the_transposed_rows(terrain):
+    """The run extrema of a transposed sweep, found across the map's rows, are the values
+    the rows of a transposed copy give, and so is the largest magnitude."""
+    from terrascape.lighting import shadows as sh
+
+    h = terrain(83, 2, cols=70) - 5.0  # negative heights too: the magnitude is |h|
+    copy = np.ascontiguousarray(h.T)
+    segments = (h.shape[0] + sh._SEGMENT - 1) // sh._SEGMENT
+    want_max = np.empty((h.shape[1], segments), h.dtype)
+    want_min = np.empty_like(want_max)
+    top = max(sh._segment_extrema(copy[a], want_max[a], want_min[a]) for a in range(len(copy)))
+    got_max = np.empty_like(want_max)
+    got_min = np.empty_like(want_max)
+    magnitude = sh._column_extrema(h, got_max, got_min)
+    np.testing.assert_array_equal(got_max, want_max)
+    np.testing.assert_array_equal(got_min, want_min)
+    assert magnitude.max() == top
+
+
 def test_block_bounds_share_the_work():
     """Blocks of the ray lines: in order, covering every line once, of about equal work."""
     from terrascape.lighting import shadows as sh

@@ -69,6 +69,9 @@ _SKIP_MARGIN = 1e-9
 # skipped more than one run in _PAYS (measured: the test costs about a third of a run's walk).
 _PROBE = 16
 _PAYS = 3
+# Grid lines of a transposed sweep whose mask rows are gathered before they are written into
+# the map's orientation (one cache line of 64 neighbouring bytes per sample row).
+_BAND = 64
 
 
 # --------------------------------------------------------------------------------------------
@@ -95,8 +98,8 @@ def _sweep_geometry(
         transpose, major, minor = False, g_row, g_col
     elif abs(g_col) - abs(g_row) <= _SNAP * abs(g_col):
         # A diagonal up to rounding (at 135° cos is one ulp below sin): either orientation
-        # walks the same cells and climbs the same, so keep the map and save the two
-        # transposed copies.
+        # walks the same cells and climbs the same, so keep the map's rows as grid lines
+        # (no band copies of its columns).
         transpose, major, minor = False, math.copysign(abs(g_col), g_row), g_col
     else:
         transpose, major, minor = True, g_col, g_row
@@ -279,7 +282,7 @@ def _walk_step(hit, here, there, r0, r1, s, f, above):
 
 @njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
 def _near_part(h, a, da, db, rise, near, b_first, b_last, hit, smax, smin, slack, by_runs,
-               skipped):
+               skipped, t=0, ring_rows=0, n_lines=-1):
     """The first ``near`` steps of the rays of samples ``b_first … b_last`` on grid line
     ``a``, walked exactly as the reference does: ``hit[b]`` = 1 when one of them meets
     terrain above the ray.
@@ -300,9 +303,14 @@ def _near_part(h, a, da, db, rise, near, b_first, b_last, hit, smax, smin, slack
     is made only for the steps ``k`` with ``by_runs[k]``; ``skipped[k]`` receives how many
     runs it skipped (the caller's estimate of the next lines' gain). Either way the
     decisions are the same.
+
+    With ``ring_rows`` the grid lines come from a ring of rows (:func:`_fill_lines`): this
+    line, the sweep's ``t``-th, is row ``t % ring_rows`` and the one ``k`` lines upstream
+    row ``(t - k) % ring_rows``, of ``n_lines`` grid lines in all.
     """
-    n0, n1 = h.shape
-    here = h[a]
+    n0 = h.shape[0] if ring_rows == 0 else n_lines
+    n1 = h.shape[1]
+    here = h[a] if ring_rows == 0 else h[t % ring_rows]
     for b in range(b_first, b_last + 1):
         hit[b] = 0
     for k in range(1, near + 1):
@@ -316,7 +324,7 @@ def _near_part(h, a, da, db, rise, near, b_first, b_last, hit, smax, smin, slack
         lo = max(b_first, math.ceil(-x))
         hi = min(b_last, math.floor(n1 - 1 - x))
         above = k * rise
-        there = h[pa]
+        there = h[pa] if ring_rows == 0 else h[(t - k) % ring_rows]
         skipped[k] = 0
         if not by_runs[k]:
             _walk_step(hit, here, there, lo, hi, s, f, above)
@@ -392,12 +400,117 @@ def _advance_ray_lines(sl, here, j_first, j_last, base, fr, rise):
         lines[i] = (tv if tv > cur else cur) - rise
 
 
+@njit(cache=CACHE, _nrt=False)
+def _write_band(out, band, band_lines, count):
+    """Write the first ``count`` rows of ``band`` (grid line ``a`` = ``band_lines[i, 0]``,
+    its samples ``band_lines[i, 1] … band_lines[i, 2]``) into column ``a`` of ``out``.
+
+    Row by row of ``out``: the band's lines are neighbouring columns, so each row takes a
+    run of neighbouring bytes. Only the samples of each line's own range are written (the
+    other blocks' samples of that line are theirs, written concurrently).
+    """
+    b_min = out.shape[0]
+    b_max = -1
+    # the samples every line of the band holds (its lines' ranges shift by under one
+    # sample a line): written without a range test
+    all_lo = 0
+    all_hi = out.shape[0] - 1
+    for i in range(count):
+        if band_lines[i, 1] <= band_lines[i, 2]:
+            b_min = min(b_min, band_lines[i, 1])
+            b_max = max(b_max, band_lines[i, 2])
+        all_lo = max(all_lo, band_lines[i, 1])
+        all_hi = min(all_hi, band_lines[i, 2])
+    b = b_min
+    if all_lo <= all_hi:
+        for b in range(b_min, all_lo):
+            _write_sample(out, band, band_lines, count, b)
+        b = all_lo
+        # blocks of 8 rows of ``out``: 8 neighbouring values from each line's row at a time
+        while b + 8 <= all_hi + 1:
+            block = out[b:b + 8]
+            for i in range(count):
+                src = band[i, b:b + 8]
+                a = band_lines[i, 0]
+                for k in range(8):
+                    block[k, a] = src[k]
+            b += 8
+    for rest in range(b, b_max + 1):
+        _write_sample(out, band, band_lines, count, rest)
+
+
+@njit(cache=CACHE, _nrt=False, inline="always")
+def _write_sample(out, band, band_lines, count, b):
+    """Sample ``b`` of the band's lines that hold it (:func:`_write_band`)."""
+    target = out[b]
+    for i in range(count):
+        if band_lines[i, 1] <= b <= band_lines[i, 2]:
+            target[band_lines[i, 0]] = band[i, b]
+
+
+@njit(cache=CACHE, _nrt=False)
+def _fill_lines(h, lines, t0, count, a0, da, lo, hi, j_lo, a_org, b_org, e, margin, ranges):
+    """Grid lines ``t0 … t0 + count - 1`` of a sweep along ``h``'s columns (line ``t`` is
+    column ``a0 - (t - t0)·da``) into rows ``t % len(lines)`` of ``lines``, over the samples
+    the block of ray lines ``lo … hi`` reads on them (``margin`` samples beyond its own).
+
+    A sweep of light near the x axis reads the map's columns as grid lines. Copied a band
+    of neighbouring columns at a time, row by row of the map, each map row gives a run of
+    neighbouring values and the band stays in cache: no transposed copy of the whole map
+    (whose first writes fault in every page of a fresh allocation).
+    """
+    n1 = h.shape[0]
+    rows = lines.shape[0]
+    b_min = n1
+    b_max = -1
+    all_lo = 0
+    all_hi = n1 - 1
+    for i in range(count):
+        fl, fr = _line_offset(a0 - i * da, a_org, b_org, e)
+        shift = fl + j_lo + (1 if fr != 0.0 else 0)
+        ranges[i, 0] = max(0, lo + shift - margin)
+        ranges[i, 1] = min(n1 - 1, hi + shift + margin)
+        ranges[i, 2] = (t0 + i) % rows
+        if ranges[i, 0] <= ranges[i, 1]:
+            b_min = min(b_min, ranges[i, 0])
+            b_max = max(b_max, ranges[i, 1])
+        all_lo = max(all_lo, ranges[i, 0])
+        all_hi = min(all_hi, ranges[i, 1])
+    # the samples every line of the band needs, in blocks of 8 map rows: each line's row
+    # of the buffer takes 8 neighbouring values at a time from a block in cache
+    b = b_min
+    if all_lo <= all_hi:
+        for b in range(b_min, all_lo):
+            _fill_sample(h, lines, ranges, count, a0, da, b)
+        b = all_lo
+        while b + 8 <= all_hi + 1:
+            block = h[b:b + 8]
+            for i in range(count):
+                dst = lines[ranges[i, 2], b:b + 8]
+                col = a0 - i * da
+                for k in range(8):
+                    dst[k] = block[k, col]
+            b += 8
+    for rest in range(b, b_max + 1):
+        _fill_sample(h, lines, ranges, count, a0, da, rest)
+
+
+@njit(cache=CACHE, _nrt=False, inline="always")
+def _fill_sample(h, lines, ranges, count, a0, da, b):
+    """Sample ``b`` of the band's lines that need it (:func:`_fill_lines`)."""
+    src = h[b]
+    for i in range(count):
+        if ranges[i, 0] <= b <= ranges[i, 1]:
+            lines[ranges[i, 2], b] = src[a0 - i * da]
+
+
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_org=0,
-                 b_org=0, out_transposed=False):
+                 b_org=0, out_transposed=False, h_transposed=False):
     """Sweep the ray lines ``lo … hi`` (indices from ``j_lo``) and shade their samples into
-    ``out`` (of ``h``'s shape, or with ``out_transposed`` of its transpose: sample
-    ``(a, b)`` goes to ``out[b, a]``).
+    ``out`` (of the sweep's shape, or with ``out_transposed`` of its transpose: sample
+    ``(a, b)`` goes to ``out[b, a]``). The grid lines are the rows of ``h``, or with
+    ``h_transposed`` its columns (read through :func:`_fill_lines`).
 
     Ray line ``j`` crosses grid line ``a`` at ``p_j(a) = j + a·e`` with ``e = da·db``. Grid
     lines are processed from the side facing the light; ``sl[j]`` holds the shadow height of
@@ -416,7 +529,7 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_
     the block also carries line ``hi + 1``, its right neighbour's first line, so every
     sample is decided from the same values as in one sweep over all lines.
     """
-    n1 = h.shape[1]
+    n1 = h.shape[0] if h_transposed else h.shape[1]
     neg_inf = -np.inf
     width = hi - lo + 2  # lines lo … hi + 1
     sl = np.full(width, neg_inf, dtype=np.float64)
@@ -427,31 +540,52 @@ def _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_
     by_runs = np.ones(near + 1, dtype=np.uint8)
     all_runs = np.ones(near + 1, dtype=np.uint8)
     skipped = np.zeros(near + 1, dtype=np.int64)
-    # a transposed output is written a grid line at a time from this row (a column of
-    # ``out``): cheaper than transposing the whole mask after the sweep
-    scratch = np.zeros(n1 if out_transposed else 0, dtype=np.bool_)
-    _sweep_lines(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_org, b_org,
-                 out_transposed, sl, ring, near_hit, by_runs, all_runs, skipped, scratch)
+    # a transposed output is gathered _BAND grid lines at a time (rows of ``band``, each
+    # with its line and sample range) and written to ``out`` across those lines: runs of
+    # _BAND neighbouring bytes per sample instead of one byte a cache line apart per sample
+    rows = _BAND if out_transposed else 0
+    band = np.zeros((rows, n1 if out_transposed else 0), dtype=np.bool_)
+    band_lines = np.zeros((rows, 3), dtype=np.int64)
+    if h_transposed:
+        # the band being swept and the `near` lines upstream of it that its walk reads
+        lines = np.empty((_BAND + near, n1), dtype=h.dtype)
+        ranges = np.empty((_BAND, 3), dtype=np.int64)
+        _sweep_lines(h, lines, lines, _BAND + near, ranges, da, db, rise, near, out, j_lo,
+                     lo, hi, smax, smin, slack, a_org, b_org, out_transposed, sl, ring,
+                     near_hit, by_runs, all_runs, skipped, band, band_lines)
+    else:
+        lines = np.empty((0, 0), dtype=h.dtype)
+        ranges = np.empty((0, 3), dtype=np.int64)
+        _sweep_lines(h, h, lines, 0, ranges, da, db, rise, near, out, j_lo, lo, hi, smax,
+                     smin, slack, a_org, b_org, out_transposed, sl, ring, near_hit, by_runs,
+                     all_runs, skipped, band, band_lines)
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
-def _sweep_lines(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_org, b_org,
-                 out_transposed, sl, ring, near_hit, by_runs, all_runs, skipped, scratch):
+def _sweep_lines(h, src, lines, ring_rows, ranges, da, db, rise, near, out, j_lo, lo, hi,
+                 smax, smin, slack, a_org, b_org, out_transposed, sl, ring, near_hit,
+                 by_runs, all_runs, skipped, band, band_lines):
     """The grid-line loop of :func:`_sweep_block` over its buffers (``sl``, ``ring``,
-    ``near_hit``, the near walk's run-test state, the transposed output's row).
+    ``near_hit``, the near walk's run-test state, the transposed output's band of lines).
+    The grid lines are read from ``src``: ``h`` itself (``ring_rows`` 0), or ``lines``, a
+    ring of ``ring_rows`` rows that :func:`_fill_lines` fills from ``h``'s columns a band
+    ahead.
 
     Compiled without numba's reference counting: the loop makes dozens of row views and
     slices a line, and counting each one (an atomic update of the whole array's count,
     shared by both threads' blocks) cost time on every line.
     """
-    n0, n1 = h.shape
+    n0, n1 = (h.shape[1], h.shape[0]) if ring_rows else (h.shape[0], h.shape[1])
     e = da * db
     neg_inf = -np.inf
     width = hi - lo + 2  # lines lo … hi + 1
     a = n0 - 1 if da > 0 else 0
     for t in range(n0):
+        if ring_rows and t % _BAND == 0:
+            _fill_lines(h, lines, t, min(_BAND, n0 - t), a, da, lo, hi, j_lo, a_org, b_org,
+                        e, near + 4, ranges)
         fl, fr = _line_offset(a, a_org, b_org, e)
-        row = scratch if out_transposed else out[a]
+        row = band[t % _BAND] if out_transposed else out[a]
         far = ring[t % near]  # shadow heights of the ray lines at grid line a + near·da
         have_far = t >= near
         # Samples of this block: i0 = b - fl - 1 - j_lo (or b - fl - j_lo on a grid line
@@ -461,8 +595,8 @@ def _sweep_lines(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_
         b_last = min(n1 - 1, hi + shift)
         if b_first <= b_last:
             probe = t % _PROBE == 0
-            _near_part(h, a, da, db, rise, near, b_first, b_last, near_hit, smax, smin, slack,
-                       all_runs if probe else by_runs, skipped)
+            _near_part(src, a, da, db, rise, near, b_first, b_last, near_hit, smax, smin,
+                       slack, all_runs if probe else by_runs, skipped, t, ring_rows, n0)
             if probe:
                 runs = (b_last - b_first) // _SEGMENT + 1
                 for k in range(1, near + 1):
@@ -474,15 +608,19 @@ def _sweep_lines(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_
         f_lo = max(b_first, math.ceil(-x)) if have_far else b_last + 1
         f_hi = min(b_last, math.floor(n1 - 1 - x))
         drop = near * rise
-        here = h[a]
+        here = src[t % ring_rows] if ring_rows else src[a]
         for b in range(b_first, min(f_lo - 1, b_last) + 1):
             row[b] = near_hit[b] != 0
         _far_part(row, here, near_hit, far, f_lo, f_hi, f_lo - shift - lo, fr, drop)
         for b in range(max(f_hi + 1, f_lo, b_first), b_last + 1):
             row[b] = near_hit[b] != 0
         if out_transposed:
-            for b in range(b_first, b_last + 1):
-                out[b, a] = row[b]
+            slot = t % _BAND
+            band_lines[slot, 0] = a
+            band_lines[slot, 1] = b_first
+            band_lines[slot, 2] = b_last
+            if slot == _BAND - 1 or t == n0 - 1:
+                _write_band(out, band, band_lines, slot + 1)
         # Remember this line's ray-line state for the samples `near` lines downstream. (A
         # loop, not `far[:] = sl`: numba's slice copy brings its shape-mismatch error message,
         # whose string formatting took longer to compile than the whole sweep.)
@@ -500,31 +638,12 @@ def _sweep_lines(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_
         a -= da
 
 
-@njit(cache=CACHE, parallel=True)
-def _transpose_tiles(src, dst):
-    """``dst = src.T`` in 64×64 tiles (both stay in cache), tile rows in parallel."""
-    n0, n1 = src.shape
-    tile = 64
-    for ti in prange((n1 + tile - 1) // tile):
-        j0 = ti * tile
-        w = min(n1, j0 + tile) - j0
-        for i0 in range(0, n0, tile):
-            h = min(n0, i0 + tile) - i0
-            # tiles as views indexed from 0: numba then drops its negative-index test from
-            # every load and store
-            s = src[i0:i0 + h, j0:j0 + w]
-            d = dst[j0:j0 + w, i0:i0 + h]
-            for j in range(w):
-                for i in range(h):
-                    d[j, i] = s[i, j]
-
-
 def _read_only(a: np.ndarray) -> np.ndarray:
     """``a`` as a read-only array (a view when it is writable; no copy).
 
     numba compiles a kernel separately for read-only and writable arrays: heightmap heights
-    are read-only, a transposed copy is not, so without this the sweep compiled twice, once
-    per light direction family.
+    are read-only, an array a caller hands in may not be, so without this the sweep could
+    compile twice.
     """
     if not a.flags.writeable:
         return a
@@ -533,24 +652,20 @@ def _read_only(a: np.ndarray) -> np.ndarray:
     return view
 
 
-def _transposed(a: np.ndarray) -> np.ndarray:
-    """A C-contiguous copy of ``a.T``."""
-    out = np.empty((a.shape[1], a.shape[0]), dtype=a.dtype)
-    _transpose_tiles(_read_only(a), out)
-    return out
-
-
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
 def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0,
-                       out_transposed=False):
+                       out_transposed=False, h_transposed=False):
     """The shadow-height sweep over ``blocks`` independent blocks of ray lines, in parallel,
-    into ``out`` (``h``'s shape, or with ``out_transposed`` its transpose's).
+    into ``out`` (the sweep's shape, or with ``out_transposed`` its transpose's).
 
+    The sweep's grid lines are the rows of ``h``, or with ``h_transposed`` its columns (the
+    sweep of ``h.T`` without a transposed copy).
     Each sample is written by exactly one block and decided from the same values whatever
     the number of blocks or threads: the result is identical to one serial sweep.
-    ``(a_org, b_org)``: the absolute grid position of ``h[0, 0]`` (see :func:`_line_offset`).
+    ``(a_org, b_org)``: the absolute grid position of the sweep's sample ``(0, 0)`` (see
+    :func:`_line_offset`).
     """
-    n0, n1 = h.shape
+    n0, n1 = (h.shape[1], h.shape[0]) if h_transposed else (h.shape[0], h.shape[1])
     e = da * db
     fl0, fr0 = _line_offset(np.int64(0), a_org, b_org, e)  # not a literal: one compile
     j_lo, nj = _ray_line_span(n0, n1, e, fl0 + fr0)
@@ -563,18 +678,54 @@ def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0,
     smin = np.empty((n0, segments), dtype=h.dtype)
     # in bands of lines: the caller hands prange's iterations out one at a time; each band
     # also keeps its largest magnitude (no second pass over the extrema)
-    bands = (n0 + 63) // 64
-    magnitude = np.zeros(bands, dtype=np.float64)
-    for band in prange(bands):
-        for a in range(band * 64, min(n0, band * 64 + 64)):
-            magnitude[band] = max(magnitude[band], _segment_extrema(h[a], smax[a], smin[a]))
+    if h_transposed:
+        magnitude = _column_extrema(h, smax, smin)
+    else:
+        bands = (n0 + 63) // 64
+        magnitude = np.zeros(bands, dtype=np.float64)
+        for band in prange(bands):
+            for a in range(band * 64, min(n0, band * 64 + 64)):
+                magnitude[band] = max(magnitude[band],
+                                      _segment_extrema(h[a], smax[a], smin[a]))
     slack = _SKIP_MARGIN * (magnitude.max() + 1.0)
     for k in prange(blocks):
         lo = bounds[k]
         hi = bounds[k + 1] - 1
         if lo <= hi:
             _sweep_block(h, da, db, rise, near, out, j_lo, lo, hi, smax, smin, slack, a_org,
-                         b_org, out_transposed)
+                         b_org, out_transposed, h_transposed)
+
+
+@njit(cache=CACHE, parallel=True)
+def _column_extrema(h, smax, smin):
+    """:func:`_segment_extrema` of every column of ``h`` (the grid lines of a transposed
+    sweep) into ``smax[a]``, ``smin[a]``: the same values, found a run of _SEGMENT map rows
+    at a time across all columns (contiguous loads) instead of down each column. Returns
+    the largest magnitude of each run of rows (the skip's rounding slack)."""
+    n1, n0 = h.shape  # samples per grid line, grid lines
+    segments = smax.shape[1]
+    magnitude = np.zeros(segments, dtype=np.float64)
+    for m in prange(segments):
+        b0 = m * _SEGMENT
+        hi = h[b0].astype(np.float64)
+        lo = hi.copy()
+        for b in range(b0 + 1, min(n1, b0 + _SEGMENT)):
+            row = h[b]
+            for a in range(n0):
+                v = float(row[a])
+                hi[a] = v if v > hi[a] else hi[a]
+                lo[a] = v if v < lo[a] else lo[a]
+        top = 0.0
+        for a in range(n0):
+            smax[a, m] = hi[a]
+            smin[a, m] = lo[a]
+            top = max(top, abs(hi[a]), abs(lo[a]))
+        magnitude[m] = top
+    for a in prange(n0):
+        row = smax[a]
+        for m in range(segments - 1):
+            row[m] = max(row[m], row[m + 1])
+    return magnitude
 
 
 @njit(cache=CACHE)
@@ -637,13 +788,15 @@ def _fast_mask_for_light(hm: Heightmap, light: np.ndarray,
     x0, z0 = origin
     a_org, b_org = (x0, z0) if transpose else (z0, x0)
     # The sweep reads grid lines as contiguous rows (its near walk is vectorised along
-    # them): for light closer to the x axis it sweeps a transposed copy, which costs less
-    # than reading a column-major view one cache line per sample.
-    h = _read_only(_transposed(hm.heights) if transpose else hm.heights)
+    # them): for light closer to the x axis its grid lines are the map's columns, which
+    # each block copies a band of neighbouring columns at a time into rows it keeps in
+    # cache, and its mask goes back into the map's orientation the same way.
+    h = _read_only(hm.heights)
     out = np.zeros(hm.shape, dtype=np.bool_)
     with numba.parallel_chunksize(1):  # blocks differ in work: hand them out one by one
-        _line_sweep_kernel(h, da, db, rise, _NEAR, out, _sweep_blocks(h.shape[1]), a_org,
-                           b_org, transpose)
+        _line_sweep_kernel(h, da, db, rise, _NEAR, out,
+                           _sweep_blocks(h.shape[0] if transpose else h.shape[1]), a_org,
+                           b_org, transpose, transpose)
     return out
 
 
