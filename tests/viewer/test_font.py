@@ -150,3 +150,41 @@ def test_every_symbol_the_viewer_writes_has_a_glyph_or_a_stand_in():
     assert not missing, f"characters without a glyph in the HUD's charset: {missing}"
     font = build_font(12)
     assert FALLBACK not in font.expand("error ≤ 3.0 px ▶ 10 min/s ◀")
+
+
+@pytest.mark.gl
+def test_hud_lays_out_kept_lines_as_layout_text_and_uploads_once(gl_ctx, monkeypatch):
+    """The HUD keeps each line's quads between frames: a panel's vertices are exactly
+    layout_text's (tabs, substituted characters, blank lines, a scale), and a frame of
+    several panels goes to the GPU in one upload (a second write to a buffer that a draw of
+    the frame still reads makes a software rasteriser finish the frame first); the same
+    panels drawn again give the same pixels."""
+    from terrascape.render.context import current
+    from terrascape.viewer.hud import HudRenderer, Panel, column_tab
+
+    lines = ["fps 12.5\t67 ms", "", "café ∓ ok", "\ttabbed", "triangles 249,472"]
+    with current(gl_ctx):
+        hud = HudRenderer(gl_ctx, font_size=12)
+        fbo = gl_ctx.simple_framebuffer((320, 200))
+        try:
+            tab = column_tab(hud.font, lines)
+            for scale, x, y in ((1.0, 14.0, 6.0), (1.5, 3.25, 100.5), (1.0, 14.0, 6.0)):
+                want = layout_text(hud.font, lines, x, y, scale=scale, tab=tab)
+                got = hud._panel_quads(lines, x, y, scale, tab)
+                np.testing.assert_array_equal(got, want)
+            uploads = []
+            real = hud._upload
+            monkeypatch.setattr(hud, "_upload", lambda v: (uploads.append(len(v)), real(v)))
+            panels = [Panel(lines), Panel(["bottom"], anchor="bottom-right"),
+                      Panel(["centre"], anchor="center", background=(0, 0, 0, 0))]
+            frames = []
+            for _ in range(2):
+                fbo.clear(0.2, 0.3, 0.4, 1.0)
+                hud.draw(fbo, panels)
+                frames.append(np.frombuffer(fbo.read(components=3), np.uint8).copy())
+            assert len(uploads) == 2  # one per frame
+            np.testing.assert_array_equal(frames[0], frames[1])
+            assert (frames[0].reshape(200, 320, 3).min(-1) > 200).sum() > 100
+        finally:
+            hud.release()
+            fbo.release()

@@ -363,3 +363,29 @@ def test_tiles_submitted_in_parts_draw_the_same_frame(world, gl_ctx, monkeypatch
         s.release()
     assert np.array_equal(frames[1], frames[3])
     assert frames[1][SIZE[1] // 2:].std() > 5.0  # the terrain is in the frame
+
+
+def test_frustum_test_of_many_tile_boxes_is_the_per_box_test():
+    """The draw's one-call frustum test of every tile box decides each box as the test of
+    its corner furthest along each plane's normal does, box by box."""
+    from terrascape.camera import Camera
+    from terrascape.render.tiled_terrain import _in_frustum
+
+    rng = np.random.default_rng(3)
+    cam = Camera(position=(50.0, 30.0, 80.0), yaw=35.0, pitch=-15.0, fov_y=60.0, aspect=16 / 9,
+                 near=0.5, far=400.0)
+    planes = cam.frustum_planes()
+    lo = rng.uniform(-300.0, 300.0, (500, 3))
+    boxes = np.concatenate([lo, lo + rng.uniform(0.5, 60.0, (500, 3))], axis=1)
+    got = _in_frustum(planes, boxes)
+    want = []
+    for box in boxes:
+        inside = True
+        for a, b, c, d in planes:
+            x = box[3] if a >= 0 else box[0]
+            y = box[4] if b >= 0 else box[1]
+            z = box[5] if c >= 0 else box[2]
+            inside &= a * x + b * y + c * z + d >= 0
+        want.append(inside)
+    np.testing.assert_array_equal(got, want)
+    assert 20 < got.sum() < 480

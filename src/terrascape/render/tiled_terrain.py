@@ -73,9 +73,12 @@ class _GpuTile:
         self.buffers = []
 
 
-def _in_frustum(planes: np.ndarray, box: np.ndarray) -> bool:
-    p = np.where(planes[:, :3] >= 0, box[3:], box[:3])
-    return bool(np.all(np.einsum("ij,ij->i", planes[:, :3], p) + planes[:, 3] >= 0))
+def _in_frustum(planes: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """Which of ``boxes`` (``(n, 6)``: min xyz, max xyz) reach inside every plane (``(6, 4)``,
+    inward normals): the corner furthest along each plane's normal is not behind it."""
+    normals = planes[:, :3]
+    far = np.where(normals >= 0, boxes[:, None, 3:], boxes[:, None, :3])  # (n, planes, 3)
+    return np.all(np.einsum("pj,npj->np", normals, far) + planes[:, 3] >= 0, axis=1)
 
 
 class TiledGeometry:
@@ -121,8 +124,7 @@ class TiledGeometry:
         self.exaggeration = float(exaggeration)
         self.upload_ms = float(upload_ms)
         self.upload_bytes = int(upload_bytes)
-        #: Skirts on every tile edge (False: not between drawn tiles of one level).
-        self.every_skirt = False
+        self._every_skirt = False
         #: Draw the tiles nearest first (False: in the quadtree's order).
         self.sort_tiles = True
         #: The frame's tiles go to the rasteriser in this many parts, each flushed when
@@ -141,7 +143,10 @@ class TiledGeometry:
                 f"{format_bytes(budget_bytes)}; raise --max-memory")
         self.max_tiles = max(len(roots), int(budget_bytes // (2 * per_tile)))
         self._ibos: dict[tuple[int, int], tuple[Any, int]] = {}
-        self.drawn: list[TileKey] = []
+        # what draw() needs of the drawn tiles, made once per change of them: (tiles, their
+        # boxes, each one's skirt runs)
+        self._plan: tuple[list, np.ndarray, list] | None = None
+        self._drawn: list[TileKey] = []
         self.selection: TileSelection | None = None
         self._view: tuple | None = None  # the camera the selection was made for
         self.uploaded = 0
@@ -157,6 +162,27 @@ class TiledGeometry:
             self.loader = loader
         else:
             self.loader = TileLoader(build) if background else None
+
+    @property
+    def drawn(self) -> list[TileKey]:
+        """The tiles the frame draws, nearest first (set by :meth:`update`)."""
+        return self._drawn
+
+    @drawn.setter
+    def drawn(self, tiles: list[TileKey]) -> None:
+        if tiles != self._drawn:
+            self._plan = None
+        self._drawn = tiles
+
+    @property
+    def every_skirt(self) -> bool:
+        """Skirts on every tile edge (False: not between drawn tiles of one level)."""
+        return self._every_skirt
+
+    @every_skirt.setter
+    def every_skirt(self, value: bool) -> None:
+        self._every_skirt = bool(value)
+        self._plan = None
 
     # --- streaming ---------------------------------------------------------------------
     def _ibo(self, shape: tuple[int, int]) -> tuple[Any, int, list[tuple[int, int]]]:
@@ -178,6 +204,7 @@ class TiledGeometry:
         tile = _GpuTile(mesh.key, bufs, mesh.shape, mesh.nbytes,
                         self.pyramid.box(mesh.key, self.exaggeration))
         ok = self.cache.put(mesh.key, tile, pinned=pinned)
+        self._plan = None  # (the tiles the plan holds may have changed)
         self.uploaded += ok
         return ok
 
@@ -266,22 +293,55 @@ class TiledGeometry:
         return not self.stats()["complete"]
 
     # --- drawing -----------------------------------------------------------------------
+    def _draw_plan(self) -> tuple[list, np.ndarray, list]:
+        """The drawn tiles, their boxes and, for each, the runs ``(first, count)`` of its
+        skirt indices to draw: the skirts of the edges not shared with a drawn tile of the
+        same level, neighbouring edges in one run."""
+        if self._plan is not None:
+            return self._plan
+        neighbours = frozenset(self.drawn)
+        tiles, boxes, runs = [], [], []
+        for key in self.drawn:
+            tile = self.cache.get(key)
+            if tile is None:
+                continue
+            _, _, edges = self._ibo(tile.shape)
+            own: list[tuple[int, int]] = []
+            run_first = run_count = 0
+            for (first, size), (di, dj) in zip(edges, EDGE_STEPS, strict=True):
+                if (not self.every_skirt
+                        and TileKey(key.level, key.row + di, key.col + dj) in neighbours):
+                    if run_count:
+                        own.append((run_first, run_count))
+                    run_count = 0
+                    continue
+                if not run_count:
+                    run_first = first
+                run_count += size
+            if run_count:
+                own.append((run_first, run_count))
+            tiles.append(tile)
+            boxes.append(tile.box)
+            runs.append(own)
+        box_array = np.array(boxes, dtype=np.float64).reshape(-1, 6)
+        self._plan = (tiles, box_array, runs)
+        return self._plan
+
     def draw(self, program, camera: Camera, viewport) -> dict[str, int]:
         """Draw the frame's tiles with ``program`` (called by the terrain renderer for every
         geometry pass: forward, geometry buffer, wireframe)."""
         import moderngl
 
-        planes = camera.frustum_planes()
-        neighbours = frozenset(self.drawn)
+        tiles, boxes, runs = self._draw_plan()
+        visible = _in_frustum(camera.frustum_planes(), boxes) if len(tiles) else []
         tris = drawn = 0
         part = -(-len(self.drawn) // max(1, self.submit_parts))
-        for i, key in enumerate(self.drawn):  # front to back
-            if i and i % part == 0:
+        for i, (tile, inside, own) in enumerate(zip(tiles, visible, runs, strict=True)):
+            if i and i % part == 0:  # front to back
                 flush_commands()
-            tile = self.cache.get(key)
-            if tile is None or not _in_frustum(planes, tile.box):
+            if not inside:
                 continue
-            ibo, count, edges = self._ibo(tile.shape)
+            ibo, count, _ = self._ibo(tile.shape)
             vao = tile.vaos.get(program.glo)
             if vao is None:
                 pos, nor, tan = tile.buffers
@@ -290,23 +350,9 @@ class TiledGeometry:
                               (tan, "4f", "in_tangent")], ibo, 4, skip_errors=True)
             vao.render(moderngl.TRIANGLES, vertices=count)
             n = count
-            # the skirts of the edges not shared with a drawn tile of the same level, runs
-            # of neighbouring edges in one call
-            run_first = run_count = 0
-            for (first, size), (di, dj) in zip(edges, EDGE_STEPS, strict=True):
-                if (not self.every_skirt
-                        and TileKey(key.level, key.row + di, key.col + dj) in neighbours):
-                    if run_count:
-                        vao.render(moderngl.TRIANGLES, vertices=run_count, first=run_first)
-                        n += run_count
-                    run_count = 0
-                    continue
-                if not run_count:
-                    run_first = first
-                run_count += size
-            if run_count:
-                vao.render(moderngl.TRIANGLES, vertices=run_count, first=run_first)
-                n += run_count
+            for first, size in own:
+                vao.render(moderngl.TRIANGLES, vertices=size, first=first)
+                n += size
             tris += n // 3
             drawn += 1
         return {"triangles": tris, "triangles_drawn": tris, "chunks": drawn,
@@ -316,6 +362,7 @@ class TiledGeometry:
         if self.loader is not None:
             self.loader.close()
             self.loader = None
+        self._plan = None
         self.cache.clear()
         for ibo, _, _ in self._ibos.values():
             ibo.release()

@@ -18,6 +18,8 @@ from terrascape.viewer.font import BitmapFont, build_font, layout_text, text_blo
 
 PROGRAM = "viewer/hud"
 PADDING = 6.0
+#: Laid-out lines a HUD keeps (cleared when full).
+LINE_CACHE = 512
 
 
 @dataclass
@@ -77,6 +79,7 @@ class HudRenderer:
         self._capacity = 6 * 4 * 4 * 2048
         self._vbo = ctx.buffer(reserve=self._capacity, dynamic=True)
         self._vao = ctx.vertex_array(self._prog, [(self._vbo, "2f 2f", "in_pos", "in_uv")])
+        self._lines: dict[tuple, np.ndarray] = {}
 
     def _upload(self, verts: np.ndarray) -> None:
         data = np.ascontiguousarray(verts, dtype=np.float32).tobytes()
@@ -90,13 +93,74 @@ class HudRenderer:
             )
         self._vbo.write(data)
 
+    def _line_quads(self, line: str, scale: float, tab: float | None) -> np.ndarray:
+        """The quads of one line laid out at pixel (0, 0), float64, kept for the next
+        frames: a HUD's lines mostly repeat from frame to frame (the frame rate's changes)."""
+        key = (line, scale, tab)
+        quads = self._lines.get(key)
+        if quads is None:
+            if len(self._lines) >= LINE_CACHE:
+                self._lines.clear()
+            quads = layout_text(self.font, [line], 0.0, 0.0, scale=scale,
+                                tab=tab).astype(np.float64)
+            self._lines[key] = quads
+        return quads
+
+    def _panel_quads(self, lines: list[str], x: float, y: float, scale: float,
+                     tab: float | None) -> np.ndarray:
+        """:func:`~terrascape.viewer.font.layout_text` of ``lines`` at ``(x, y)``, built
+        from the kept lines (the same vertices)."""
+        step = self.font.line_height * scale
+        parts = []
+        for i, line in enumerate(lines):
+            quads = self._line_quads(str(line), scale, tab)
+            if len(quads):
+                placed = quads.copy()
+                placed[:, 0] += x
+                placed[:, 1] += float(y) + i * step
+                parts.append(placed)
+        if not parts:
+            return np.zeros((0, 4), np.float32)
+        return np.concatenate(parts).astype(np.float32)
+
     def draw(self, fbo, panels: list[Panel], *, scale: float = 1.0) -> int:
-        """Draw ``panels`` over whatever ``fbo`` holds; returns the glyph quads drawn."""
+        """Draw ``panels`` over whatever ``fbo`` holds; returns the glyph quads drawn.
+
+        Every panel's vertices go to the GPU in one upload before the draws: a software
+        rasteriser that sees a buffer written while a draw of this frame still reads it
+        finishes the whole frame first."""
         import moderngl
 
+        # (first vertex, count, solid, colour) of each draw, over one vertex array
+        draws: list[tuple[int, int, int, tuple]] = []
+        parts: list[np.ndarray] = []
+        at = 0
+        glyphs = 0
+        vw, vh = fbo.size
+        for panel in panels:
+            if not panel.lines:
+                continue
+            tab = column_tab(self.font, panel.lines)
+            bw, bh = text_block_size(self.font, panel.lines, scale=scale, tab=tab)
+            ox, oy = panel_origin((bw + 2 * PADDING, bh + 2 * PADDING), (vw, vh), panel.anchor)
+            if panel.background[3] > 0:
+                x0, y0, x1, y1 = ox, oy, ox + bw + 2 * PADDING, oy + bh + 2 * PADDING
+                parts.append(np.array([(x0, y0, 0, 0), (x1, y0, 0, 0), (x1, y1, 0, 0),
+                                       (x0, y0, 0, 0), (x1, y1, 0, 0), (x0, y1, 0, 0)],
+                                      np.float32))
+                draws.append((at, 6, 1, tuple(panel.background)))
+                at += 6
+            verts = self._panel_quads(panel.lines, ox + PADDING, oy + PADDING, scale, tab)
+            if len(verts):
+                parts.append(verts)
+                draws.append((at, len(verts), 0, tuple(panel.color)))
+                at += len(verts)
+                glyphs += len(verts) // 6
+        if not draws:
+            return 0
+        self._upload(np.concatenate(parts))
         ctx = self.ctx
         fbo.use()
-        vw, vh = fbo.size
         ctx.viewport = (0, 0, vw, vh)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         ctx.enable(moderngl.BLEND)
@@ -104,32 +168,11 @@ class HudRenderer:
         self._prog["u_viewport"].value = (float(vw), float(vh))
         self._prog["u_atlas"].value = 0
         self._tex.use(location=0)
-        glyphs = 0
         try:
-            for panel in panels:
-                if not panel.lines:
-                    continue
-                tab = column_tab(self.font, panel.lines)
-                bw, bh = text_block_size(self.font, panel.lines, scale=scale, tab=tab)
-                ox, oy = panel_origin((bw + 2 * PADDING, bh + 2 * PADDING), (vw, vh),
-                                      panel.anchor)
-                if panel.background[3] > 0:
-                    x0, y0, x1, y1 = ox, oy, ox + bw + 2 * PADDING, oy + bh + 2 * PADDING
-                    rect = np.array([(x0, y0, 0, 0), (x1, y0, 0, 0), (x1, y1, 0, 0),
-                                     (x0, y0, 0, 0), (x1, y1, 0, 0), (x0, y1, 0, 0)],
-                                    np.float32)
-                    self._upload(rect)
-                    self._prog["u_solid"].value = 1
-                    self._prog["u_color"].value = tuple(panel.background)
-                    self._vao.render(moderngl.TRIANGLES, vertices=6)
-                verts = layout_text(self.font, panel.lines, ox + PADDING, oy + PADDING,
-                                    scale=scale, tab=tab)
-                if len(verts):
-                    self._upload(verts)
-                    self._prog["u_solid"].value = 0
-                    self._prog["u_color"].value = tuple(panel.color)
-                    self._vao.render(moderngl.TRIANGLES, vertices=len(verts))
-                    glyphs += len(verts) // 6
+            for first, count, solid, color in draws:
+                self._prog["u_solid"].value = solid
+                self._prog["u_color"].value = color
+                self._vao.render(moderngl.TRIANGLES, vertices=count, first=first)
         finally:
             ctx.disable(moderngl.BLEND)
         return glyphs
