@@ -93,6 +93,31 @@ def test_wrong_size_is_an_error_listing_sizes_unless_fit(tmp_path):
                                atol=(hi - lo) / 65535)
 
 
+def test_a_failed_export_leaves_no_folder_it_made(tmp_path):
+    """An export that stops on bad input takes away the output folder it made (with its
+    empty sub-folders), and leaves a folder that was already there and its files alone."""
+    hm = Heightmap(np.random.default_rng(2).random((65, 65)).astype(np.float32) * 40)
+    np.save(tmp_path / "small.npy", hm.heights)
+    src = str(tmp_path / "small.npy")
+    made = tmp_path / "new" / "deeper"
+    assert run_app(["export", "unreal", src, "-o", str(made)]) == 2  # 65² needs --fit
+    assert not (tmp_path / "new").exists()
+    assert run_app(["export", "cesium", src, "-o", str(tmp_path / "tiles"),
+                    "--lonlat", "200,100"]) == 2
+    assert not (tmp_path / "tiles").exists()
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    (kept / "mine.txt").write_text("x")
+    assert run_app(["export", "unreal", src, "-o", str(kept)]) == 2
+    assert sorted(p.name for p in kept.iterdir()) == ["mine.txt"]
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert run_app(["export", "unreal", src, "-o", str(empty)]) == 2
+    assert empty.is_dir()  # it was there before
+    assert run_app(["export", "unity", src, "-o", str(tmp_path / "ok")]) == 0
+    assert (tmp_path / "ok" / "small_import.txt").is_file()
+
+
 def test_unreal_png_codes_and_z_scale(terrain, tmp_path):
     hm = Heightmap(terrain.heights[:127, :127], (2.0, 2.0))
     assert run_app(["export", "unreal", "--help"]) == 0

@@ -6,7 +6,10 @@ Destinations come from :mod:`terrascape.export` (one module each); every one wri
 
 from __future__ import annotations
 
+import contextlib
+import os
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 import typer
@@ -18,6 +21,25 @@ from terrascape.export import destinations
 
 #: Destinations that tile the globe: they take a map in degrees as it is.
 _GLOBE_DESTINATIONS = ("cesium", "terrain_rgb")
+
+
+@contextlib.contextmanager
+def _no_empty_folder(folder: Path) -> Iterator[None]:
+    """When the export fails, take away the output folder if this command made it and left
+    it empty (its empty sub-folders too; never a file): an error leaves nothing behind."""
+    top = None  # the outermost folder of the path that is not there yet
+    for path in (folder.absolute(), *folder.absolute().parents):
+        if path.exists():
+            break
+        top = path
+    try:
+        yield
+    except BaseException:
+        if top is not None and top.is_dir():
+            for root, _, _ in sorted(os.walk(top), key=lambda w: -len(w[0])):
+                with contextlib.suppress(OSError):  # only empty folders go
+                    os.rmdir(root)
+        raise
 
 
 def _destinations_help() -> str:
@@ -120,8 +142,9 @@ def export_command(
 
     module = get_destination(destination)
     if is_world_store(heightmap):
-        _export_world(destination, heightmap, output, name, lonlat, min_zoom, max_zoom, fmt,
-                      force, quiet, max_error)
+        with _no_empty_folder(output):
+            _export_world(destination, heightmap, output, name, lonlat, min_zoom, max_zoom,
+                          fmt, force, quiet, max_error)
         return
     with timed("read", quiet=quiet), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -164,7 +187,7 @@ def export_command(
                             format=fmt, plugin=plugin, layers=layers, force=force, lonlat=ll,
                             min_zoom=min_zoom, max_zoom=max_zoom, max_error=max_error,
                             objects=placed, compress=compress)
-    with timed(f"export {destination}", quiet=quiet):
+    with timed(f"export {destination}", quiet=quiet), _no_empty_folder(output):
         written = module.export(hm, output, options)
     for path in written:
         out.print(f"{path} ({path.stat().st_size:,} bytes)")
