@@ -409,18 +409,10 @@ def _write_band(out, band, band_lines, count):
     run of neighbouring bytes. Only the samples of each line's own range are written (the
     other blocks' samples of that line are theirs, written concurrently).
     """
-    b_min = out.shape[0]
-    b_max = -1
     # the samples every line of the band holds (its lines' ranges shift by under one
-    # sample a line): written without a range test
-    all_lo = 0
-    all_hi = out.shape[0] - 1
-    for i in range(count):
-        if band_lines[i, 1] <= band_lines[i, 2]:
-            b_min = min(b_min, band_lines[i, 1])
-            b_max = max(b_max, band_lines[i, 2])
-        all_lo = max(all_lo, band_lines[i, 1])
-        all_hi = min(all_hi, band_lines[i, 2])
+    # sample a line) are written without a range test
+    b_min, b_max, all_lo, all_hi = _ranges_span(band_lines[:, 1], band_lines[:, 2], count,
+                                                out.shape[0])
     b = b_min
     if all_lo <= all_hi:
         for b in range(b_min, all_lo):
@@ -437,6 +429,24 @@ def _write_band(out, band, band_lines, count):
             b += 8
     for rest in range(b, b_max + 1):
         _write_sample(out, band, band_lines, count, rest)
+
+
+@njit(cache=CACHE, _nrt=False, inline="always")
+def _ranges_span(firsts, lasts, count, n):
+    """Of the sample ranges ``firsts[i] … lasts[i]``, ``i < count`` (empty when first >
+    last), within ``0 … n - 1``: the first and last sample of any (their union's ends) and
+    of all (their common part; empty when first > last)."""
+    b_min = n
+    b_max = -1
+    all_lo = 0
+    all_hi = n - 1
+    for i in range(count):
+        if firsts[i] <= lasts[i]:
+            b_min = min(b_min, firsts[i])
+            b_max = max(b_max, lasts[i])
+        all_lo = max(all_lo, firsts[i])
+        all_hi = min(all_hi, lasts[i])
+    return b_min, b_max, all_lo, all_hi
 
 
 @njit(cache=CACHE, _nrt=False, inline="always")
@@ -461,21 +471,13 @@ def _fill_lines(h, lines, t0, count, a0, da, lo, hi, j_lo, a_org, b_org, e, marg
     """
     n1 = h.shape[0]
     rows = lines.shape[0]
-    b_min = n1
-    b_max = -1
-    all_lo = 0
-    all_hi = n1 - 1
     for i in range(count):
         fl, fr = _line_offset(a0 - i * da, a_org, b_org, e)
         shift = fl + j_lo + (1 if fr != 0.0 else 0)
         ranges[i, 0] = max(0, lo + shift - margin)
         ranges[i, 1] = min(n1 - 1, hi + shift + margin)
         ranges[i, 2] = (t0 + i) % rows
-        if ranges[i, 0] <= ranges[i, 1]:
-            b_min = min(b_min, ranges[i, 0])
-            b_max = max(b_max, ranges[i, 1])
-        all_lo = max(all_lo, ranges[i, 0])
-        all_hi = min(all_hi, ranges[i, 1])
+    b_min, b_max, all_lo, all_hi = _ranges_span(ranges[:, 0], ranges[:, 1], count, n1)
     # the samples every line of the band needs, in blocks of 8 map rows: each line's row
     # of the buffer takes 8 neighbouring values at a time from a block in cache
     b = b_min
