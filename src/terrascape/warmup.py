@@ -76,7 +76,8 @@ WARM_UP_TASKS: dict[str, WarmUpTask] = {
         12.0,
         calls=("render_textures",)),
     "lod": WarmUpTask(
-        "terrascape mesh --max-error (static mesh) and the demo's ROAM and geomipmapping",
+        "terrascape mesh --max-error (static mesh), the demo's ROAM and geomipmapping and "
+        "the streaming viewer's simplified tiles",
         (("mesh", "{map}", "-o", "{dir}/mesh.obj", "--max-error", "0.5"),),
         20.0,
         calls=("demo_lod",)),
@@ -126,6 +127,10 @@ def demo_lod(folder: Path) -> None:
     geo = Geomipmap(hm, patch_size=17)
     geo.update(camera, size, tolerance_px=2.0, cull=True)
     geo.triangles()
+    # the streaming viewer's simplified tiles (a 33² tile is the default tile's grid)
+    from terrascape.world.chunked_lod import simplified_tile_triangles, tile_bintree_errors
+
+    simplified_tile_triangles(tile_bintree_errors(hm.heights), hm.rows, 0.5)
 
 
 def render_textures(folder: Path) -> None:

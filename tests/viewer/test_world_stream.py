@@ -79,13 +79,15 @@ def test_flight_streams_tiles_without_waiting(world, gl_ctx):
         assert peak <= budget and len(geometry.cache) <= 30
         assert len(geometry.cache) + geometry.cache.evicted == geometry.uploaded
         # the root before the first frame, then what the flight asked for, on the thread
-        # (at the viewer's 3 px tolerance this flight asks for 9-10 tiles over the root)
-        assert built[0] == pyramid.grid.roots()[0] and len(built) > 5
+        assert built[0] == pyramid.grid.roots()[0]
         # hold the last view: the loads finish, and the frame draws exactly the selection
         deadline = time.monotonic() + 60
         while not session.tile_stats["complete"] and time.monotonic() < deadline:
             time.sleep(0.05)
             session.render(fbo, 1 / 30)
+        # (how many the thread built while the flight went on depends on the frames' speed;
+        # the flight and the held view ask for more than 5 over the root)
+        assert len(built) > 5
         st = session.tile_stats
         assert st["complete"] and st["max_pixels"] <= 1.0
         assert set(geometry.drawn) == set(geometry.selection.visible)
@@ -146,6 +148,7 @@ def test_loader_process_fills_its_slots_ahead(world):
     from terrascape.world.chunked_lod import (
         ProcessTileLoader,
         StoreReader,
+        tile_bintree_errors,
         tile_mesh,
         world_pyramid,
     )
@@ -171,11 +174,17 @@ def test_loader_process_fills_its_slots_ahead(world):
             time.sleep(0.01)
         assert [m.key for m in got] == keys  # in the order asked, the slots reused
         for mesh in got:
-            want = tile_mesh(reader, pyramid, mesh.key)
+            want = tile_mesh(reader, pyramid, mesh.key, bintree=True)
             assert mesh.shape == want.shape
             for a, b in ((mesh.positions, want.positions), (mesh.normals, want.normals),
-                         (mesh.tangents, want.tangents)):
+                         (mesh.tangents, want.tangents),
+                         (mesh.bintree_errors, want.bintree_errors)):
                 assert a.dtype == np.float32 and np.array_equal(a, b)
+            # the bintree errors of the drawn heights, rounded up to float32 (a bound)
+            n = mesh.shape[0] * mesh.shape[1]
+            exact = tile_bintree_errors(mesh.positions[:n, 1].reshape(mesh.shape))
+            assert np.all(mesh.bintree_errors.astype(np.float64) >= exact)
+            assert np.allclose(mesh.bintree_errors, exact, rtol=1e-6)
         assert loader.pending() == 0 and loader.loaded == len(keys)
     finally:
         loader.close()
@@ -389,3 +398,83 @@ def test_frustum_test_of_many_tile_boxes_is_the_per_box_test():
         want.append(inside)
     np.testing.assert_array_equal(got, want)
     assert 20 < got.sum() < 480
+
+
+def _surface_on_samples(tris: np.ndarray, z: np.ndarray, n: int, scale: int) -> np.ndarray:
+    """A tile mesh over ``n × n`` level vertices (heights ``z``) at every full-resolution
+    sample of its ground (``scale`` samples a cell), NaN where no triangle holds one."""
+    m = (n - 1) * scale + 1
+    out = np.full((m, m), np.nan)
+    rr, cc = np.mgrid[0:m, 0:m] / scale
+    for t in tris:
+        (ar, ac), (br, bc), (cr, ccc) = (divmod(int(v), n) for v in t)
+        det = (br - ar) * (ccc - ac) - (bc - ac) * (cr - ar)
+        w1 = ((rr - ar) * (ccc - ac) - (cc - ac) * (cr - ar)) / det
+        w2 = ((br - ar) * (cc - ac) - (bc - ac) * (rr - ar)) / det
+        w0 = 1.0 - w1 - w2
+        inside = (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9) & np.isnan(out)
+        out[inside] = (w0 * z.flat[t[0]] + w1 * z.flat[t[1]] + w2 * z.flat[t[2]])[inside]
+    return out
+
+
+@pytest.mark.gl
+def test_simplified_tiles_stay_within_the_tolerance_and_draw_the_same_view(world, gl_ctx):
+    """The viewer's tiles drawn as bintree meshes of the view's spare error: fewer
+    triangles; each mesh within the tolerance of the full-resolution heights, measured on
+    every sample of its ground and seen from the nearest point of its box; the same frame
+    as the whole tiles but for shading within a few levels, with no hole."""
+    import zarr
+
+    from terrascape.render.tiled_terrain import SIMPLIFY_STEPS, seeded_flight, stream_world
+    from terrascape.viewer.session import ViewerSession
+    from terrascape.world.chunked_lod import simplified_tile_triangles
+    from terrascape.world.window import overview_window
+
+    h = np.asarray(zarr.open_group(str(world), mode="r")["height"][...], dtype=np.float64)
+    proxy = overview_window(world, budget=1 << 30, max_side=65).heightmap
+    cam = seeded_flight(proxy, 30, seed=4, size=SIZE, crossing_s=3.0)[-1]
+    geo = stream_world(gl_ctx, world, budget_bytes=64 << 20, tolerance=3.0, background=False,
+                       simplify=True)
+    s = ViewerSession(gl_ctx, proxy, size=SIZE, hud=False, technique="plain", geometry=geo,
+                      moving_sun_shadows=False, warn=lambda m: None)
+    fbo = gl_ctx.simple_framebuffer(SIZE)
+    frames, tris = {}, {}
+    try:
+        s.camera = cam
+        for simplify in (False, True):
+            geo.simplify = simplify
+            s.render(fbo, 0.0)
+            frames[simplify], tris[simplify] = _frame(fbo), s.stats["triangles"]
+        kpx = cam.pixels_per_radian(SIZE[1])
+        eye = cam.eye
+        checked = 0
+        for key in geo.drawn:
+            tile = geo.cache.peek(key)
+            if tile is None or tile.simplified is None:
+                continue
+            n = tile.shape[0]
+            step = 1 << key.level
+            r0, _, c0, _ = geo.grid.span(key)
+            ground = h[r0:r0 + (n - 1) * step + 1, c0:c0 + (n - 1) * step + 1]
+            z = ground[::step, ::step]
+            mesh = simplified_tile_triangles(tile.errors, n,
+                                             2.0 ** (tile.simplified.step / SIMPLIFY_STEPS))
+            assert mesh.size == tile.simplified.count
+            surface = _surface_on_samples(mesh, z, n, step)
+            assert not np.isnan(surface).any()
+            box = tile.box
+            dist = float(np.linalg.norm(np.clip(eye, box[:3], box[3:]) - eye))
+            assert np.abs(surface - ground).max() <= 3.0 * dist / kpx + 1e-4
+            checked += 1
+        assert checked >= 4
+    finally:
+        fbo.release()
+        s.release()
+    assert tris[True] < 0.8 * tris[False]
+    diff = np.abs(frames[True] - frames[False])
+    assert diff.mean() < 3.0 and np.percentile(diff, 99) < 60
+    # no hole: every pixel the whole tiles cover, the simplified ones cover too
+    sky = frames[False][0, 0]  # a corner of sky (the camera looks ahead and down)
+    covered = np.any(np.abs(frames[False] - sky) > 12, axis=-1)
+    holes = covered & ~np.any(np.abs(frames[True] - sky) > 12, axis=-1)
+    assert holes.sum() <= 0.002 * covered.sum()

@@ -20,6 +20,7 @@ from terrascape.world.chunked_lod import (
     TileKey,
     TileLoader,
     array_reader,
+    bintree_cells,
     build_pyramid,
     draw_set,
     select_tiles,
@@ -49,9 +50,11 @@ def pyramid(heights):
     return build_pyramid(array_reader(heights), heights.shape, SPACING, tile=16, block=40)
 
 
-def _surface(h: np.ndarray, grid, key: TileKey) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+def _surface(h: np.ndarray, grid, key: TileKey, *,
+             bintree: bool = False) -> tuple[np.ndarray, tuple[int, int, int, int]]:
     """The tile's interpolant at every full-resolution sample of its ground (the anti-
-    diagonal split of the render mesh)."""
+    diagonal split of the render mesh; ``bintree``: cells whose level-k row + column is
+    even split along the other diagonal)."""
     a0, a1, b0, b1 = grid.samples(key)
     s = 1 << key.level
     c = h[a0 * s:a1 * s + 1:s, b0 * s:b1 * s + 1:s].astype(np.float64)
@@ -64,7 +67,13 @@ def _surface(h: np.ndarray, grid, key: TileKey) -> tuple[np.ndarray, tuple[int, 
     h00, h01, h10, h11 = c[i, j], c[i, j + 1], c[i + 1, j], c[i + 1, j + 1]
     lower = h00 + fu * (h01 - h00) + fv * (h10 - h00)
     upper = h11 + (1 - fu) * (h10 - h11) + (1 - fv) * (h01 - h11)
-    return np.where(fu + fv <= 1.0, lower, upper), (r0, r1, c0, c1)
+    surf = np.where(fu + fv <= 1.0, lower, upper)
+    if bintree:
+        even = (a0 + i + b0 + j) % 2 == 0
+        right = h00 + fu * (h01 - h00) + fv * (h11 - h01)
+        left = h00 + fv * (h10 - h00) + fu * (h11 - h10)
+        surf = np.where(even, np.where(fu >= fv, right, left), surf)
+    return surf, (r0, r1, c0, c1)
 
 
 def _low_camera() -> Camera:
@@ -105,6 +114,60 @@ def test_error_bound_holds_for_every_tile(heights, pyramid):
                 if k <= exact_top:  # these levels hold the real error (float32 heights)
                     assert bound == pytest.approx(true, rel=1e-6, abs=1e-4), (key, true, bound)
     assert g.top >= 3 and np.median(tight) > 0.4  # a bound, not a blanket
+
+
+def test_bintree_error_bound_holds_for_every_tile(heights, pyramid):
+    """The second table bounds each tile's bintree interpolant B_k (the surface the
+    simplified tile meshes coarsen) as the first bounds the grid's: exact on the exact
+    levels, a bound above them, on every full-resolution sample."""
+    g = pyramid.grid
+    exact_top = (EXACT_ROWS // g.tile).bit_length() - 1
+    differ = 0
+    for k in range(g.top + 1):
+        nr, nc = g.count(k)
+        for i in range(nr):
+            for j in range(nc):
+                key = TileKey(k, i, j)
+                surf, (r0, r1, c0, c1) = _surface(heights, g, key, bintree=True)
+                true = np.abs(surf - heights[r0:r1 + 1, c0:c1 + 1]).max()
+                bound = pyramid.error_bintree[k][i, j]
+                assert true <= bound + 1e-4, (key, true, bound)
+                if k <= exact_top:
+                    assert bound == pytest.approx(true, rel=1e-6, abs=1e-4), (key, true, bound)
+                differ += bool(k) and bound != pyramid.error[k][i, j]
+    assert differ > 10  # the two interpolants differ
+    # above the exact levels too (64 rows of 16-cell tiles: levels 3-4 are bounds)
+    pyr = build_pyramid(array_reader(heights), heights.shape, SPACING, tile=16, block=40,
+                        exact_rows=64)
+    for k in (3, 4):
+        nr, nc = g.count(k)
+        for i in range(nr):
+            for j in range(nc):
+                surf, (r0, r1, c0, c1) = _surface(heights, g, TileKey(k, i, j), bintree=True)
+                true = np.abs(surf - heights[r0:r1 + 1, c0:c1 + 1]).max()
+                assert true <= pyr.error_bintree[k][i, j] + 1e-4
+
+
+def test_bintree_cells_are_the_finest_bintree_mesh():
+    """bintree_cells is the RTIN bintree split to its finest level (the same triangles),
+    and faces up like the grid's triangles."""
+    from terrascape.lod.rtin import _triangles_of
+
+    for n in (3, 5, 17):
+        cells = bintree_cells(n, n)
+        full = _triangles_of(n, np.ones(n * n, np.bool_) & _splittable(n))
+        assert {frozenset(t) for t in cells.tolist()} == {frozenset(t) for t in full.tolist()}
+        r, c = np.divmod(cells.astype(np.int64), n)
+        ax, az, bx, bz, cx, cz = c[:, 0], r[:, 0], c[:, 1], r[:, 1], c[:, 2], r[:, 2]
+        up = (bz - az) * (cx - ax) - (bx - ax) * (cz - az)  # the y of (b − a) × (c − a)
+        assert np.all(up > 0)
+
+
+def _splittable(n: int) -> np.ndarray:
+    """Every grid vertex but the four corners (which never split)."""
+    m = np.ones((n, n), np.bool_)
+    m[0, 0] = m[0, -1] = m[-1, 0] = m[-1, -1] = False
+    return m.reshape(-1)
 
 
 def test_levels_above_the_exact_ones_bound_the_error(heights):
@@ -376,3 +439,67 @@ def test_loader_builds_on_a_background_thread(heights, pyramid):
                 time.sleep(0.01)
     finally:
         loader.close()
+
+
+def _mesh_values(tris: np.ndarray, z: np.ndarray, n: int, scale: int) -> np.ndarray:
+    """A mesh of grid vertices (``n`` a side, heights ``z``) evaluated on the ``scale``×
+    finer grid over the same square: every fine sample takes the first triangle that holds
+    it (inclusive edges); NaN where none does."""
+    m = (n - 1) * scale + 1
+    out = np.full((m, m), np.nan)
+    rr, cc = np.mgrid[0:m, 0:m] / scale
+    for t in tris:
+        (ar, ac), (br, bc), (cr, cc_) = (divmod(int(v), n) for v in t)
+        det = (br - ar) * (cc_ - ac) - (bc - ac) * (cr - ar)
+        w1 = ((rr - ar) * (cc_ - ac) - (cc - ac) * (cr - ar)) / det
+        w2 = ((br - ar) * (cc - ac) - (bc - ac) * (rr - ar)) / det
+        w0 = 1.0 - w1 - w2
+        inside = (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9) & np.isnan(out)
+        zs = w0 * z.flat[t[0]] + w1 * z.flat[t[1]] + w2 * z.flat[t[2]]
+        out[inside] = zs[inside]
+    return out
+
+
+def test_simplified_tile_meshes_conform_keep_their_border_and_meet_their_error():
+    """The bintree simplification of a tile: at 0 its finest mesh (bintree_cells); for
+    any error, a mesh that covers the tile once, keeps every border vertex (its edges meet
+    the neighbours' exactly), has no T-junction, and is within the error of B_k at every
+    sample; coarser for a larger error."""
+    from terrascape.world.chunked_lod import simplified_tile_triangles, tile_bintree_errors
+
+    rng = np.random.default_rng(4)
+    for n in (9, 17, 33):
+        z = gaussian_filter(rng.standard_normal((n, n)), 1.5) * 10.0
+        errors = tile_bintree_errors(z)
+        cells = bintree_cells(n, n)
+        full = simplified_tile_triangles(errors, n, 0.0)
+        assert {frozenset(t) for t in full.tolist()} == {frozenset(t) for t in cells.tolist()}
+        exact = _mesh_values(cells, z, n, 1)  # B_k at the samples: the heights
+        assert np.allclose(exact, z)
+        counts = []
+        for err in (0.05, 0.2, 0.8, 3.0, 1e9):
+            tris = simplified_tile_triangles(errors, n, err)
+            counts.append(len(tris))
+            vals = _mesh_values(tris, z, n, 1)
+            assert not np.isnan(vals).any()
+            assert np.abs(vals - z).max() <= err + 1e-9
+            # area: one cover of the square
+            r, c = np.divmod(tris.astype(np.int64), n)
+            area = ((r[:, 1] - r[:, 0]) * (c[:, 2] - c[:, 0])
+                    - (c[:, 1] - c[:, 0]) * (r[:, 2] - r[:, 0]))
+            assert np.all(area > 0) and area.sum() == 2 * (n - 1) ** 2
+            # no T-junction: every interior edge is shared by exactly two triangles
+            edges: dict[tuple[int, int], int] = {}
+            for t in tris.tolist():
+                for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+                    key = (min(a, b), max(a, b))
+                    edges[key] = edges.get(key, 0) + 1
+            used = set(np.unique(tris).tolist())
+            border = {i * n + j for i in range(n) for j in range(n)
+                      if i in (0, n - 1) or j in (0, n - 1)}
+            assert border <= used  # every border vertex kept
+            for (a, b), k in edges.items():
+                (ar, ac), (br, bc) = divmod(a, n), divmod(b, n)
+                on_border = (ar == br and ar in (0, n - 1)) or (ac == bc and ac in (0, n - 1))
+                assert k == (1 if on_border else 2), (a, b, k)
+        assert counts == sorted(counts, reverse=True) and counts[-1] < 0.75 * counts[0]

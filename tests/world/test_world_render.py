@@ -220,7 +220,7 @@ def test_tile_table_of_a_store_is_cached_and_exact(world):
     )
 
     h = _heights(world)
-    cache = world / "terrascape_lod3_32.npz"
+    cache = world / "terrascape_lod4_32.npz"
     cache.unlink(missing_ok=True)
     reader = StoreReader(world, cache_bytes=3 * 64 * 64 * 4)  # three zarr chunks
     built = world_pyramid(world, tile=32, reader=reader)
@@ -229,7 +229,7 @@ def test_tile_table_of_a_store_is_cached_and_exact(world):
     mem = build_pyramid(array_reader(h), h.shape, 2.0, tile=32)
     assert built.grid == again.grid == mem.grid and built.grid.top == 3
     for k in range(built.grid.top + 1):
-        for table in ("error", "low", "high", "skirt"):
+        for table in ("error", "low", "high", "skirt", "error_bintree"):
             assert np.array_equal(getattr(built, table)[k], getattr(mem, table)[k])
             assert np.array_equal(getattr(again, table)[k], getattr(mem, table)[k])
     # tiles read through the chunk cache equal those of the map in memory

@@ -61,6 +61,13 @@ __all__ = ["Rtin", "RtinMesh", "rtin_mesh"]
 def _vertex_errors(h, n, err, lev):
     """Exact error of every bintree triangle, stored at its hypotenuse midpoint (max of the
     diamond's two triangles), then nested bottom-up. ``lev[v]`` = tree level v splits at."""
+    _exact_vertex_errors(h, n, err, lev)
+    _nest_errors(h.shape[0], n, err)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _exact_vertex_errors(h, n, err, lev):
+    """The exact part of :func:`_vertex_errors` (no nesting)."""
     size = h.shape[0]
     s = size - 1
     # --- exact errors, levels 0 .. 2n-1 ---
@@ -110,7 +117,14 @@ def _vertex_errors(h, n, err, lev):
                 m = rc * size + c1
                 err[m] = max(err[m], e)
                 lev[m] = 2 * j + 1
-    # --- nesting, finest level first (level 2n-1 has no grid children) ---
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _nest_errors(size, n, err):
+    """Each vertex's error becomes the largest of its own and its bintree children's,
+    finest level first (level 2n-1 has no grid children): the vertices above any error
+    then form a closed (crack-free) set."""
+    s = size - 1
     for j in range(n - 1, -1, -1):
         side = s >> j
         nb = s // side

@@ -14,6 +14,7 @@ and the roots are loaded before the first frame.
 from __future__ import annotations
 
 import gc
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -37,7 +38,10 @@ from terrascape.world.chunked_lod import (
     TileSelection,
     draw_set,
     select_tiles,
+    simplifiable,
+    simplified_tile_triangles,
     skirt_edges,
+    tile_bintree_errors,
     tile_indices,
     tile_mesh,
     world_pyramid,
@@ -53,6 +57,31 @@ RENDER_TOLERANCE = 0.5
 UPLOAD_BYTES = 2 << 20
 #: Parts a frame's tiles are handed to the rasteriser in (TiledGeometry.submit_parts).
 SUBMIT_PARTS = 2
+#: Steps per doubling of a simplified tile's error budget: a tile's mesh is made again only
+#: when its budget crosses a step (rounded down, so the bound always holds).
+SIMPLIFY_STEPS = 4
+#: Simplified tile meshes made in a frame at most (about 25 µs each with the upload): the
+#: rest wait for the next frames, drawn whole or by their finer mesh meanwhile.
+SIMPLIFY_PER_FRAME = 48
+
+
+@dataclass
+class _Simplified:
+    """A tile's bintree mesh for this view: its own index buffer (the skirts, then the
+    triangles), the triangles' index count and the error step it was made for."""
+
+    ibo: Any
+    step: int = -(1 << 30)
+    count: int = 0
+    vaos: dict[int, Any] = field(default_factory=dict)
+    #: within this view's budget (a coarser step than the budget's waits, drawn whole)
+    usable: bool = True
+
+    def release(self) -> None:
+        for vao in self.vaos.values():
+            vao.release()
+        self.vaos.clear()
+        self.ibo.release()
 
 
 @dataclass
@@ -63,8 +92,19 @@ class _GpuTile:
     nbytes: int
     box: np.ndarray
     vaos: dict[int, Any] = field(default_factory=dict)
+    #: the bintree errors of its vertices (tile_bintree_errors); None: always drawn whole
+    errors: np.ndarray | None = None
+    #: its bound e_k against the bintree interpolant (world units, exaggerated)
+    error_bintree: float = 0.0
+    simplified: _Simplified | None = None
+
+    def release_simplified(self) -> None:
+        if self.simplified is not None:
+            self.simplified.release()
+            self.simplified = None
 
     def release(self) -> None:
+        self.release_simplified()
         for vao in self.vaos.values():
             vao.release()
         self.vaos.clear()
@@ -111,12 +151,20 @@ class TiledGeometry:
         :class:`~terrascape.world.chunked_lod.TileLoader` thread over ``build``;
         :func:`stream_world` uses a :class:`~terrascape.world.chunked_lod.ProcessTileLoader`).
         The geometry closes it.
+    simplify
+        Draw each tile as the coarsest bintree mesh of its samples that the view's error
+        allows (:meth:`_simplify`) instead of its whole grid. A tile is drawn at the first
+        level whose error projects within ``tolerance`` at its nearest point, so its own
+        error often uses half of it or less; the rest lets its mesh leave out the vertices
+        the view cannot tell from their neighbours' plane. Needs the pyramid's
+        :attr:`~terrascape.world.chunked_lod.TilePyramid.error_bintree`; the attribute
+        ``simplify`` switches it off and on between frames.
     """
 
     def __init__(self, ctx, pyramid: TilePyramid, build: Callable[[TileKey], TileMesh], *,
                  budget_bytes: int, tolerance: float = VIEW_TOLERANCE, exaggeration: float = 1.0,
                  background: bool = True, upload_ms: float = 4.0,
-                 upload_bytes: int = UPLOAD_BYTES, loader=None) -> None:
+                 upload_bytes: int = UPLOAD_BYTES, loader=None, simplify: bool = False) -> None:
         self.ctx = ctx
         self.pyramid = pyramid
         self.grid = pyramid.grid
@@ -131,6 +179,12 @@ class TiledGeometry:
         #: drawn (:func:`~terrascape.render.context.flush_commands`): the nearest tiles
         #: are rasterised while the vertices of the farther ones are shaded (1: one part).
         self.submit_parts = SUBMIT_PARTS
+        # tiles get their bintree errors as they arrive; ``simplify`` may be switched off
+        # (and on again) between frames
+        self._bintree = bool(simplify) and pyramid.error_bintree is not None
+        self.simplify = self._bintree
+        self._skirts: dict[tuple[int, int], np.ndarray] = {}
+        self._simplified_tiles: dict[TileKey, _GpuTile] = {}
         self._build = build
         self.cache = TileCache(int(budget_bytes), size_of=lambda t: t.nbytes,
                                release=lambda t: t.release())
@@ -203,6 +257,15 @@ class TiledGeometry:
                 for a in (mesh.positions, mesh.normals, mesh.tangents)]
         tile = _GpuTile(mesh.key, bufs, mesh.shape, mesh.nbytes,
                         self.pyramid.box(mesh.key, self.exaggeration))
+        if self._bintree and simplifiable(mesh.shape):
+            n_r, n_c = mesh.shape
+            if mesh.bintree_errors is not None:  # made by the loader (rounded up)
+                tile.errors = mesh.bintree_errors.astype(np.float64)
+            else:  # of the drawn heights (exaggerated): world units, like the budget
+                tile.errors = tile_bintree_errors(
+                    mesh.positions[:n_r * n_c, 1].reshape(n_r, n_c))
+            k, i, j = mesh.key
+            tile.error_bintree = float(self.pyramid.error_bintree[k][i, j]) * self.exaggeration
         ok = self.cache.put(mesh.key, tile, pinned=pinned)
         self._plan = None  # (the tiles the plan holds may have changed)
         self.uploaded += ok
@@ -268,14 +331,79 @@ class TiledGeometry:
         drawn = draw_set(self.grid, sel.visible, self.cache.__contains__)
         eye = camera.eye
         boxes = {key: self.cache.get(key).box for key in drawn}  # and most recently used
+        dist = {k: float(np.linalg.norm(np.clip(eye, boxes[k][:3], boxes[k][3:]) - eye))
+                for k in drawn}
         if self.sort_tiles:
             # front to back (the draw set follows the quadtree): the nearer tiles' depth
             # hides the further ones' fragments before they are shaded
-            drawn.sort(key=lambda k: float(np.linalg.norm(
-                np.clip(eye, boxes[k][:3], boxes[k][3:]) - eye)))
+            drawn.sort(key=dist.__getitem__)
+        if self._bintree:
+            self._simplify(drawn, dist, camera.pixels_per_radian(int(viewport[1])))
         self.drawn = drawn
         self.last_update_ms = (time.perf_counter() - t0) * 1000.0
         return self.stats()
+
+    def _simplify(self, drawn: list[TileKey], dist: dict[TileKey, float],
+                  kpx: float) -> None:
+        """Give each drawn tile the coarsest bintree mesh its share of the view's error
+        allows: ``tolerance`` pixels at its nearest point (``dist`` away, ``kpx`` pixels per
+        radian) less its own bound ``e_k`` against the bintree interpolant
+        (:attr:`~terrascape.world.chunked_lod.TilePyramid.error_bintree`), rounded down to a
+        step of :data:`SIMPLIFY_STEPS` per doubling. The mesh is within that budget of the
+        interpolant, so ``|h_0 − mesh| ≤ e_k + budget``: within the tolerance, seen from no
+        nearer than that point. A tile whose bound leaves no budget is drawn whole (its grid,
+        within the selection's own bound). Tiles that left the draw set give their index
+        buffers back."""
+        keep = set(drawn)
+        for key, tile in list(self._simplified_tiles.items()):
+            if key not in keep or self.cache.peek(key) is not tile:
+                tile.release_simplified()
+                del self._simplified_tiles[key]
+        if not self.simplify:  # switched off: drawn whole, the meshes kept while drawn
+            return
+        # (no mesh or one coarser than the budget allows, tile, step): those drawn whole
+        # first, nearest first; then those that may be coarser
+        todo = []
+        for key in drawn:
+            tile = self.cache.peek(key)
+            if tile is None or tile.errors is None:
+                continue
+            budget = self.tolerance * dist[key] / kpx - tile.error_bintree
+            if not budget > 0.0 or math.isinf(budget):
+                tile.release_simplified()
+                self._simplified_tiles.pop(key, None)
+                continue
+            step = math.floor(SIMPLIFY_STEPS * math.log2(budget))
+            simple = tile.simplified
+            if simple is not None:
+                simple.usable = simple.step <= step
+                if simple.step == step:
+                    continue
+            todo.append((simple is not None and simple.usable, dist[key], key, tile, step))
+        todo.sort(key=lambda item: item[:2])
+        for _, _, key, tile, step in todo[:SIMPLIFY_PER_FRAME]:
+            simple = tile.simplified
+            tris = simplified_tile_triangles(tile.errors, tile.shape[0],
+                                             2.0 ** (step / SIMPLIFY_STEPS))
+            skirts = self._skirt_indices(tile.shape)
+            if simple is None:
+                grid = 6 * (tile.shape[0] - 1) * (tile.shape[1] - 1)
+                simple = tile.simplified = _Simplified(
+                    self.ctx.buffer(reserve=4 * (skirts.size + grid)))
+                self._simplified_tiles[key] = tile
+            simple.ibo.write(skirts.tobytes() + tris.astype(np.uint32).tobytes())
+            simple.step = step
+            simple.count = tris.size
+            simple.usable = True
+
+    def _skirt_indices(self, shape: tuple[int, int]) -> np.ndarray:
+        """The skirt part of :func:`~terrascape.world.chunked_lod.tile_indices` (each edge's
+        at its :func:`~terrascape.world.chunked_lod.skirt_edges` offset from 0)."""
+        have = self._skirts.get(shape)
+        if have is None:
+            grid = 6 * (shape[0] - 1) * (shape[1] - 1)
+            have = self._skirts[shape] = tile_indices(shape)[grid:].copy()
+        return have
 
     def stats(self) -> dict[str, Any]:
         sel = self.selection
@@ -341,17 +469,25 @@ class TiledGeometry:
                 flush_commands()
             if not inside:
                 continue
-            ibo, count, _ = self._ibo(tile.shape)
-            vao = tile.vaos.get(program.glo)
+            ibo, grid_count, _ = self._ibo(tile.shape)
+            simple = tile.simplified if self.simplify else None
+            if simple is not None and simple.usable:
+                # its own buffer: the skirts from 0 (the shared one's after the grid),
+                # then the bintree mesh
+                vaos, ibo, shift = simple.vaos, simple.ibo, -grid_count
+                first, count = self._skirt_indices(tile.shape).size, simple.count
+            else:
+                vaos, first, count, shift = tile.vaos, 0, grid_count, 0
+            vao = vaos.get(program.glo)
             if vao is None:
                 pos, nor, tan = tile.buffers
-                vao = tile.vaos[program.glo] = self.ctx.vertex_array(
+                vao = vaos[program.glo] = self.ctx.vertex_array(
                     program, [(pos, "3f", "in_position"), (nor, "3f", "in_normal"),
                               (tan, "4f", "in_tangent")], ibo, 4, skip_errors=True)
-            vao.render(moderngl.TRIANGLES, vertices=count)
+            vao.render(moderngl.TRIANGLES, vertices=count, first=first)
             n = count
-            for first, size in own:
-                vao.render(moderngl.TRIANGLES, vertices=size, first=first)
+            for run_first, size in own:
+                vao.render(moderngl.TRIANGLES, vertices=size, first=run_first + shift)
                 n += size
             tris += n // 3
             drawn += 1
@@ -394,9 +530,12 @@ def split_budget(path, budget: int, *, proxy_side: int = 1025) -> tuple[Any, Wor
 def stream_world(ctx, path, *, budget_bytes: int, reader_bytes: int = 64 << 20,
                  tolerance: float = VIEW_TOLERANCE, exaggeration: float = 1.0,
                  background: bool = True, tile: int | None = None,
-                 pyramid: TilePyramid | None = None) -> TiledGeometry:
+                 pyramid: TilePyramid | None = None,
+                 simplify: bool | None = None) -> TiledGeometry:
     """:class:`TiledGeometry` over the world store at ``path`` (its tile table ``pyramid``,
-    by default built or read from the store's cache)."""
+    by default built or read from the store's cache). ``simplify`` (default: when
+    streaming in the background, the viewer's case; a still render draws every tile
+    whole): each tile drawn as the coarsest bintree mesh the view's error allows."""
     from terrascape.world.chunked_lod import DEFAULT_TILE
 
     if budget_bytes <= 0:
@@ -417,7 +556,8 @@ def stream_world(ctx, path, *, budget_bytes: int, reader_bytes: int = 64 << 20,
     try:
         return TiledGeometry(ctx, pyramid, build, budget_bytes=budget_bytes,
                              tolerance=tolerance, exaggeration=exaggeration,
-                             background=background, loader=loader)
+                             background=background, loader=loader,
+                             simplify=background if simplify is None else simplify)
     except BaseException:
         if loader is not None:
             loader.close()

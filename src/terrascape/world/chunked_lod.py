@@ -32,6 +32,18 @@ the tile budget is reached; tiles outside the view frustum (their box: the store
 height of their ground) are never split. The selection is then balanced (neighbouring leaves
 differ by at most one level), which bounds the skirts below.
 
+Simplified tiles (the viewer): a tile is drawn at the first level whose error projects
+within the tolerance at its nearest point, so its own error often uses half the tolerance
+or less. The table also bounds, per tile, the error of the *bintree* interpolant ``B_k`` of
+its samples (cells split along alternating diagonals, as the finest level of a ``2**m + 1``
+bintree splits them, :func:`bintree_cells`; the same hierarchy holds, a level-(k−1) bintree
+triangle lying inside a level-k one). A drawn tile then takes the coarsest bintree mesh of
+its samples within the error the view leaves it, ``tolerance·d/K − e_k(B)``
+(:func:`tile_bintree_errors`, :func:`simplified_tile_triangles`, after RTIN's nested
+errors, :mod:`terrascape.lod.rtin`): the mesh is within that of ``B_k`` and so within the
+tolerance of ``h_0``. Its border keeps every sample, so its edges are the grid's edges and
+the skirts below hold as they are.
+
 Cracks: at an edge shared by tiles A and B, A's edge is the interpolant of samples on the
 edge line and so is B's; B's value at any point of the edge lies between two of B's samples
 at most one B cell away — within the ground of A's parent's 3×3 neighbourhood (B is at most
@@ -54,6 +66,7 @@ References
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import heapq
 import io
@@ -73,6 +86,7 @@ from terrascape._numba import CACHE, FASTMATH, njit
 from terrascape._validate import check_int, check_positive
 from terrascape.camera import Camera
 from terrascape.errors import InvalidParameterError, MemoryLimitError
+from terrascape.lod.rtin import _nest_errors, _triangles_of, _vertex_errors
 from terrascape.mesh.tangent_space import heightfield_tangent_frames
 from terrascape.mesh.terrain_mesh import grid_triangles
 
@@ -83,7 +97,8 @@ VERTEX_BYTES = 40
 #: Full-resolution rows of the tiles whose errors the tile table holds exactly (levels
 #: ``1 … log2(EXACT_ROWS / tile)``; the levels above hold the hierarchical bound).
 EXACT_ROWS = 1024
-_CACHE_NAME = "terrascape_lod3_{tile}.npz"  # 3: the upper levels bounded through a finer one
+# 3: the upper levels bounded through a finer one; 4: the bintree interpolants' bounds too
+_CACHE_NAME = "terrascape_lod4_{tile}.npz"
 
 #: Reads samples ``[a0:a1, b0:b1]`` of pyramid level ``level`` (0 = full resolution).
 LevelReader = Callable[[int, int, int, int, int], np.ndarray]
@@ -165,8 +180,9 @@ class TileGrid:
 
 
 def _max_tile_bytes(tile: int) -> int:
-    """Vertex bytes of a full tile of ``tile`` cells a side: its grid and its skirt ring."""
-    return ((tile + 1) ** 2 + 4 * tile) * VERTEX_BYTES
+    """Bytes of a full tile of ``tile`` cells a side: the vertices of its grid and its
+    skirt ring, and its grid vertices' bintree errors (float32)."""
+    return ((tile + 1) ** 2 + 4 * tile) * VERTEX_BYTES + (tile + 1) ** 2 * 4
 
 
 def tile_grid(shape: tuple[int, int], spacing: float, tile: int = DEFAULT_TILE) -> TileGrid:
@@ -197,6 +213,9 @@ class TilePyramid:
     error: list[np.ndarray]
     low: list[np.ndarray]
     high: list[np.ndarray]
+    #: The same bound against the bintree interpolant ``B_k`` of the tile's samples
+    #: (:func:`bintree_cells`), which the simplified tile meshes refine (None: not known).
+    error_bintree: list[np.ndarray] | None = None
     skirt: list[np.ndarray] = field(init=False)
 
     def __post_init__(self) -> None:
@@ -245,17 +264,27 @@ class TilePyramid:
 
 # --- the error table ---------------------------------------------------------------------
 
-def _midpoint_error(fine: np.ndarray) -> np.ndarray:
+def _midpoint_error(fine: np.ndarray, *, bintree: bool = False,
+                    row0: int = 0) -> np.ndarray:
     """``|h_{k−1} − I_k|`` at every sample of a level-(k−1) block whose even samples are
     level k (rows and columns both odd in number): 0 at the coarse vertices, the edge
-    midpoints against their edge's mean, the cell centres against the anti-diagonal's."""
+    midpoints against their edge's mean, the cell centres against their diagonal's.
+
+    ``bintree``: ``I_k`` is the bintree interpolant :math:`B_k` (cell ``(a, b)`` split along
+    ``(a, b)–(a+1, b+1)`` where ``a + b`` is even, :func:`bintree_cells`), the block's
+    first coarse row being row ``row0`` of level k (its columns start at 0)."""
     f = fine.astype(np.float64)
     c = f[::2, ::2]
     err = np.zeros_like(f)
     err[::2, 1::2] = np.abs(f[::2, 1::2] - 0.5 * (c[:, :-1] + c[:, 1:]))
     err[1::2, ::2] = np.abs(f[1::2, ::2] - 0.5 * (c[:-1, :] + c[1:, :]))
     # cell (a, b) is split along (a+1, b)–(a, b+1): its centre is that diagonal's midpoint
-    err[1::2, 1::2] = np.abs(f[1::2, 1::2] - 0.5 * (c[1:, :-1] + c[:-1, 1:]))
+    anti = 0.5 * (c[1:, :-1] + c[:-1, 1:])
+    if bintree:
+        a = np.arange(row0, row0 + c.shape[0] - 1)[:, None]
+        b = np.arange(c.shape[1] - 1)[None, :]
+        anti = np.where((a + b) % 2 == 0, 0.5 * (c[:-1, :-1] + c[1:, 1:]), anti)
+    err[1::2, 1::2] = np.abs(f[1::2, 1::2] - anti)
     return err
 
 
@@ -275,10 +304,12 @@ def _band_rows(grid: TileGrid, level: int, block: int) -> int:
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
-def _exact_error_kernel(band, r0, level, tile, rows, cols, out):  # pragma: no cover - jitted
+def _exact_error_kernel(band, r0, level, tile, rows, cols, out,
+                        out_b):  # pragma: no cover - jitted
     """``out[i, j]`` = max ``|h_0 − I_level|`` over the full-resolution samples of the
     level-``level`` tile ``(i_first + i, j)`` (closed ranges), ``band`` holding full-
-    resolution rows ``r0 …`` of the whole width; ``rows``, ``cols``: the map's cells.
+    resolution rows ``r0 …`` of the whole width; ``rows``, ``cols``: the map's cells;
+    ``out_b`` the same against the bintree interpolant ``B_level``.
 
     Cell by cell of the level's grid: each sample belongs to the cell it starts (a tile's
     last row and column to its last cell), whose four corners are read once."""
@@ -295,6 +326,7 @@ def _exact_error_kernel(band, r0, level, tile, rows, cols, out):  # pragma: no c
             gb1 = min(gb0 + span, cols)
             b_first, b_last = gb0 // s, gb1 // s - 1
             worst = 0.0
+            worst_b = 0.0
             for a in range(a_first, a_last + 1):
                 ra = a * s - r0
                 r_end = s if a < a_last else ga1 - a * s + 1
@@ -305,6 +337,8 @@ def _exact_error_kernel(band, r0, level, tile, rows, cols, out):  # pragma: no c
                     h01 = np.float64(band[ra, cb + s])
                     h10 = np.float64(band[ra + s, cb])
                     h11 = np.float64(band[ra + s, cb + s])
+                    # the bintree splits this cell the other way when a + b is even
+                    even = (a + b) % 2 == 0
                     for dr in range(r_end):
                         v = dr * inv
                         row = band[ra + dr]
@@ -315,10 +349,20 @@ def _exact_error_kernel(band, r0, level, tile, rows, cols, out):  # pragma: no c
                                 interp = h00 + u * (h01 - h00) + v * (h10 - h00)
                             else:
                                 interp = h11 + (1.0 - u) * (h10 - h11) + (1.0 - v) * (h01 - h11)
-                            e = abs(np.float64(row[cb + dc]) - interp)
+                            z = np.float64(row[cb + dc])
+                            e = abs(z - interp)
                             if e > worst:
                                 worst = e
+                            if even:  # split along (a, b)–(a+1, b+1)
+                                if u >= v:
+                                    interp = h00 + u * (h01 - h00) + v * (h11 - h01)
+                                else:
+                                    interp = h00 + v * (h10 - h00) + u * (h11 - h10)
+                                e = abs(z - interp)
+                            if e > worst_b:
+                                worst_b = e
             out[ti, tj] = worst
+            out_b[ti, tj] = worst_b
 
 
 @njit(cache=CACHE)
@@ -354,6 +398,7 @@ def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *
     grid = tile_grid(shape, spacing, tile)
     t, top = grid.tile, grid.top
     error: list[np.ndarray] = [np.zeros(grid.count(0))]
+    error_b: list[np.ndarray] = [np.zeros(grid.count(0))]  # against the bintree B_k
     # level 0: each finest tile's height range; the levels whose tiles fit a band: exact
     nr0, nc0 = grid.count(0)
     low0, high0 = np.empty((nr0, nc0)), np.empty((nr0, nc0))
@@ -363,6 +408,7 @@ def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *
     exact_top = min(top, max(1, (rows_exact // t).bit_length() - 1))
     per = max(1 << exact_top, 1 << (_band_rows(grid, 0, block).bit_length() - 1))
     exact = [np.zeros(grid.count(k)) for k in range(1, exact_top + 1)]
+    exact_b = [np.zeros(grid.count(k)) for k in range(1, exact_top + 1)]
     for i0 in range(0, nr0, per):
         i1 = min(nr0, i0 + per)
         a0, a1 = i0 * t, min(i1 * t, rows)
@@ -370,36 +416,45 @@ def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *
         _tile_range_kernel(band, t, low0[i0:i1], high0[i0:i1])
         for k in range(1, exact_top + 1):
             k0, k1 = i0 >> k, -(-i1 // (1 << k))
-            _exact_error_kernel(band, a0, k, t, rows, cols, exact[k - 1][k0:k1])
+            _exact_error_kernel(band, a0, k, t, rows, cols, exact[k - 1][k0:k1],
+                                exact_b[k - 1][k0:k1])
     low, high = [low0], [high0]
     for k in range(1, top + 1):
         nr, nc = grid.count(k)
         child_err = np.zeros((nr, nc))
+        child_err_b = np.zeros((nr, nc))
         lo_k, hi_k = np.full((nr, nc), np.inf), np.full((nr, nc), -np.inf)
         for di in (0, 1):
             for dj in (0, 1):
                 e = error[k - 1][di::2, dj::2]
                 sl = (slice(0, e.shape[0]), slice(0, e.shape[1]))
                 child_err[sl] = np.maximum(child_err[sl], e)
+                child_err_b[sl] = np.maximum(child_err_b[sl], error_b[k - 1][di::2, dj::2])
                 lo_k[sl] = np.minimum(lo_k[sl], low[k - 1][di::2, dj::2])
                 hi_k[sl] = np.maximum(hi_k[sl], high[k - 1][di::2, dj::2])
         low.append(lo_k)
         high.append(hi_k)
         if k <= exact_top:
             error.append(exact[k - 1])
+            error_b.append(exact_b[k - 1])
             continue
         # e_k: the level-(k−1) samples of each level-k tile against the level-k interpolant
         own = np.empty((nr, nc))
+        own_b = np.empty((nr, nc))
         fr, fc = grid.cells(k - 1)
         per_k = _band_rows(grid, k, block)
         for i0 in range(0, nr, per_k):
             i1 = min(nr, i0 + per_k)
             a0, a1 = i0 * 2 * t, min(i1 * 2 * t, fr)
-            err = _midpoint_error(reader(k - 1, a0, a1 + 1, 0, fc + 1))
+            fine = reader(k - 1, a0, a1 + 1, 0, fc + 1)
+            err = _midpoint_error(fine)
+            err_b = _midpoint_error(fine, bintree=True, row0=a0 // 2)
             for i in range(i0, i1):
-                own[i] = _tile_reduce(err[(i - i0) * 2 * t:(i - i0 + 1) * 2 * t + 1],
-                                      2 * t, nc, np.max)
+                rows_i = slice((i - i0) * 2 * t, (i - i0 + 1) * 2 * t + 1)
+                own[i] = _tile_reduce(err[rows_i], 2 * t, nc, np.max)
+                own_b[i] = _tile_reduce(err_b[rows_i], 2 * t, nc, np.max)
         bound = own + child_err
+        bound_b = own_b + child_err_b
         # a second bound through a finer level j = k − exact_top, exact there:
         # |h_0 − I_k| ≤ |h_0 − I_j| + |I_j − I_k|, the last linear on level-j triangles, so
         # its largest value is at a level-j sample (the exact kernel on level j, in bands as
@@ -408,31 +463,41 @@ def build_pyramid(reader: LevelReader, shape: tuple[int, int], spacing: float, *
         # were split for an error they did not have.
         j = k - exact_top
         if j >= 1:
-            bound = np.minimum(bound, _relayed_error(reader, grid, error[j], j, k, block))
+            relayed, relayed_b = _relayed_error(reader, grid, error[j], error_b[j], j, k,
+                                                block)
+            bound = np.minimum(bound, relayed)
+            bound_b = np.minimum(bound_b, relayed_b)
         error.append(bound)
-    return TilePyramid(grid, error, low, high)
+        error_b.append(bound_b)
+    return TilePyramid(grid, error, low, high, error_b)
 
 
-def _relayed_error(reader: LevelReader, grid: TileGrid, fine_error: np.ndarray, j: int,
-                   k: int, block: int) -> np.ndarray:
+def _relayed_error(reader: LevelReader, grid: TileGrid, fine_error: np.ndarray,
+                   fine_error_b: np.ndarray, j: int, k: int,
+                   block: int) -> tuple[np.ndarray, np.ndarray]:
     """Per level-``k`` tile: the largest bound ``fine_error`` of its level-``j`` tiles
-    plus max ``|h_j − I_k|`` over its level-``j`` samples."""
+    plus max ``|h_j − I_k|`` over its level-``j`` samples; and the same for the bintree
+    interpolants (``fine_error_b``, ``B_k``)."""
     t, d = grid.tile, k - j
     nr, nc = grid.count(k)
     fr, fc = grid.cells(j)
-    # the level-j tiles inside each level-k tile (2**d a side; the last ones may be fewer)
-    pad = np.zeros((nr << d, nc << d))
-    pad[:fine_error.shape[0], :fine_error.shape[1]] = fine_error
-    inner = pad.reshape(nr, 1 << d, nc, 1 << d).max(axis=(1, 3))
+
+    def inner(fine: np.ndarray) -> np.ndarray:
+        # the level-j tiles inside each level-k tile (2**d a side; the last may be fewer)
+        pad = np.zeros((nr << d, nc << d))
+        pad[:fine.shape[0], :fine.shape[1]] = fine
+        return pad.reshape(nr, 1 << d, nc, 1 << d).max(axis=(1, 3))
+
     span = t << d  # level-j rows of a level-k tile
     per = max(1, block // span)
     rel = np.zeros((nr, nc))
+    rel_b = np.zeros((nr, nc))
     for i0 in range(0, nr, per):
         i1 = min(nr, i0 + per)
         a0, a1 = i0 * span, min(i1 * span, fr)
         band = np.ascontiguousarray(reader(j, a0, a1 + 1, 0, fc + 1), dtype=np.float32)
-        _exact_error_kernel(band, a0, d, t, fr, fc, rel[i0:i1])
-    return inner + rel
+        _exact_error_kernel(band, a0, d, t, fr, fc, rel[i0:i1], rel_b[i0:i1])
+    return inner(fine_error) + rel, inner(fine_error_b) + rel_b
 
 
 def array_reader(heights: np.ndarray) -> LevelReader:
@@ -507,14 +572,14 @@ class StoreReader:
 def world_pyramid(path, *, tile: int = DEFAULT_TILE, reader: StoreReader | None = None,
                   cache: bool = True) -> TilePyramid:
     """The :class:`TilePyramid` of a world store, built once and cached in the store
-    (``terrascape_lod3_<tile>.npz``, keyed by the recipe's hash)."""
+    (``terrascape_lod4_<tile>.npz``, keyed by the recipe's hash)."""
     from terrascape.io.atomic import atomic_output
 
     reader = reader or StoreReader(path)
     recipe = reader.recipe
     shape = (int(recipe.rows), int(recipe.cols))
     cache_path = Path(path) / _CACHE_NAME.format(tile=tile)
-    digest = hashlib.sha256(f"{recipe.digest()}:{tile}:3".encode()).hexdigest()
+    digest = hashlib.sha256(f"{recipe.digest()}:{tile}:4".encode()).hexdigest()
     if cache_path.is_file():
         try:
             with np.load(cache_path) as z:
@@ -523,7 +588,8 @@ def world_pyramid(path, *, tile: int = DEFAULT_TILE, reader: StoreReader | None 
                     n = grid.top + 1
                     return TilePyramid(grid, [z[f"error_{k}"] for k in range(n)],
                                        [z[f"low_{k}"] for k in range(n)],
-                                       [z[f"high_{k}"] for k in range(n)])
+                                       [z[f"high_{k}"] for k in range(n)],
+                                       [z[f"errorb_{k}"] for k in range(n)])
         except (OSError, KeyError, ValueError):
             pass  # rebuilt below
     pyr = build_pyramid(reader, shape, recipe.spacing, tile=tile, block=reader.chunk)
@@ -531,7 +597,7 @@ def world_pyramid(path, *, tile: int = DEFAULT_TILE, reader: StoreReader | None 
         arrays = {"digest": np.array(digest)}
         for k in range(pyr.grid.top + 1):
             arrays.update({f"error_{k}": pyr.error[k], f"low_{k}": pyr.low[k],
-                           f"high_{k}": pyr.high[k]})
+                           f"high_{k}": pyr.high[k], f"errorb_{k}": pyr.error_bintree[k]})
         buf = io.BytesIO()
         np.savez(buf, **arrays)
         try:
@@ -763,10 +829,14 @@ class TileMesh:
     normals: np.ndarray  # (n, 3) float32
     tangents: np.ndarray  # (n, 4) float32
     shape: tuple[int, int]
+    #: (n_r·n_c,) float32: tile_bintree_errors of the drawn heights, rounded up (None: not
+    #: made, or the tile has no bintree)
+    bintree_errors: np.ndarray | None = None
 
     @property
     def nbytes(self) -> int:
-        return self.positions.nbytes + self.normals.nbytes + self.tangents.nbytes
+        extra = 0 if self.bintree_errors is None else self.bintree_errors.nbytes
+        return self.positions.nbytes + self.normals.nbytes + self.tangents.nbytes + extra
 
 
 def _ring(n_r: int, n_c: int) -> np.ndarray:
@@ -800,6 +870,71 @@ def tile_indices(shape: tuple[int, int]) -> np.ndarray:
     return np.concatenate([grid.reshape(-1), quads.reshape(-1)]).astype(np.uint32)
 
 
+def bintree_cells(n_r: int, n_c: int) -> np.ndarray:
+    """uint32 ``(2·cells, 3)`` triangles of an ``n_r × n_c`` grid split as the bintree of a
+    ``2**m + 1`` square splits it at its finest level: cell ``(a, b)`` along
+    ``(a, b)–(a+1, b+1)`` where ``a + b`` is even, along ``(a+1, b)–(a, b+1)`` (as
+    :func:`~terrascape.mesh.terrain_mesh.grid_triangles`) where it is odd — the surface
+    ``B_k`` that :attr:`TilePyramid.error_bintree` bounds and the simplified tile meshes
+    coarsen. Counter-clockwise seen from above, like the grid's."""
+    a = np.arange(n_r - 1)[:, None]
+    b = np.arange(n_c - 1)[None, :]
+    i00 = (a * n_c + b).ravel()
+    i01, i10 = i00 + 1, i00 + n_c
+    i11 = i10 + 1
+    even = ((a + b) % 2 == 0).ravel()
+    first = np.where(even[:, None], np.stack([i00, i10, i11], 1), np.stack([i00, i10, i01], 1))
+    second = np.where(even[:, None], np.stack([i00, i11, i01], 1),
+                      np.stack([i01, i10, i11], 1))
+    return np.stack([first, second], 1).reshape(-1, 3).astype(np.uint32)
+
+
+def simplifiable(shape: tuple[int, int]) -> bool:
+    """Whether a tile of ``shape`` grid vertices has a bintree (square, ``2**m + 1``)."""
+    n_r, n_c = shape
+    return n_r == n_c and n_r >= 3 and ((n_r - 1) & (n_r - 2)) == 0
+
+
+@functools.lru_cache(maxsize=8)
+def _border_closure(size: int) -> np.ndarray:
+    """The bintree vertices a mesh with every border vertex needs (the border's and their
+    ancestors'), flat bool: the set the nesting closes."""
+    err = np.zeros((size, size))
+    err[0, :] = err[-1, :] = err[:, 0] = err[:, -1] = 1.0
+    err[0, 0] = err[0, -1] = err[-1, 0] = err[-1, -1] = 0.0  # corners never split
+    flat = err.reshape(-1)
+    _nest_errors(size, (size - 1).bit_length() - 1, flat)
+    return flat > 0.0
+
+
+def tile_bintree_errors(heights: np.ndarray) -> np.ndarray:
+    """Per grid vertex of a square ``2**m + 1`` tile (flat, float64): the exact error, at
+    the tile's samples, of the bintree mesh that leaves that vertex out, nested so the
+    vertices above any error form a conforming mesh (:mod:`terrascape.lod.rtin`); the border
+    and the vertices it needs are never left out (infinite error), so the tile's edges
+    keep every sample and meet their neighbours' without a crack.
+
+    A bintree mesh refines the tile's bintree interpolant ``B_k`` (:func:`bintree_cells`):
+    on each finest triangle both are linear, so their largest difference is at a sample,
+    and a mesh of the vertices above ``e`` is within ``e`` of ``B_k`` everywhere."""
+    h = np.ascontiguousarray(heights, dtype=np.float64)
+    size = h.shape[0]
+    if not simplifiable(h.shape):
+        raise InvalidParameterError(f"a tile bintree needs a square 2**m + 1 grid, got {h.shape}")
+    err = np.zeros(size * size)
+    lev = np.full(size * size, -1, np.int64)
+    _vertex_errors(h, (size - 1).bit_length() - 1, err, lev)
+    err[_border_closure(size)] = np.inf
+    return err
+
+
+def simplified_tile_triangles(errors: np.ndarray, size: int, max_error: float) -> np.ndarray:
+    """uint32 ``(m, 3)`` triangles (grid vertex indices, counter-clockwise seen from above)
+    of the coarsest bintree mesh of a tile within ``max_error`` of its ``B_k`` (``errors``
+    from :func:`tile_bintree_errors`), every border sample kept."""
+    return _triangles_of(size, errors > max_error)
+
+
 #: The neighbour across each edge of :func:`skirt_edges` (row and column steps).
 EDGE_STEPS = ((-1, 0), (0, 1), (1, 0), (0, -1))
 
@@ -818,10 +953,12 @@ def skirt_edges(shape: tuple[int, int]) -> list[tuple[int, int]]:
 
 
 def tile_mesh(reader: LevelReader, pyramid: TilePyramid, key: TileKey, *,
-              exaggeration: float = 1.0) -> TileMesh:
+              exaggeration: float = 1.0, bintree: bool = False) -> TileMesh:
     """The mesh of one tile, read at its level with a one-sample halo for the normals
     (central differences inside the map, one-sided at its border: at level 0 the normals
-    and positions of :func:`~terrascape.mesh.terrain_mesh.terrain_mesh` bit for bit)."""
+    and positions of :func:`~terrascape.mesh.terrain_mesh.terrain_mesh` bit for bit).
+    ``bintree``: with its vertices' bintree errors (:func:`tile_bintree_errors` of the drawn
+    heights, for the viewer's simplified tiles) when its grid has a bintree."""
     grid = pyramid.grid
     if not grid.exists(key):
         raise InvalidParameterError(f"no tile {tuple(key)} in this world")
@@ -846,9 +983,20 @@ def tile_mesh(reader: LevelReader, pyramid: TilePyramid, key: TileKey, *,
     ring = _ring(n_r, n_c)
     bottom = pos[ring].copy()
     bottom[:, 1] = np.float32(float(pyramid.skirt[k][key.row, key.col]) * exaggeration)
+    errors = None
+    if bintree and simplifiable((n_r, n_c)):
+        errors = _rounded_up_f32(tile_bintree_errors(pos[:, 1].reshape(n_r, n_c)))
     return TileMesh(key, np.concatenate([pos, bottom]),
                     np.concatenate([normals, normals[ring]]),
-                    np.concatenate([tangents, tangents[ring]]), (n_r, n_c))
+                    np.concatenate([tangents, tangents[ring]]), (n_r, n_c), errors)
+
+
+def _rounded_up_f32(values: np.ndarray) -> np.ndarray:
+    """float32 values never below ``values`` (an error bound stays a bound)."""
+    out = values.astype(np.float32)
+    low = out.astype(np.float64) < values
+    out[low] = np.nextafter(out[low], np.float32(np.inf))
+    return out
 
 
 # --- streaming ---------------------------------------------------------------------------
@@ -882,6 +1030,10 @@ class TileCache:
         if value is not None:
             self._items.move_to_end(key)
         return value
+
+    def peek(self, key: TileKey):
+        """The value of ``key`` (or None) without making it the most recently used."""
+        return self._items.get(key)
 
     def put(self, key: TileKey, value, *, pinned: frozenset | set = frozenset()) -> bool:
         """Insert ``value``; False (and ``value`` released) when the pinned entries leave no
@@ -989,11 +1141,12 @@ LOADER_SLOTS = 32
 LOADER_QUEUE = 4 * LOADER_SLOTS
 
 
-def _slot_layout(n_vertices: int) -> tuple[int, int, int, int]:
-    """Byte offsets of positions, normals and tangents of an ``n_vertices`` mesh in a slot,
-    and the bytes it takes."""
+def _slot_layout(n_vertices: int, n_errors: int = 0) -> tuple[int, int, int, int, int]:
+    """Byte offsets of positions, normals, tangents and ``n_errors`` bintree errors of an
+    ``n_vertices`` mesh in a slot, and the bytes it takes."""
     pos = n_vertices * 12
-    return 0, pos, 2 * pos, 2 * pos + n_vertices * 16
+    tan = 2 * pos + n_vertices * 16
+    return 0, pos, 2 * pos, tan, tan + 4 * n_errors
 
 
 def _loader_process(conn, path: str, tile: int, exaggeration: float, reader_bytes: int,
@@ -1022,18 +1175,22 @@ def _loader_process(conn, path: str, tile: int, exaggeration: float, reader_byte
                 queue = list(msg[1])
         key = queue.pop(0)
         try:
-            mesh = tile_mesh(reader, pyramid, key, exaggeration=exaggeration)
+            mesh = tile_mesh(reader, pyramid, key, exaggeration=exaggeration, bintree=True)
         except Exception as exc:
             conn.send(("error", f"tile {tuple(key)}: {type(exc).__name__}: {exc}"))
             continue
         slot = free.pop()
         n = len(mesh.positions)
+        errors = mesh.bintree_errors
+        n_err = 0 if errors is None else errors.size
         base = slot * slot_bytes
-        for arr, off in zip((mesh.positions, mesh.normals, mesh.tangents), _slot_layout(n),
-                            strict=False):
+        arrays = [mesh.positions, mesh.normals, mesh.tangents]
+        if errors is not None:
+            arrays.append(errors)
+        for arr, off in zip(arrays, _slot_layout(n, n_err), strict=False):
             raw = np.ascontiguousarray(arr, dtype=np.float32).view(np.uint8).reshape(-1)
             memory[base + off:base + off + raw.size] = raw
-        conn.send(("tile", key, slot, n, mesh.shape))
+        conn.send(("tile", key, slot, n, mesh.shape, n_err))
 
 
 class ProcessTileLoader:
@@ -1083,14 +1240,15 @@ class ProcessTileLoader:
     def pending(self) -> int:
         return len(self._asked)
 
-    def _take(self, key: TileKey, slot: int, n: int, shape) -> TileMesh:
+    def _take(self, key: TileKey, slot: int, n: int, shape, n_err: int = 0) -> TileMesh:
         base = slot * self.slot_bytes
-        size = _slot_layout(n)[3]
+        size = _slot_layout(n, n_err)[4]
         raw = self._memory[base:base + size].copy().view(np.float32)  # the slot is reused
         pos = raw[:n * 3].reshape(n, 3)  # the order of _slot_layout
         nor = raw[n * 3:n * 6].reshape(n, 3)
-        tan = raw[n * 6:].reshape(n, 4)
-        return TileMesh(TileKey(*key), pos, nor, tan, tuple(shape))
+        tan = raw[n * 6:n * 10].reshape(n, 4)
+        errors = raw[n * 10:n * 10 + n_err] if n_err else None
+        return TileMesh(TileKey(*key), pos, nor, tan, tuple(shape), errors)
 
     def finished(self, limit: int | None = None) -> list[TileMesh]:
         out: list[TileMesh] = []
@@ -1100,8 +1258,8 @@ class ProcessTileLoader:
                 msg = self._conn.recv()
                 if msg[0] == "error":
                     raise InvalidParameterError(f"loading the world's tiles failed: {msg[1]}")
-                _, key, slot, n, shape = msg
-                mesh = self._take(key, slot, n, shape)
+                _, key, slot, n, shape, n_err = msg
+                mesh = self._take(key, slot, n, shape, n_err)
                 emptied.append(slot)
                 self._asked.discard(mesh.key)
                 self.loaded += 1
@@ -1142,5 +1300,6 @@ class ProcessTileLoader:
 __all__ = ["DEFAULT_TILE", "EDGE_STEPS", "LOADER_QUEUE", "LOADER_SLOTS", "VERTEX_BYTES",
            "LevelReader", "ProcessTileLoader", "StoreReader", "TileCache", "TileGrid", "TileKey",
            "TileLoader", "TileMesh", "TilePyramid", "TileSelection", "array_reader",
-           "build_pyramid", "draw_set", "select_tiles", "skirt_edges", "tile_grid",
+           "bintree_cells", "build_pyramid", "draw_set", "select_tiles", "simplifiable",
+           "simplified_tile_triangles", "skirt_edges", "tile_bintree_errors", "tile_grid",
            "tile_indices", "tile_mesh", "world_pyramid"]
