@@ -183,6 +183,10 @@ class TiledGeometry:
         # (and on again) between frames
         self._bintree = bool(simplify) and pyramid.error_bintree is not None
         self.simplify = self._bintree
+        if self._bintree:
+            # numba compiles (or loads from its cache) the meshing kernels now, not in the
+            # middle of the first frames that simplify a tile (a 0.3 s frame when compiled)
+            simplified_tile_triangles(tile_bintree_errors(np.zeros((3, 3))), 3, 0.0)
         self._skirts: dict[tuple[int, int], np.ndarray] = {}
         self._simplified_tiles: dict[TileKey, _GpuTile] = {}
         self._build = build
