@@ -96,3 +96,19 @@ def test_every_task_has_commands_and_a_summary(name: str) -> None:
     task = WARM_UP_TASKS[name]
     assert task.summary and task.cost > 0
     assert task.commands or task.calls
+
+
+def test_demo_lod_share_runs_without_the_world_extra(tmp_path: Path) -> None:
+    """An installation without zarr (the demo's: no world extra) warms the LOD share up
+    without the streaming viewer's kernels, instead of failing on the world package."""
+    import subprocess
+    import sys
+
+    code = ("import sys; sys.modules['zarr'] = None\n"
+            "from pathlib import Path\n"
+            "from terrascape import warmup\n"
+            f"warmup.demo_lod(Path({str(tmp_path)!r}))\n"
+            "assert 'terrascape.world' not in sys.modules\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
