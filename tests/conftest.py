@@ -30,6 +30,30 @@ def gl_ctx():
     ctx.release()
 
 
+def _mesh_on_samples(tris: np.ndarray, z: np.ndarray, n: int, scale: int) -> np.ndarray:
+    """A mesh of grid vertices (``n`` a side, heights ``z``, triangles of flat vertex
+    indices) at every sample of the ``scale``× finer grid over the same square: each fine
+    sample takes the first triangle that holds it (inclusive edges); NaN where none does."""
+    m = (n - 1) * scale + 1
+    out = np.full((m, m), np.nan)
+    rr, cc = np.mgrid[0:m, 0:m] / scale
+    for t in tris:
+        (ar, ac), (br, bc), (cr, ccr) = (divmod(int(v), n) for v in t)
+        det = (br - ar) * (ccr - ac) - (bc - ac) * (cr - ar)
+        w1 = ((rr - ar) * (ccr - ac) - (cc - ac) * (cr - ar)) / det
+        w2 = ((br - ar) * (cc - ac) - (bc - ac) * (rr - ar)) / det
+        w0 = 1.0 - w1 - w2
+        inside = (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9) & np.isnan(out)
+        out[inside] = (w0 * z.flat[t[0]] + w1 * z.flat[t[1]] + w2 * z.flat[t[2]])[inside]
+    return out
+
+
+@pytest.fixture(scope="session")
+def mesh_on_samples():
+    """:func:`_mesh_on_samples`: a grid-vertex mesh evaluated on a finer grid's samples."""
+    return _mesh_on_samples
+
+
 def _box_mesh(size=(2.0, 6.0, 2.0), color=(0.45, 0.3, 0.2), name="box"):
     """An axis-aligned flat-shaded box (24 vertices, face normals) standing on the origin."""
     from terrascape.objects import ObjectMesh

@@ -27,6 +27,17 @@ def world(tmp_path_factory) -> Path:
     return path
 
 
+def _frames_for(session, fbo, values, apply) -> tuple[dict, dict]:
+    """The frame and its triangle count for each of ``values``, set by ``apply(value)``
+    before the session draws."""
+    frames, tris = {}, {}
+    for value in values:
+        apply(value)
+        session.render(fbo, 0.0)
+        frames[value], tris[value] = _frame(fbo), session.stats["triangles"]
+    return frames, tris
+
+
 def _frame(fbo) -> np.ndarray:
     w, h = fbo.size
     return np.frombuffer(fbo.read(components=3), np.uint8).reshape(h, w, 3)[::-1].astype(int)
@@ -298,13 +309,10 @@ def test_tiles_front_to_back_skirts_between_levels_same_pixels(world, gl_ctx):
         return out
 
     geo.draw, geo.update = counted, quadtree_order
-    frames, tris = {}, {}
     try:
         s.camera = cam
-        for before in (False, True):
-            geo.every_skirt = before
-            s.render(fbo, 0.0)
-            frames[before], tris[before] = _frame(fbo), s.stats["triangles"]
+        frames, tris = _frames_for(s, fbo, (False, True),
+                                   lambda every: setattr(geo, "every_skirt", every))
         assert len(geo.drawn) >= 8 and len({k.level for k in geo.drawn}) >= 2
     finally:
         fbo.release()
@@ -400,25 +408,9 @@ def test_frustum_test_of_many_tile_boxes_is_the_per_box_test():
     assert 20 < got.sum() < 480
 
 
-def _surface_on_samples(tris: np.ndarray, z: np.ndarray, n: int, scale: int) -> np.ndarray:
-    """A tile mesh over ``n × n`` level vertices (heights ``z``) at every full-resolution
-    sample of its ground (``scale`` samples a cell), NaN where no triangle holds one."""
-    m = (n - 1) * scale + 1
-    out = np.full((m, m), np.nan)
-    rr, cc = np.mgrid[0:m, 0:m] / scale
-    for t in tris:
-        (ar, ac), (br, bc), (cr, ccc) = (divmod(int(v), n) for v in t)
-        det = (br - ar) * (ccc - ac) - (bc - ac) * (cr - ar)
-        w1 = ((rr - ar) * (ccc - ac) - (cc - ac) * (cr - ar)) / det
-        w2 = ((br - ar) * (cc - ac) - (bc - ac) * (rr - ar)) / det
-        w0 = 1.0 - w1 - w2
-        inside = (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9) & np.isnan(out)
-        out[inside] = (w0 * z.flat[t[0]] + w1 * z.flat[t[1]] + w2 * z.flat[t[2]])[inside]
-    return out
-
-
 @pytest.mark.gl
-def test_simplified_tiles_stay_within_the_tolerance_and_draw_the_same_view(world, gl_ctx):
+def test_simplified_tiles_stay_within_the_tolerance_and_draw_the_same_view(world, gl_ctx,
+                                                                         mesh_on_samples):
     """The viewer's tiles drawn as bintree meshes of the view's spare error: fewer
     triangles; each mesh within the tolerance of the full-resolution heights, measured on
     every sample of its ground and seen from the nearest point of its box; the same frame
@@ -438,13 +430,10 @@ def test_simplified_tiles_stay_within_the_tolerance_and_draw_the_same_view(world
     s = ViewerSession(gl_ctx, proxy, size=SIZE, hud=False, technique="plain", geometry=geo,
                       moving_sun_shadows=False, warn=lambda m: None)
     fbo = gl_ctx.simple_framebuffer(SIZE)
-    frames, tris = {}, {}
     try:
         s.camera = cam
-        for simplify in (False, True):
-            geo.simplify = simplify
-            s.render(fbo, 0.0)
-            frames[simplify], tris[simplify] = _frame(fbo), s.stats["triangles"]
+        frames, tris = _frames_for(s, fbo, (False, True),
+                                   lambda simplify: setattr(geo, "simplify", simplify))
         kpx = cam.pixels_per_radian(SIZE[1])
         eye = cam.eye
         checked = 0
@@ -460,7 +449,7 @@ def test_simplified_tiles_stay_within_the_tolerance_and_draw_the_same_view(world
             mesh = simplified_tile_triangles(tile.errors, n,
                                              2.0 ** (tile.simplified.step / SIMPLIFY_STEPS))
             assert mesh.size == tile.simplified.count
-            surface = _surface_on_samples(mesh, z, n, step)
+            surface = mesh_on_samples(mesh, z, n, step)
             assert not np.isnan(surface).any()
             box = tile.box
             dist = float(np.linalg.norm(np.clip(eye, box[:3], box[3:]) - eye))

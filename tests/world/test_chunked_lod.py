@@ -441,26 +441,8 @@ def test_loader_builds_on_a_background_thread(heights, pyramid):
         loader.close()
 
 
-def _mesh_values(tris: np.ndarray, z: np.ndarray, n: int, scale: int) -> np.ndarray:
-    """A mesh of grid vertices (``n`` a side, heights ``z``) evaluated on the ``scale``×
-    finer grid over the same square: every fine sample takes the first triangle that holds
-    it (inclusive edges); NaN where none does."""
-    m = (n - 1) * scale + 1
-    out = np.full((m, m), np.nan)
-    rr, cc = np.mgrid[0:m, 0:m] / scale
-    for t in tris:
-        (ar, ac), (br, bc), (cr, cc_) = (divmod(int(v), n) for v in t)
-        det = (br - ar) * (cc_ - ac) - (bc - ac) * (cr - ar)
-        w1 = ((rr - ar) * (cc_ - ac) - (cc - ac) * (cr - ar)) / det
-        w2 = ((br - ar) * (cc - ac) - (bc - ac) * (rr - ar)) / det
-        w0 = 1.0 - w1 - w2
-        inside = (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9) & np.isnan(out)
-        zs = w0 * z.flat[t[0]] + w1 * z.flat[t[1]] + w2 * z.flat[t[2]]
-        out[inside] = zs[inside]
-    return out
-
-
-def test_simplified_tile_meshes_conform_keep_their_border_and_meet_their_error():
+def test_simplified_tile_meshes_conform_keep_their_border_and_meet_their_error(
+        mesh_on_samples):
     """The bintree simplification of a tile: at 0 its finest mesh (bintree_cells); for
     any error, a mesh that covers the tile once, keeps every border vertex (its edges meet
     the neighbours' exactly), has no T-junction, and is within the error of B_k at every
@@ -474,13 +456,13 @@ def test_simplified_tile_meshes_conform_keep_their_border_and_meet_their_error()
         cells = bintree_cells(n, n)
         full = simplified_tile_triangles(errors, n, 0.0)
         assert {frozenset(t) for t in full.tolist()} == {frozenset(t) for t in cells.tolist()}
-        exact = _mesh_values(cells, z, n, 1)  # B_k at the samples: the heights
+        exact = mesh_on_samples(cells, z, n, 1)  # B_k at the samples: the heights
         assert np.allclose(exact, z)
         counts = []
         for err in (0.05, 0.2, 0.8, 3.0, 1e9):
             tris = simplified_tile_triangles(errors, n, err)
             counts.append(len(tris))
-            vals = _mesh_values(tris, z, n, 1)
+            vals = mesh_on_samples(tris, z, n, 1)
             assert not np.isnan(vals).any()
             assert np.abs(vals - z).max() <= err + 1e-9
             # area: one cover of the square
