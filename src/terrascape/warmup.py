@@ -127,14 +127,10 @@ def demo_lod(folder: Path) -> None:
     geo = Geomipmap(hm, patch_size=17)
     geo.update(camera, size, tolerance_px=2.0, cull=True)
     geo.triangles()
-    # the streaming viewer's simplified tiles (a 33² tile is the default tile's grid), when
-    # the installation has the world extra (zarr) that streaming needs
-    import importlib.util
+    # the streaming viewer's simplified tiles (a 33² tile is the default tile's grid)
+    from terrascape.world.chunked_lod import simplified_tile_triangles, tile_bintree_errors
 
-    if importlib.util.find_spec("zarr") is not None:
-        from terrascape.world.chunked_lod import simplified_tile_triangles, tile_bintree_errors
-
-        simplified_tile_triangles(tile_bintree_errors(hm.heights), hm.rows, 0.5)
+    simplified_tile_triangles(tile_bintree_errors(hm.heights), hm.rows, 0.5)
 
 
 def render_textures(folder: Path) -> None:
