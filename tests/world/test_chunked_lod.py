@@ -485,3 +485,26 @@ def test_simplified_tile_meshes_conform_keep_their_border_and_meet_their_error(
                 on_border = (ar == br and ar in (0, n - 1)) or (ac == bc and ac in (0, n - 1))
                 assert k == (1 if on_border else 2), (a, b, k)
         assert counts == sorted(counts, reverse=True) and counts[-1] < 0.75 * counts[0]
+
+
+def test_float32_errors_leave_out_no_vertex_above_the_error():
+    """The loader's float32 errors (rounded up) give the mesh their float64 values give,
+    for thresholds between two float32 values: the threshold is rounded down in the
+    errors' type, never up past a vertex's error."""
+    from terrascape.world.chunked_lod import (
+        _rounded_up_f32,
+        simplified_tile_triangles,
+        tile_bintree_errors,
+    )
+
+    z = gaussian_filter(np.random.default_rng(9).standard_normal((17, 17)), 1.0) * 5.0
+    e32 = _rounded_up_f32(tile_bintree_errors(z))
+    finite = np.unique(e32[np.isfinite(e32) & (e32 > 0)])
+    assert len(finite) > 20
+    for value in finite[::3]:
+        # just below the float32 value: float32(threshold) would round up to it
+        threshold = float(value) - float(np.spacing(value)) / 4
+        assert np.float32(threshold) == value
+        got = simplified_tile_triangles(e32, 17, threshold)
+        want = simplified_tile_triangles(e32.astype(np.float64), 17, threshold)
+        assert np.array_equal(got, want)

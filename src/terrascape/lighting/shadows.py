@@ -69,8 +69,8 @@ _SKIP_MARGIN = 1e-9
 # skipped more than one run in _PAYS (measured: the test costs about a third of a run's walk).
 _PROBE = 16
 _PAYS = 3
-# Grid lines of a transposed sweep whose mask rows are gathered before they are written into
-# the map's orientation (one cache line of 64 neighbouring bytes per sample row).
+# Grid lines a transposed sweep copies from the map's columns at a time, and whose mask rows
+# it gathers before writing them into the map's orientation (64 neighbouring bytes a row).
 _BAND = 64
 
 

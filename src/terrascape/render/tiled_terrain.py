@@ -60,8 +60,8 @@ SUBMIT_PARTS = 2
 #: Steps per doubling of a simplified tile's error budget: a tile's mesh is made again only
 #: when its budget crosses a step (rounded down, so the bound always holds).
 SIMPLIFY_STEPS = 4
-#: Simplified tile meshes made in a frame at most (about 25 µs each with the upload): the
-#: rest wait for the next frames, drawn whole or by their finer mesh meanwhile.
+#: Simplified tile meshes made in a frame at most (each a bintree walk and an index
+#: upload): the rest wait for the next frames, drawn whole or by their finer mesh meanwhile.
 SIMPLIFY_PER_FRAME = 48
 
 
@@ -264,7 +264,7 @@ class TiledGeometry:
         if self._bintree and simplifiable(mesh.shape):
             n_r, n_c = mesh.shape
             if mesh.bintree_errors is not None:  # made by the loader (rounded up)
-                tile.errors = mesh.bintree_errors.astype(np.float64)
+                tile.errors = mesh.bintree_errors
             else:  # of the drawn heights (exaggerated): world units, like the budget
                 tile.errors = tile_bintree_errors(
                     mesh.positions[:n_r * n_c, 1].reshape(n_r, n_c))
@@ -395,7 +395,7 @@ class TiledGeometry:
                 simple = tile.simplified = _Simplified(
                     self.ctx.buffer(reserve=4 * (skirts.size + grid)))
                 self._simplified_tiles[key] = tile
-            simple.ibo.write(skirts.tobytes() + tris.astype(np.uint32).tobytes())
+            simple.ibo.write(skirts.tobytes() + tris.tobytes())  # both uint32
             simple.step = step
             simple.count = tris.size
             simple.usable = True

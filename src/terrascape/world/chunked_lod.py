@@ -931,8 +931,13 @@ def tile_bintree_errors(heights: np.ndarray) -> np.ndarray:
 def simplified_tile_triangles(errors: np.ndarray, size: int, max_error: float) -> np.ndarray:
     """uint32 ``(m, 3)`` triangles (grid vertex indices, counter-clockwise seen from above)
     of the coarsest bintree mesh of a tile within ``max_error`` of its ``B_k`` (``errors``
-    from :func:`tile_bintree_errors`), every border sample kept."""
-    return _triangles_of(size, errors > max_error)
+    from :func:`tile_bintree_errors`, float64 or float32 rounded up), every border sample
+    kept. The threshold is taken in the errors' own type, rounded down, so no vertex whose
+    error exceeds ``max_error`` is left out."""
+    threshold = errors.dtype.type(max_error)
+    if float(threshold) > max_error:  # (a float32 compared with a float rounds it first)
+        threshold = np.nextafter(threshold, errors.dtype.type(-np.inf))
+    return _triangles_of(size, errors > threshold)
 
 
 #: The neighbour across each edge of :func:`skirt_edges` (row and column steps).
