@@ -131,6 +131,11 @@ if [ "$mode" = demo ]; then
 else
   .venv/bin/python -m pip install -q -e ".[test]"
   .venv/bin/ruff check src tests
-  # -n 2: the suite is sized for two cores; pytest's exit code is the script's.
-  exec .venv/bin/python -m pytest -n 2 -q "${@:2}"
+  # -n 2: the suite is sized for two cores; pytest's exit code is the script's. A test that
+  # hangs fails at ten minutes with its stacks (pytest-timeout), one stuck where that cannot
+  # reach it has its stacks printed at fifteen (faulthandler); and the run as a whole stops
+  # with its summary after TERRASCAPE_TEST_LIMIT seconds (default 40 minutes; the suite
+  # takes about five on two cores) rather than never.
+  exec timeout --signal=INT --kill-after=60 "${TERRASCAPE_TEST_LIMIT:-2400}" \
+    .venv/bin/python -m pytest -n 2 -q "${@:2}"
 fi
