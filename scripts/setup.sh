@@ -135,7 +135,7 @@ else
   # hangs fails at ten minutes with its stacks (pytest-timeout), one stuck where that cannot
   # reach it has its stacks printed at fifteen (faulthandler); and the run as a whole stops
   # with its summary after TERRASCAPE_TEST_LIMIT seconds (default 40 minutes; the suite
-  # takes about five on two cores) rather than never.
-  exec timeout --signal=INT --kill-after=60 "${TERRASCAPE_TEST_LIMIT:-2400}" \
+  # takes about five on two cores) rather than never. (--foreground: Ctrl-C still reaches it.)
+  exec timeout --foreground --signal=INT --kill-after=60 "${TERRASCAPE_TEST_LIMIT:-2400}" \
     .venv/bin/python -m pytest -n 2 -q "${@:2}"
 fi
