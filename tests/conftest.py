@@ -1,8 +1,12 @@
-"""Shared fixtures: a seeded rng, and a headless GL context that skips — except in CI."""
+"""Shared fixtures: a seeded rng, a headless GL context and an Xvfb screen that skip —
+except in CI."""
 
 from __future__ import annotations
 
 import os
+import select
+import shutil
+import subprocess
 
 import numpy as np
 import pytest
@@ -28,6 +32,44 @@ def gl_ctx():
         pytest.skip(f"no headless OpenGL: {exc}")
     yield ctx
     ctx.release()
+
+
+@pytest.fixture
+def xvfb() -> dict[str, str]:
+    """The environment of a new Xvfb screen (640×480×24): ``DISPLAY`` set to the display
+    Xvfb chose itself (``-displayfd``, so tests on two workers never share one). Skips
+    without Xvfb, xdotool and ImageMagick's ``import`` — except in CI."""
+    missing = [t for t in ("Xvfb", "xdotool", "import") if shutil.which(t) is None]
+    if missing:
+        if IN_CI:
+            pytest.fail(f"CI must provide {', '.join(missing)} for the viewer test")
+        pytest.skip(f"missing {', '.join(missing)}")
+    read, write = os.pipe()
+    # -noreset: the server stays as it is when its last client leaves (a reset would also
+    # write the display number again, to a pipe this fixture keeps open until the end)
+    proc = subprocess.Popen(
+        ["Xvfb", "-displayfd", str(write), "-noreset", "-screen", "0", "640x480x24",
+         "-nolisten", "tcp"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, pass_fds=(write,))
+    os.close(write)
+    try:
+        # Xvfb writes the display number once it accepts clients (EOF if it fails to start)
+        ready, _, _ = select.select([read], [], [], 20.0)
+        number = os.read(read, 64).decode().strip() if ready else ""
+        if not number.isdigit():
+            proc.kill()
+            proc.wait(5)
+            pytest.fail("Xvfb did not start")
+        yield dict(os.environ, DISPLAY=f":{number}")
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            try:
+                proc.wait(5)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(5)
+        os.close(read)
 
 
 def _mesh_on_samples(tris: np.ndarray, z: np.ndarray, n: int, scale: int) -> np.ndarray:

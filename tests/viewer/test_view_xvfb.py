@@ -4,19 +4,13 @@ through screenshots of the X root window (ImageMagick `import`)."""
 from __future__ import annotations
 
 import io
-import os
-import random
-import shutil
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-IN_CI = os.environ.get("CI", "").lower() in {"1", "true", "yes"}
-TOOLS = ("Xvfb", "xdotool", "import")
 W, H = 320, 240
 # Rows below the HUD's status panel (7 lines of the 10 px font + padding at 240 px high):
 # the scene there is free of text that changes every frame (the frame rate).
@@ -25,47 +19,6 @@ SCENE_ROWS = slice(150, H)
 pytestmark = pytest.mark.xvfb
 
 CLI = "import sys; from terrascape.cli import main; main(sys.argv[1:])"
-
-
-def _require_tools() -> None:
-    missing = [t for t in TOOLS if shutil.which(t) is None]
-    if missing:
-        if IN_CI:
-            pytest.fail(f"CI must provide {', '.join(missing)} for the viewer test")
-        pytest.skip(f"missing {', '.join(missing)}")
-
-
-def _free_display() -> int:
-    numbers = list(range(150, 250))
-    random.Random(os.getpid()).shuffle(numbers)
-    for n in numbers:
-        if not Path(f"/tmp/.X{n}-lock").exists() and not Path(f"/tmp/.X11-unix/X{n}").exists():
-            return n
-    pytest.skip("no free X display number")
-
-
-@pytest.fixture
-def xvfb():
-    _require_tools()
-    n = _free_display()
-    proc = subprocess.Popen(
-        ["Xvfb", f":{n}", "-screen", "0", "640x480x24", "-nolisten", "tcp"],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )
-    socket = Path(f"/tmp/.X11-unix/X{n}")
-    deadline = time.monotonic() + 10
-    while not socket.exists():
-        if proc.poll() is not None or time.monotonic() > deadline:
-            proc.kill()
-            pytest.fail(f"Xvfb :{n} did not start")
-        time.sleep(0.05)
-    env = dict(os.environ, DISPLAY=f":{n}")
-    yield env
-    proc.terminate()
-    try:
-        proc.wait(5)
-    except subprocess.TimeoutExpired:
-        proc.kill()
 
 
 def _grab(env) -> np.ndarray:

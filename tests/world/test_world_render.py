@@ -172,35 +172,17 @@ def test_overview_window_for_the_viewer(world):
 
 
 @pytest.mark.xvfb
-def test_view_a_world_in_a_window(world, tmp_path):
+def test_view_a_world_in_a_window(world, tmp_path, xvfb):
     """`terrascape view world.zarr` opens the viewer on the world and draws frames."""
-    import os
-    import shutil
     import subprocess
     import sys
 
-    if shutil.which("Xvfb") is None:
-        if os.environ.get("CI", "").lower() in {"1", "true", "yes"}:
-            pytest.fail("CI must provide Xvfb for the viewer test")
-        pytest.skip("no Xvfb")
-    n = 200 + os.getpid() % 50
-    xvfb = subprocess.Popen(["Xvfb", f":{n}", "-screen", "0", "640x480x24", "-nolisten", "tcp"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        import time
-
-        deadline = time.monotonic() + 10
-        while not Path(f"/tmp/.X11-unix/X{n}").exists() and time.monotonic() < deadline:
-            time.sleep(0.05)
-        env = dict(os.environ, DISPLAY=f":{n}", TERRASCAPE_MAX_MEMORY="8M")
-        res = subprocess.run(
-            [sys.executable, "-c", "import sys; from terrascape.cli import main; "
-             "main(sys.argv[1:])", "view", str(world), "--frames", "3", "--size", "320x240",
-             "--screenshot-dir", str(tmp_path)],
-            env=env, capture_output=True, text=True, timeout=300)
-    finally:
-        xvfb.terminate()
-        xvfb.wait(5)
+    env = dict(xvfb, TERRASCAPE_MAX_MEMORY="8M")
+    res = subprocess.run(
+        [sys.executable, "-c", "import sys; from terrascape.cli import main; "
+         "main(sys.argv[1:])", "view", str(world), "--frames", "3", "--size", "320x240",
+         "--screenshot-dir", str(tmp_path)],
+        env=env, capture_output=True, text=True, timeout=300)
     assert res.returncode == 0, res.stderr
     # 8 MiB: the 257² world (13 MB to draw) has its overview at level 1, 129² samples, and
     # its tiles stream in within what is left
