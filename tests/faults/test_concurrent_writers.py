@@ -43,7 +43,8 @@ def _race(out, force: bool):
         )
         for seed in (1, 2)
     }
-    return {seed: (p.wait(timeout=120), p.stderr.read()) for seed, p in procs.items()}
+    done = {seed: p.communicate(timeout=120)[1] for seed, p in procs.items()}
+    return {seed: (procs[seed].returncode, err) for seed, err in done.items()}
 
 
 def test_without_force_exactly_one_writer_wins(tmp_path, references):

@@ -115,16 +115,18 @@ def test_view_window_keys_and_quit(xvfb, tmp_path):
 
         t0 = time.monotonic()
         _key(env, wid, "Escape")
-        rc = proc.wait(timeout=10)
+        # (communicate: a stream a child process of the viewer still held would not end a
+        # bare read; this fails at the timeout instead)
+        _, err = proc.communicate(timeout=10)
+        rc, err = proc.returncode, err.decode()
         assert time.monotonic() - t0 < 8
-        err = proc.stderr.read().decode()
         assert rc == 0, err
         assert f"F12 saves screenshots to {tmp_path / 'screenshots'}" in err
         assert f"screenshot: {shots[0]}" in err
     finally:
         if proc.poll() is None:
             proc.kill()
-            proc.wait()
+            proc.wait(10)
 
 
 def _headless_shadow_frames(size):
@@ -186,14 +188,14 @@ def test_view_window_shadow_volumes_match_the_headless_render(xvfb, tmp_path):
         time.sleep(1.0)
         plain = _grab(env)
         _key(env, wid, "Escape")
-        rc = proc.wait(timeout=30)
-        err = proc.stderr.read().decode()
+        _, err = proc.communicate(timeout=30)
+        rc, err = proc.returncode, err.decode()
         assert rc == 0, err
         assert "stencil" not in err, err  # no fallback to shadow maps: the window has one
     finally:
         if proc.poll() is None:
             proc.kill()
-            proc.wait()
+            proc.wait(10)
     ref = _headless_shadow_frames((W, H))
     window = _shadowed(shaded, plain)
     headless = _shadowed(ref["volumes"].astype(np.int16), ref["none"].astype(np.int16))
