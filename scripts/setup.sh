@@ -132,8 +132,8 @@ else
   .venv/bin/python -m pip install -q -e ".[test]"
   .venv/bin/ruff check src tests
   # -n 2: the suite is sized for two cores; pytest's exit code is the script's. A test that
-  # hangs fails at ten minutes with its stacks (pytest-timeout), one stuck where that cannot
-  # reach it has its stacks printed at fifteen (faulthandler); and the run as a whole stops
+  # hangs fails at 15 minutes with its stacks (pytest-timeout), one stuck where that cannot
+  # reach it has its stacks printed at 20 (faulthandler); and the run as a whole stops
   # with its summary after TERRASCAPE_TEST_LIMIT seconds (default 40 minutes; the suite
   # takes about five on two cores) rather than never. (--foreground: Ctrl-C still reaches it.)
   exec timeout --foreground --signal=INT --kill-after=60 "${TERRASCAPE_TEST_LIMIT:-2400}" \
