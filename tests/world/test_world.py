@@ -253,6 +253,21 @@ def test_cli_errors_are_one_line(tmp_path, capsys):
 
 
 
+@pytest.mark.timeout(120)
+def test_threaded_workers_build_whatever_this_process_holds(tmp_path):
+    """Workers that are threads of this process share its memory, so the per-worker limit
+    does not apply to them: a process that already holds more than 80 % of it (here any
+    process: 64 MB) still builds. Dask paused such workers, and the build waited for ever
+    (a test suite's process after two thousand tests did)."""
+    import psutil
+
+    assert psutil.Process().memory_info().rss > 0.8 * 64e6
+    recipe = recipe_from_dict({"size": [130, 130], "chunk": 64, "seed": 2,
+                               "generator": {"name": "fbm", "relief": 10.0, "scale": 40.0}})
+    with connect("local", workers=1, processes=False, memory_limit="64MB") as client:
+        assert build_world(recipe, tmp_path / "w.zarr", client=client, quiet=True).complete
+
+
 def test_a_worker_process_is_one_core(tmp_path):
     """In worker processes a build's tasks decode with a zarr codec pool of one thread, and
     the workers' profiler is off."""

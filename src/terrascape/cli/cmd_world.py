@@ -27,7 +27,8 @@ def world_build_cmd(
              "(tcp://host:8786)."),
     workers: int = typer.Option(2, "--workers", help="Workers of the local cluster."),
     memory_limit: str = typer.Option("2GB", "--memory-limit",
-                                     help="Memory limit per local worker (dask syntax)."),
+                                     help="Memory limit per local worker process (dask syntax; "
+                                          "none with --threads)."),
     processes: bool = typer.Option(
         True, "--processes/--threads",
         help="Local workers as processes (parallel numba kernels) or threads of this one."),

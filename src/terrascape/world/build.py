@@ -50,7 +50,12 @@ def connect(scheduler: str = "local", *, workers: int = 2, memory_limit: str | N
             processes: bool = True, timeout: float = CONNECT_TIMEOUT) -> Iterator[object]:
     """A :class:`distributed.Client`: a new LocalCluster (``"local"``) or the scheduler at
     ``scheduler`` (``tcp://host:port``); an address that does not answer within ``timeout``
-    seconds is an :class:`~terrascape.errors.EnvironmentFailure`, not a hang."""
+    seconds is an :class:`~terrascape.errors.EnvironmentFailure`, not a hang.
+
+    ``memory_limit`` bounds each worker *process*. Workers that are threads of this process
+    (``processes=False``) get none: dask would measure the whole process against each
+    thread's limit and, once the process holds 80 % of it for any reason (a notebook's
+    arrays, a viewer), pause every worker, and the build would wait for ever."""
     from distributed import Client, LocalCluster
 
     if scheduler == "local":
@@ -71,7 +76,8 @@ def connect(scheduler: str = "local", *, workers: int = 2, memory_limit: str | N
         # per cent of a core per worker that a build does not need.
         with dask.config.set({"distributed.worker.profile.enabled": False}):
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
-                                   processes=processes, memory_limit=memory_limit,
+                                   processes=processes,
+                                   memory_limit=memory_limit if processes else None,
                                    dashboard_address=":0")
         try:
             with Client(cluster) as client:
