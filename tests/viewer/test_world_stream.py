@@ -347,6 +347,43 @@ def test_loader_process_is_asked_for_the_front_of_the_queue(world):
         loader.close()
 
 
+@pytest.mark.timeout(120)
+def test_requests_never_wait_for_a_loader_process_that_reads_none(world):
+    """A loader process that reads no messages for a while (stopped here; on a first run it
+    compiles its kernels for seconds) never holds the view: its requests, new each frame,
+    return at once however many pile up, and once it runs again it loads the last view's
+    tiles, its emptied slots given back. (A blocking send waited until the process read
+    again: here, for ever.)"""
+    import os
+    import signal
+
+    from terrascape.world.chunked_lod import LOADER_QUEUE, ProcessTileLoader, world_pyramid
+
+    grid = world_pyramid(world, tile=16).grid
+    keys = [TileKey(0, i, j) for i in range(grid.count(0)[0]) for j in range(grid.count(0)[1])]
+    loader = ProcessTileLoader(world, tile=16, slots=4)
+    pid = loader._proc.pid
+    rng = np.random.default_rng(7)
+    try:
+        os.kill(pid, signal.SIGSTOP)
+        start = time.monotonic()
+        for _ in range(2000):  # about 8 MB of requests: far more than the pipe holds
+            view = [keys[i] for i in rng.permutation(len(keys))[:LOADER_QUEUE]]
+            loader.request(view)
+        assert time.monotonic() - start < 10.0
+        os.kill(pid, signal.SIGCONT)
+        got, deadline = [], time.monotonic() + 60
+        while not set(view[:12]) <= {m.key for m in got} and time.monotonic() < deadline:
+            loader.request(view)  # the next frames ask again
+            got += loader.finished()
+            time.sleep(0.01)
+        assert set(view[:12]) <= {m.key for m in got}  # 12 tiles through 4 slots
+        assert loader._last == view
+    finally:
+        os.kill(pid, signal.SIGCONT)
+        loader.close()
+
+
 @pytest.mark.gl
 def test_tiles_submitted_in_parts_draw_the_same_frame(world, gl_ctx, monkeypatch):
     """The frame's tiles handed to the rasteriser in parts (a flush after each but the

@@ -71,6 +71,7 @@ import hashlib
 import heapq
 import io
 import math
+import select
 import threading
 import time
 from collections import OrderedDict
@@ -1230,6 +1231,7 @@ class ProcessTileLoader:
         child.close()
         self._asked: set[TileKey] = set()
         self._last: list[TileKey] = []
+        self._unsent_free: list[int] = []
         self.loaded = 0
 
     def request(self, keys: Iterable[TileKey]) -> None:
@@ -1237,10 +1239,17 @@ class ProcessTileLoader:
         moving view asks anew each frame, the rest again later): a long list each frame
         would fill the pipe while the process builds a tile, and the frame would wait."""
         keys = list(dict.fromkeys(keys))[:LOADER_QUEUE]
-        if keys != self._last:
+        if keys != self._last and self._room():
             self._conn.send(("want", keys))
             self._last = keys
         self._asked.update(keys)
+
+    def _room(self) -> bool:
+        """Whether the pipe to the process takes a message now. A process busy for long
+        reads no messages (on a first run it compiles its kernels for seconds): a view that
+        moves asks anew each frame, the pipe fills, and a blocking send would hold the frame
+        until the process reads again. The request waits for a later frame instead."""
+        return bool(select.select([], [self._conn], [], 0)[1])
 
     def pending(self) -> int:
         return len(self._asked)
@@ -1270,8 +1279,12 @@ class ProcessTileLoader:
                 self.loaded += 1
                 out.append(mesh)
         finally:
-            if emptied:
-                self._conn.send(("free", emptied))
+            # the emptied slots go back when the pipe takes them (kept until then: the
+            # process needs every one of them back)
+            self._unsent_free.extend(emptied)
+            if self._unsent_free and self._room():
+                self._conn.send(("free", self._unsent_free))
+                self._unsent_free = []
         if not out and not self._proc.is_alive():
             raise InvalidParameterError("the tile loader process ended unexpectedly")
         return out
