@@ -45,8 +45,9 @@ def xvfb() -> dict[str, str]:
             pytest.fail(f"CI must provide {', '.join(missing)} for the viewer test")
         pytest.skip(f"missing {', '.join(missing)}")
     read, write = os.pipe()
-    # -noreset: the server stays as it is when its last client leaves (a reset would also
-    # write the display number again, to a pipe this fixture keeps open until the end)
+    # Xvfb writes its number again at each server reset (its last client leaving): to a
+    # closed pipe that write killed it, so the pipe stays open until the end, and -noreset
+    # spares the resets altogether
     proc = subprocess.Popen(
         ["Xvfb", "-displayfd", str(write), "-noreset", "-screen", "0", "640x480x24",
          "-nolisten", "tcp"],

@@ -258,7 +258,7 @@ def test_threaded_workers_build_whatever_this_process_holds(tmp_path):
     """Workers that are threads of this process share its memory, so the per-worker limit
     does not apply to them: a process that already holds more than 80 % of it (here any
     process: 64 MB) still builds. Dask paused such workers, and the build waited for ever
-    (a test suite's process after two thousand tests did)."""
+    (a test process after some 1800 tests did)."""
     import psutil
 
     assert psutil.Process().memory_info().rss > 0.8 * 64e6
