@@ -60,6 +60,7 @@ def test_check_display(monkeypatch):
         (["view", "--generate", "hills", "--size", "12by3"], "--size"),
         (["view", "--generate", "hills", "--exaggeration", "0"], "--exaggeration"),
         (["view", "--generate", "hills", "--sea-level", "nan"], "--sea-level"),
+        (["view", "--generate", "hills", "--target-fps", "-1"], "--target-fps"),
         (["view", "--generate", "hills", "--object-shadows", "none"], "needs --objects"),
         (["view", "--generate", "hills", "--objects", "default", "--object-shadows", "soft"],
          "--object-shadows must be one of"),
@@ -123,6 +124,10 @@ def test_sea_level_reaches_the_viewer(monkeypatch, capsys):
     assert run_app(["view", "--generate", "hills", "--gen-size", "33", "--sea-level",
                     "5"]) == 0
     assert seen["sea_level"] == 5.0 and seen["shape"] == (33, 33)
+    assert seen["target_fps"] == 15.0  # moving frames held at 15 frames/s by default
+    assert run_app(["view", "--generate", "hills", "--gen-size", "33", "--target-fps",
+                    "0"]) == 0
+    assert seen["target_fps"] == 0.0
 
 
 @pytest.mark.parametrize("args, message", [

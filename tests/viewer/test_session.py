@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -349,3 +350,72 @@ def test_lod_manager_budgeted_roam_settles_over_frames():
     assert lod.settled and frames > 3
     assert lod.update("roam", cam, SIZE, settings) == (None, False)  # nothing left to do
     assert {tuple(t) for t in tris.tolist()} == {tuple(t) for t in want.tolist()}
+
+
+@pytest.mark.gl
+def test_moving_frames_are_drawn_smaller_and_still_ones_at_full_size(gl_ctx):
+    from terrascape.viewer.session import ViewerSession
+
+    size = (240, 160)
+    s = ViewerSession(gl_ctx, _terrain(), size=size, hud=False, warn=lambda m: None,
+                      target_fps=15.0)
+    fbo = gl_ctx.simple_framebuffer(size)
+    try:
+        s.render(fbo, 0.0)
+        s.render(fbo, 0.0)  # the camera has not moved: full size
+        assert s.drawn_scale == 1.0
+        full = _frame(fbo)
+        start = s.camera
+        s.resolution.scale = 0.6
+        s.camera = replace(start, yaw=start.yaw + 5.0)
+        s.render(fbo, 0.05)
+        s.camera = start  # moved back: a moving frame of the first view
+        s.render(fbo, 0.05)
+        assert s.drawn_scale == 0.6
+        assert s._scaled.size == (144, 96)
+        scaled = _frame(fbo)
+        # the same picture, softer: in place (not shifted or flipped) and close in colour
+        diff = np.abs(scaled - full).sum(-1)
+        assert diff.mean() < 12
+        assert np.corrcoef(scaled.sum(-1).ravel(), full.sum(-1).ravel())[0, 1] > 0.9
+        s.render(fbo, 0.05)  # held: full size again
+        assert s.drawn_scale == 1.0
+        np.testing.assert_array_equal(_frame(fbo), full)
+        s.camera = replace(start, yaw=start.yaw + 5.0)
+        s.render(fbo, 0.05, full_size=True)  # a screenshot's frame
+        assert s.drawn_scale == 1.0
+        s.state.handle_key("TAB")  # another look: measured afresh from full size
+        s.camera = start
+        s.render(fbo, 0.05)
+        assert s.resolution.scale == 1.0 and s.drawn_scale == 1.0
+        assert "drawn at" not in s.status_lines()[0]
+    finally:
+        fbo.release()
+        s.release()
+
+
+@pytest.mark.gl
+def test_a_slow_look_is_drawn_smaller_until_it_holds_the_rate(gl_ctx):
+    """Frames that take 200 ms at full size (a clock the test advances) shrink the scale
+    to where the modelled time holds 15 frames/s; the scripted default stays full size."""
+    from terrascape.viewer.session import ViewerSession
+
+    clock = [0.0]
+    s = ViewerSession(gl_ctx, _terrain(), size=SIZE, hud=False, warn=lambda m: None,
+                      target_fps=15.0)
+    s.clock = lambda: clock[0]
+    fbo = gl_ctx.simple_framebuffer(SIZE)
+    try:
+        start = s.camera
+        for k in range(30):
+            s.camera = replace(start, yaw=start.yaw + k)
+            s.render(fbo, 0.1)
+            clock[0] += 0.200 * s.drawn_scale ** 2  # all of the time per pixel
+        assert 0.5 <= s.drawn_scale <= 0.6  # sqrt(66.7 / 200) = 0.58
+        assert s.drawn_scale ** 2 * 200.0 <= 1000.0 / 15.0
+    finally:
+        fbo.release()
+        s.release()
+    scripted = ViewerSession(gl_ctx, _terrain(), size=SIZE, hud=False, warn=lambda m: None)
+    assert not scripted.resolution.active
+    scripted.release()

@@ -20,6 +20,7 @@ from terrascape.cli.parsing import is_world_store
 from terrascape.errors import InvalidParameterError
 from terrascape.generate.registry import VIEW_SPACING, generator_names, get_generator, names_help
 from terrascape.lod.schemes import SCHEMES
+from terrascape.viewer.resolution import DEFAULT_TARGET_FPS
 
 LOD_CHOICES = ("none", *SCHEMES)
 
@@ -88,6 +89,11 @@ def view_cmd(
     frames: int = typer.Option(
         0, "--frames", help="Quit after this many frames (0: run until Esc).", min=0),
     no_hud: bool = typer.Option(False, "--no-hud", help="Hide the on-screen text."),
+    target_fps: float = typer.Option(
+        DEFAULT_TARGET_FPS, "--target-fps", min=0.0, max=1000.0,
+        help="Frame rate held while flying: frames are drawn smaller and enlarged when the "
+        "look is too heavy for it, and at full size once the camera stops. 0: always full "
+        "size."),
     time: str = typer.Option(
         None, "--time",
         help="Start the sky clock at this date and time (e.g. 2026-06-21T05:00), running: "
@@ -219,5 +225,6 @@ def view_cmd(
                               exaggeration=exaggeration, screenshot_dir=screenshot_dir,
                               max_frames=frames, hud=not no_hud, sea_level=sea_level,
                               sky_clock=sky_clock, objects=instances,
-                              object_shadows=object_shadows, world=world)
+                              object_shadows=object_shadows, world=world,
+                              target_fps=target_fps)
     console.print(f"[dim]viewer closed after {frames_drawn} frames[/]")

@@ -21,6 +21,7 @@ import numpy as np
 from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.viewer.controls import Action
+from terrascape.viewer.resolution import DEFAULT_TARGET_FPS
 from terrascape.viewer.session import KeyRepeat, ViewerSession
 
 HEADLESS_HINT = "for headless use run `terrascape render`"
@@ -125,7 +126,8 @@ def make_window_config():
                 self._apply(s.state.handle_key(key, shift=self.shift))
             fast = self.shift or bool({"LEFT_SHIFT", "RIGHT_SHIFT"} & self.keys_down)
             s.advance(frame_time, self.keys_down, fast=fast)
-            s.render(self.wnd.fbo, frame_time)
+            # a screenshot's frame is drawn at full size, moving or not
+            s.render(self.wnd.fbo, frame_time, full_size=self.want_screenshot)
             if self.want_screenshot:
                 # Read the back buffer now, before the swap leaves it undefined.
                 self.want_screenshot = False
@@ -207,7 +209,8 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
                texture: np.ndarray | None = None, exaggeration: float = 1.0,
                screenshot_dir: str | os.PathLike | None = None, max_frames: int = 0,
                hud: bool = True, sea_level: float | None = None, sky_clock=None,
-               objects=None, object_shadows: str | None = None, world=None) -> int:
+               objects=None, object_shadows: str | None = None, world=None,
+               target_fps: float = DEFAULT_TARGET_FPS) -> int:
     """Open the viewer window and fly over ``heightmap`` until Esc / the window is closed.
 
     Parameters
@@ -231,6 +234,9 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
     world
         ``(store path, WorldBudget, TilePyramid)`` of a world streamed by tiles
         (:mod:`terrascape.render.tiled_terrain`); ``heightmap`` is then its overview.
+    target_fps
+        Frame rate held while the camera moves by drawing smaller frames and enlarging
+        them (:mod:`terrascape.viewer.resolution`); 0: always full size.
 
     Returns
     -------
@@ -267,7 +273,7 @@ def run_viewer(heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
         session = ViewerSession(wnd.ctx, heightmap, size=wnd.buffer_size, technique=technique,
                                 lod=lod, texture=texture, exaggeration=exaggeration, hud=hud,
                                 sea_level=sea_level, sky_clock=sky_clock, objects=objects,
-                                geometry=geometry)
+                                geometry=geometry, target_fps=target_fps)
         if object_shadows is not None:
             session.state.object_shadows = object_shadows
         if geometry is not None:

@@ -26,6 +26,7 @@ from terrascape.errors import InvalidParameterError, TerrascapeError
 from terrascape.heightmap import Heightmap
 from terrascape.lod.schemes import SCHEMES
 from terrascape.viewer.controls import HELP, LOD_MODES, ViewerState, fly, look
+from terrascape.viewer.resolution import ResolutionControl
 
 # Technique cycling order (Tab): the Filipović 2008 texturing methods, then Janković 2010's relief
 # family from cheapest to most expensive; techniques registered later are appended sorted.
@@ -348,6 +349,11 @@ class ViewerSession:
         :func:`~terrascape.render.tiled_terrain.stream_world`) drawn instead of
         ``heightmap``'s mesh; ``heightmap`` is then the world's overview (textures,
         shadows, camera, ground). The session releases it. The LOD schemes stay off.
+    target_fps
+        Frame rate that moving frames are held at by drawing them at a smaller size
+        (:mod:`terrascape.viewer.resolution`; the window's default is
+        :data:`~terrascape.viewer.resolution.DEFAULT_TARGET_FPS`); 0 (the default here, for
+        scripted frames): every frame at full size.
     """
 
     def __init__(self, ctx, heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
@@ -356,7 +362,8 @@ class ViewerSession:
                  lod_time_budget_ms: float | None = LOD_TIME_BUDGET_MS,
                  warn: Callable[[str], None] | None = None,
                  sea_level: float | None = None, sky_clock=None, objects=None,
-                 moving_sun_shadows: bool = True, geometry=None) -> None:
+                 moving_sun_shadows: bool = True, geometry=None,
+                 target_fps: float = 0.0) -> None:
         from terrascape.render.techniques import TextureData, technique_names
         from terrascape.render.terrain import TerrainRenderer
 
@@ -425,6 +432,15 @@ class ViewerSession:
             self.state.lod = "none"
         self.geometry = geometry
         self.tile_stats: dict[str, Any] = {}
+        # dynamic resolution of moving frames; still frames are drawn at full size
+        self.resolution = ResolutionControl(target_fps=target_fps)
+        self._scaled = None  # ScaledTarget, made on the first scaled frame
+        self._last_camera: Camera | None = None
+        self._last_scale: float | None = None  # scale of the previous moving frame
+        self._last_start: float | None = None  # when the previous frame began
+        self.clock: Callable[[], float] = time.perf_counter  # of the frame times
+        self._scaled_technique = technique  # the look the scale was found for
+        self.drawn_scale = 1.0
         if geometry is not None:
             self.renderer.geometry = geometry
             self.state.lod = "none"
@@ -481,10 +497,14 @@ class ViewerSession:
         if changed:
             self.renderer.set_indices(tris)
 
-    def render(self, fbo, dt: float = 0.0) -> dict[str, int]:
+    def render(self, fbo, dt: float = 0.0, *, full_size: bool = False) -> dict[str, int]:
         """Draw one frame (LOD update, sky + terrain, HUD) into ``fbo``.
 
-        ``dt`` is the time since the previous frame (seconds), for the smoothed frame rate.
+        ``dt`` is the time since the previous frame (seconds), for the smoothed frame rate
+        and the dynamic resolution: while the camera moves, the frame is drawn at
+        :attr:`resolution`'s scale of ``fbo``'s size and enlarged onto it
+        (:mod:`terrascape.viewer.resolution`); a frame whose camera has not moved since the
+        previous one, or one asked ``full_size`` (a screenshot), is drawn at full size.
         A technique this GL cannot run draws its fallback (the renderer decides and says
         so once; the session reads :attr:`~terrascape.render.terrain.TerrainRenderer.drawn`
         and takes the technique out of the Tab cycle); one whose textures or parameters
@@ -495,6 +515,29 @@ class ViewerSession:
         camera = replace(self.camera, aspect=w / h)
         if dt > 0:
             self.state.advance_time(dt)
+        if self.state.technique != self._scaled_technique:
+            self._scaled_technique = self.state.technique
+            self.resolution.restart()
+        now = self.clock()
+        if (dt > 0 and self._last_start is not None and self._last_scale is not None
+                and self._last_scale == self.resolution.scale):
+            # the previous frame was a moving one at this scale: its time is from its start
+            # to this one's (drawing, buffer swap, events)
+            self.resolution.update((now - self._last_start) * 1000.0)
+        self._last_start = now
+        moving = self._last_camera is not None and camera != self._last_camera
+        self._last_camera = camera
+        scale = (self.resolution.scale if moving and self.resolution.active and not full_size
+                 else 1.0)
+        self._last_scale = scale if moving else None
+        target = fbo
+        if scale < 1.0:
+            if self._scaled is None:
+                from terrascape.render.scaled_target import ScaledTarget
+
+                self._scaled = ScaledTarget(self.ctx)
+            target = self._scaled.target((w, h), scale)
+        self.drawn_scale = scale
         if self.geometry is not None:
             if self.state.lod != "none":
                 self._note("a streamed world has its own level of detail (tiles); "
@@ -513,7 +556,9 @@ class ViewerSession:
         while True:
             tech = self.state.technique
             try:
-                self.stats = self.renderer.render(fbo, camera, tech, self.frame_params(tech))
+                # the LOD above chose its mesh for the window's pixels, so a scaled frame
+                # draws the same mesh as a full-size one
+                self.stats = self.renderer.render(target, camera, tech, self.frame_params(tech))
             except TerrascapeError as exc:
                 if tech == "plain":
                     raise
@@ -524,6 +569,8 @@ class ViewerSession:
                 # The renderer drew the fallback and said why; stop asking for tech.
                 self._drop_technique(tech, drawn.name)
             break
+        if target is not fbo:
+            self._scaled.present(fbo)
         if dt > 0:
             self.frame_ms.add(dt * 1000.0, dt)
         if self.hud is not None:
@@ -546,6 +593,8 @@ class ViewerSession:
         fm = self.frame_ms.value
         fps = f"{1000.0 / fm:6.1f} fps  {fm:6.2f} ms/frame" if fm else "  -- fps"
         tris = self.stats.get("triangles", 0)
+        if self.drawn_scale < 1.0:
+            fps += f"  drawn at {self.drawn_scale:.0%} size while moving"
         lines = [fps, f"triangles {tris:,}"]
         if self.geometry is not None and self.tile_stats:
             t = self.tile_stats
@@ -615,6 +664,8 @@ class ViewerSession:
             self.renderer.moving_sun_shadows.close()
         if self.hud is not None:
             self.hud.release()
+        if self._scaled is not None:
+            self._scaled.release()
         self.renderer.release()
 
 
