@@ -1,4 +1,4 @@
-"""The scaled target: a small frame enlarged onto the output with the Catmull-Rom filter."""
+"""The scaled target: a small frame enlarged onto the output with the linear filter."""
 
 from __future__ import annotations
 
@@ -12,17 +12,15 @@ from terrascape.render.scaled_target import ScaledTarget, scaled_size
 OUT = (160, 96)
 
 
-def _catmull_rom_1d(n_src: int, n_dst: int) -> np.ndarray:
-    """``(n_dst, n_src)`` matrix of the Catmull-Rom enlargement, edge texels repeated."""
+def _linear_1d(n_src: int, n_dst: int) -> np.ndarray:
+    """``(n_dst, n_src)`` matrix of the linear enlargement, edge texels repeated."""
     m = np.zeros((n_dst, n_src))
     for d in range(n_dst):
-        pos = (d + 0.5) * n_src / n_dst - 0.5
-        i = int(np.floor(pos))
+        pos = min(max((d + 0.5) * n_src / n_dst - 0.5, 0.0), n_src - 1.0)
+        i = min(int(np.floor(pos)), n_src - 2)
         f = pos - i
-        w = [f * (-0.5 + f * (1.0 - 0.5 * f)), 1.0 + f * f * (-2.5 + 1.5 * f),
-             f * (0.5 + f * (2.0 - 1.5 * f)), f * f * (-0.5 + 0.5 * f)]
-        for k, wk in zip(range(i - 1, i + 3), w, strict=True):
-            m[d, min(max(k, 0), n_src - 1)] += wk
+        m[d, i] += 1.0 - f
+        m[d, i + 1] += f
     return m
 
 
@@ -53,31 +51,27 @@ def test_scaled_size_rounds_and_refuses_bad_scales():
 
 
 @pytest.mark.gl
-def test_enlargement_is_the_catmull_rom_filter(gl_ctx):
+def test_enlargement_is_the_linear_filter_in_place(gl_ctx):
     w, h = scaled_size(OUT, 0.6)
     rng = np.random.default_rng(4)
-    smooth = gaussian_filter(rng.uniform(0, 255, (h, w, 3)), (1.5, 1.5, 0))
-    smooth = 40 + (smooth - smooth.min()) / np.ptp(smooth) * 170
-    small = np.rint(smooth).astype(np.uint8)
+    noise = gaussian_filter(rng.uniform(0, 255, (h, w, 3)), (1.0, 1.0, 0))
+    small = np.rint(20 + (noise - noise.min()) / np.ptp(noise) * 210).astype(np.uint8)
     got = _enlarged(gl_ctx, small, 0.6)
-    rows, cols = _catmull_rom_1d(h, OUT[1]), _catmull_rom_1d(w, OUT[0])
+    rows, cols = _linear_1d(h, OUT[1]), _linear_1d(w, OUT[0])
     want = np.einsum("ri,ijc,dj->rdc", rows, small.astype(float), cols)
     err = np.abs(got - want)
-    # the shader drops the 4×4 footprint's four corner taps (weights below 1 %)
-    assert err.max() <= 3.0 and err.mean() <= 0.6, (err.max(), err.mean())
+    # texture filtering weights have 8 bits on llvmpipe: within one or two levels
+    assert err.max() <= 2.0 and err.mean() <= 0.5, (err.max(), err.mean())
+    # a shift by one output pixel or a flip would be far off
+    assert np.abs(got[:, 1:] - want[:, :-1]).mean() > 2 * err.mean() + 1
+    assert np.abs(got[::-1] - want).mean() > 10
 
 
 @pytest.mark.gl
-def test_enlargement_keeps_edges_sharper_than_bilinear(gl_ctx):
-    w, h = scaled_size(OUT, 0.25)  # 4× enlarged: the filters' ramps differ by pixels
+def test_a_step_stays_where_it_was(gl_ctx):
+    w, h = scaled_size(OUT, 0.5)
     small = np.zeros((h, w, 3), np.uint8)
     small[:, w // 2:] = 200
-    got = _enlarged(gl_ctx, small, 0.25)[OUT[1] // 2, :, 0]
-    # the step lies in the middle of the output, as in the input
-    assert got[: OUT[0] // 2 - 3].max() <= 12 and got[OUT[0] // 2 + 3:].min() >= 188
-    ramp = np.nonzero((got > 20) & (got < 180))[0]  # 10-90 % of the step
-    bilinear = np.interp(((np.arange(OUT[0]) + 0.5) * w / OUT[0] - 0.5), np.arange(w),
-                         small[0, :, 0].astype(float))
-    ramp_bilinear = np.nonzero((bilinear > 20) & (bilinear < 180))[0]
-    assert 0 < len(ramp) < len(ramp_bilinear)
-    assert np.diff(got).max() > np.diff(bilinear).max()
+    got = _enlarged(gl_ctx, small, 0.5)[OUT[1] // 2, :, 0]
+    assert got[: OUT[0] // 2 - 2].max() == 0 and got[OUT[0] // 2 + 2:].min() == 200
+    assert abs(got[OUT[0] // 2 - 1] + got[OUT[0] // 2] - 200) <= 2  # symmetric about it

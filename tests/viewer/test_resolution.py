@@ -72,3 +72,12 @@ def test_target_zero_is_off_and_bad_settings_are_refused():
         ResolutionControl(target_fps=-5.0)
     with pytest.raises(InvalidParameterError, match="lowest render scale"):
         ResolutionControl(min_scale=0.0)
+
+
+def test_a_frame_whose_time_is_not_in_its_pixels_goes_back_to_full_size():
+    """70 ms of LOD update and vertices and 6 ms of pixels: shrinking cannot reach 66.7 ms,
+    so the one step tried is taken back and the frames stay full size."""
+    control = ResolutionControl(target_fps=15.0)
+    drawn = _fly(control, lambda s: 70.0 + 6.0 * s * s, 60)
+    assert drawn[-40:] == [1.0] * 40
+    assert min(drawn) >= 0.75  # one step down was tried, no more

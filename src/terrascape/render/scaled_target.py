@@ -2,17 +2,10 @@
 
 A software rasteriser's frame time is mostly per pixel: a frame drawn at 70 % of the
 window's width and height shades half the pixels. :class:`ScaledTarget` holds that smaller
-colour + depth target and draws it onto the real framebuffer with a Catmull-Rom filter
-(``viewer/upscale.glsl``), which keeps edges sharper than a bilinear enlargement. The viewer
-uses it to hold its frame rate while the camera moves (dynamic resolution) and draws full
-size frames when it stops.
-
-References
-----------
-- E. Catmull and R. Rom, "A class of local interpolating splines", Computer Aided Geometric
-  Design, 1974 (the filter).
-- D. P. Mitchell and A. N. Netravali, "Reconstruction filters in computer graphics",
-  SIGGRAPH 1988 (the cubic family, B = 0, C = 1/2).
+colour + depth target and draws it onto the real framebuffer with the linear filter
+(``viewer/upscale.glsl``: one read per output pixel, the cheapest enlargement on a software
+rasteriser). The viewer uses it to hold its frame rate while the camera moves (dynamic
+resolution) and draws full size frames when it stops.
 """
 
 from __future__ import annotations
@@ -53,7 +46,6 @@ class ScaledTarget:
         if self._fbo is None or tuple(self._fbo.size) != want:
             self._release_target()
             self._colour = self.ctx.texture(want, 4)
-            # linear taps: the upscale merges neighbouring texels in one read
             self._colour.filter = (moderngl.LINEAR, moderngl.LINEAR)
             self._colour.repeat_x = self._colour.repeat_y = False
             self._depth = self.ctx.depth_renderbuffer(want)
@@ -70,9 +62,7 @@ class ScaledTarget:
         program = load_program(self.ctx, "viewer/upscale")
         if self._vao is None:
             self._vao = self.ctx.vertex_array(program, [])
-        w, h = self._fbo.size
         program["u_frame"].value = 0
-        program["u_texel"].value = (1.0 / w, 1.0 / h)
         dst.use()
         self.ctx.viewport = (0, 0, *dst.size)
         self._colour.use(location=0)

@@ -17,7 +17,8 @@ first step, counting all of the time as per pixel (which under-corrects when par
 so the scale approaches its value from above). It moves at most :data:`MAX_STEP` a frame,
 rounded to :data:`QUANTUM` (each new size reallocates the targets), and grows again only
 when frames are faster than :data:`GROW_BELOW` of the target's frame time; a new scale is
-measured for a few frames before it changes again.
+measured for a few frames before it changes again. A shrink that left most of the frame's
+time in place (:data:`FUTILE_SHARE`: the time is not in the pixels) is taken back.
 
 References
 ----------
@@ -48,6 +49,11 @@ MEASURE_FRAMES = 3
 #: Least difference of the squared scales of two measurements to fit the fixed part of the
 #: frame time through them (closer ones amplify the frames' noise).
 MIN_FIT_SPREAD = 0.2
+#: A shrink after which the fitted fixed part of the frame is above this share of the
+#: bigger frames' time saved too little (the LOD update, the vertices, the enlargement
+#: dominate): the scale goes back and does not shrink again for :data:`HOLD_FRAMES` frames.
+FUTILE_SHARE = 0.75
+HOLD_FRAMES = 150
 #: Scales are multiples of this.
 QUANTUM = 0.05
 #: Default target frame rate of the viewer while moving.
@@ -70,6 +76,8 @@ class ResolutionControl:
     _seen: int = 0
     _recent: list = field(default_factory=list)
     _before: tuple | None = None  # (scale, median ms) measured at the previous scale
+    _anchor: tuple | None = None  # the same where the current run of shrinks started
+    _hold: int = 0  # frames left before the scale may shrink again
 
     def __post_init__(self) -> None:
         self.target_fps = check_range(self.target_fps, "target frame rate", 0.0, 1000.0)
@@ -83,21 +91,36 @@ class ResolutionControl:
         """Back to full size, measured afresh (what a frame costs changed: another look)."""
         self.scale = 1.0
         self.reset()
-        self._before = None
+        self._before = self._anchor = None
+        self._hold = 0
+
+    def _fit(self) -> tuple[float, float, tuple] | None:
+        """``(per-pixel ms at full size, fixed ms, the other measurement)`` through this
+        scale's median and the previous scale's, or where the current run of shrinks
+        started; None when neither is far enough from this scale to tell."""
+        if self.frame_ms is None:
+            return None
+        for other in (self._before, self._anchor):
+            if other is None:
+                continue
+            s0, t0 = other
+            spread = self.scale * self.scale - s0 * s0
+            if abs(spread) >= MIN_FIT_SPREAD:
+                per_pixel = (self.frame_ms - t0) / spread
+                return per_pixel, self.frame_ms - per_pixel * self.scale * self.scale, other
+        return None
 
     def _scale_for(self, ms: float) -> float:
         """The scale whose frames would take ``ms``: from the fixed and per-pixel parts
         fitted through this scale's and the previous scale's medians, or, with one scale
         measured, two too close for the frames' noise, or a fit that makes no sense,
         counting all of the time as per pixel."""
-        s, t = self.scale, self.frame_ms
-        if self._before is not None and abs(s * s - self._before[0] ** 2) >= MIN_FIT_SPREAD:
-            s0, t0 = self._before
-            per_pixel = (t - t0) / (s * s - s0 * s0)
-            fixed = t - per_pixel * s * s
+        fit = self._fit()
+        if fit is not None:
+            per_pixel, fixed, _ = fit
             if per_pixel > 0.0 and 0.0 <= fixed < ms:
                 return math.sqrt((ms - fixed) / per_pixel)
-        return s * math.sqrt(ms / t)
+        return self.scale * math.sqrt(ms / self.frame_ms)
 
     def reset(self) -> None:
         """Forget the measured frame times (the technique or the window changed)."""
@@ -115,6 +138,7 @@ class ResolutionControl:
         """
         if not self.active or not math.isfinite(frame_ms) or frame_ms <= 0.0:
             return self.scale
+        self._hold = max(0, self._hold - 1)
         self._seen += 1
         if self._seen <= SKIP_AFTER_CHANGE:
             return self.scale
@@ -124,7 +148,16 @@ class ResolutionControl:
             return self.scale
         budget = 1000.0 / self.target_fps
         aim = budget * HEADROOM
-        if self.frame_ms > budget:
+        fit = self._fit()
+        if fit is not None and fit[2][0] > self.scale and (
+                fit[0] <= 0.0 or fit[1] >= FUTILE_SHARE * fit[2][1]):
+            # shrinking bought too little: back to the bigger frames, and hold there
+            self.scale = fit[2][0]
+            self._before = self._anchor = None
+            self._hold = HOLD_FRAMES
+            self.reset()
+            return self.scale
+        if self.frame_ms > budget and self._hold == 0:
             want = max(self._scale_for(aim), self.scale - MAX_STEP)
             new = min(round(want / QUANTUM) * QUANTUM, self.scale - QUANTUM)
         elif self.frame_ms < budget * GROW_BELOW and self.scale < 1.0:
@@ -135,6 +168,10 @@ class ResolutionControl:
         new = round(min(1.0, max(self.min_scale, new)), 6)
         if new != self.scale:
             self._before = (self.scale, self.frame_ms)
+            if new > self.scale:
+                self._anchor = None
+            elif self._anchor is None:
+                self._anchor = self._before
             self.scale = new
             self.reset()  # the times were measured at the old scale
         return self.scale
