@@ -230,7 +230,36 @@ def _line_offset(a, a_org, b_org, e):
     return whole - b_org, absolute - whole
 
 
-@njit(cache=CACHE)
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+def _run_extrema(r, b):
+    """Highest and lowest of the _SEGMENT (16) samples ``r[b … b + 15]``, as a tree of
+    pairwise maxima and minima: independent operations the compiler issues as SIMD
+    vectors, where a running maximum is one chain of 15 dependent steps, each waiting for
+    the last. Exact: a maximum is a maximum in any order.
+    """
+    a0 = max(r[b], r[b + 8])
+    a1 = max(r[b + 1], r[b + 9])
+    a2 = max(r[b + 2], r[b + 10])
+    a3 = max(r[b + 3], r[b + 11])
+    a4 = max(r[b + 4], r[b + 12])
+    a5 = max(r[b + 5], r[b + 13])
+    a6 = max(r[b + 6], r[b + 14])
+    a7 = max(r[b + 7], r[b + 15])
+    i0 = min(r[b], r[b + 8])
+    i1 = min(r[b + 1], r[b + 9])
+    i2 = min(r[b + 2], r[b + 10])
+    i3 = min(r[b + 3], r[b + 11])
+    i4 = min(r[b + 4], r[b + 12])
+    i5 = min(r[b + 5], r[b + 13])
+    i6 = min(r[b + 6], r[b + 14])
+    i7 = min(r[b + 7], r[b + 15])
+    a0, a1, a2, a3 = max(a0, a4), max(a1, a5), max(a2, a6), max(a3, a7)
+    i0, i1, i2, i3 = min(i0, i4), min(i1, i5), min(i2, i6), min(i3, i7)
+    a0, a1, i0, i1 = max(a0, a2), max(a1, a3), min(i0, i2), min(i1, i3)
+    return max(a0, a1), min(i0, i1)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
 def _segment_extrema(row, smax, smin):
     """Lowest height of every run of ``_SEGMENT`` samples of one grid line,
     ``smin[m]`` over ``row[m·_SEGMENT … (m + 1)·_SEGMENT - 1]``, and the highest of that run
@@ -238,7 +267,13 @@ def _segment_extrema(row, smax, smin):
     slack)."""
     n1 = row.shape[0]
     top = 0.0
-    for m in range(smax.shape[0]):
+    whole = n1 // _SEGMENT
+    for m in range(whole):
+        hi, lo = _run_extrema(row, m * _SEGMENT)
+        smax[m] = hi
+        smin[m] = lo
+        top = max(top, abs(float(hi)), abs(float(lo)))
+    for m in range(whole, smax.shape[0]):  # the last, shorter run
         b0 = m * _SEGMENT
         hi = float(row[b0])
         lo = hi
