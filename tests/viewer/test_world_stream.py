@@ -138,6 +138,21 @@ def test_streamed_view_matches_the_whole_map(world, gl_ctx):
                 time.sleep(0.05)
                 s.render(fbo, 0.0)
             frames[name] = _frame(fbo)
+            if geometry is not None:
+                # a moving frame drawn at half size and enlarged: the same view, softer
+                from dataclasses import replace
+
+                from terrascape.viewer.resolution import ResolutionControl
+
+                held = s.camera
+                s.resolution = ResolutionControl(target_fps=15.0, scale=0.5)
+                s.camera = replace(held, yaw=held.yaw + 3.0)
+                s.render(fbo, 0.05)
+                s.camera = held
+                s.render(fbo, 0.05)
+                assert s.drawn_scale == 0.5
+                moving = np.abs(_frame(fbo) - frames[name])
+                assert moving.mean() < 8.0, moving.mean()
             if geometry is not None:  # built in the loader process, drawn here
                 from terrascape.world.chunked_lod import ProcessTileLoader
 
