@@ -75,3 +75,26 @@ def test_a_step_stays_where_it_was(gl_ctx):
     got = _enlarged(gl_ctx, small, 0.5)[OUT[1] // 2, :, 0]
     assert got[: OUT[0] // 2 - 2].max() == 0 and got[OUT[0] // 2 + 2:].min() == 200
     assert abs(got[OUT[0] // 2 - 1] + got[OUT[0] // 2] - 200) <= 2  # symmetric about it
+
+
+@pytest.mark.gl
+def test_geometry_buffers_of_two_sizes_are_kept_and_the_oldest_goes(gl_ctx):
+    """The viewer alternates full-size and smaller frames: both geometry buffers stay,
+    and a third size releases the one used longest ago."""
+    from terrascape.render.deferred import KEPT_GBUFFERS, DeferredShading
+
+    assert KEPT_GBUFFERS == 2
+    shading = DeferredShading(gl_ctx)
+    try:
+        full = shading._gbuffer_for((160, 96))
+        small = shading._gbuffer_for((96, 58))
+        assert shading._gbuffer_for((160, 96)) is full  # no reallocation
+        assert shading._gbuffer_for((96, 58)) is small
+        shading._gbuffer_for((160, 96))
+        third = shading._gbuffer_for((64, 40))
+        assert set(shading._gbuffers) == {((160, 96), True), ((64, 40), True)}
+        assert shading._gbuffer_for((64, 40)) is third
+        assert shading._gbuffer_for((96, 58)) is not small  # made again
+    finally:
+        shading.release()
+    assert shading._gbuffers == {}

@@ -32,6 +32,8 @@ from terrascape.render.techniques import Technique
 GBUFFER_UNIT = 12
 #: Texture types of the geometry buffer's attachments: world position, normal, tangent.
 GBUFFER_DTYPES = ("f4", "f2", "f2")
+#: Geometry buffers kept, one per target size (the viewer draws two: full and scaled).
+KEPT_GBUFFERS = 2
 
 
 class DeferredShading:
@@ -42,7 +44,10 @@ class DeferredShading:
         #: float16 normal and tangent, only the world position and depth cleared; False:
         #: every attachment float32 and cleared (``terrascape bench terrain_shading``)
         self.light_gbuffer = True
-        self._gbuffer: tuple | None = None  # (key, fbo, textures, clear fbo)
+        # (key, fbo, textures, clear fbo) per target size, the last used last: two kept, so
+        # the viewer's full-size and smaller moving frames do not reallocate at every
+        # start and stop of the camera
+        self._gbuffers: dict[tuple, tuple] = {}
         self._fullscreen_vaos: dict[int, Any] = {}
 
     def shading_program(self, technique: Technique, defines: dict | None = None):
@@ -59,9 +64,11 @@ class DeferredShading:
         import moderngl
 
         key = (tuple(size), self.light_gbuffer)
-        if self._gbuffer is not None and self._gbuffer[0] == key:
-            return self._gbuffer
-        self._release_gbuffer()
+        if key in self._gbuffers:
+            self._gbuffers[key] = self._gbuffers.pop(key)  # the most recently used
+            return self._gbuffers[key]
+        while len(self._gbuffers) >= KEPT_GBUFFERS:
+            self._release_gbuffer(next(iter(self._gbuffers)))
         ctx = self.ctx
         # World positions as float32 (the shading pass sees the values forward shading
         # interpolates); the normal and the tangent frame as float16 (unit vectors: 2⁻¹¹
@@ -78,18 +85,16 @@ class DeferredShading:
         # read them for their own colour (the depth test rejects it).
         clear = (ctx.framebuffer(color_attachments=colours[:1], depth_attachment=depth)
                  if self.light_gbuffer else fbo)
-        self._gbuffer = (key, fbo, [*colours, depth], clear)
-        return self._gbuffer
+        self._gbuffers[key] = (key, fbo, [*colours, depth], clear)
+        return self._gbuffers[key]
 
-    def _release_gbuffer(self) -> None:
-        if self._gbuffer is not None:
-            _, fbo, textures, clear = self._gbuffer
-            if clear is not fbo:
-                clear.release()
-            fbo.release()
-            for tex in textures:
-                tex.release()
-            self._gbuffer = None
+    def _release_gbuffer(self, key) -> None:
+        _, fbo, textures, clear = self._gbuffers.pop(key)
+        if clear is not fbo:
+            clear.release()
+        fbo.release()
+        for tex in textures:
+            tex.release()
 
     def draw(self, fbo, shading, view_proj,
              draw_geometry: Callable[[Any], dict[str, int]]) -> dict[str, int]:
@@ -158,7 +163,8 @@ class DeferredShading:
         for vao in self._fullscreen_vaos.values():
             vao.release()
         self._fullscreen_vaos.clear()
-        self._release_gbuffer()
+        for key in list(self._gbuffers):
+            self._release_gbuffer(key)
 
 
 __all__ = ["GBUFFER_DTYPES", "GBUFFER_UNIT", "DeferredShading"]
