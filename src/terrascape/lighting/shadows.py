@@ -237,22 +237,18 @@ def _run_extrema(r, b):
     vectors, where a running maximum is one chain of 15 dependent steps, each waiting for
     the last. Exact: a maximum is a maximum in any order.
     """
-    a0 = max(r[b], r[b + 8])
-    a1 = max(r[b + 1], r[b + 9])
-    a2 = max(r[b + 2], r[b + 10])
-    a3 = max(r[b + 3], r[b + 11])
-    a4 = max(r[b + 4], r[b + 12])
-    a5 = max(r[b + 5], r[b + 13])
-    a6 = max(r[b + 6], r[b + 14])
-    a7 = max(r[b + 7], r[b + 15])
-    i0 = min(r[b], r[b + 8])
-    i1 = min(r[b + 1], r[b + 9])
-    i2 = min(r[b + 2], r[b + 10])
-    i3 = min(r[b + 3], r[b + 11])
-    i4 = min(r[b + 4], r[b + 12])
-    i5 = min(r[b + 5], r[b + 13])
-    i6 = min(r[b + 6], r[b + 14])
-    i7 = min(r[b + 7], r[b + 15])
+    x0, y0 = r[b], r[b + 8]
+    x1, y1 = r[b + 1], r[b + 9]
+    x2, y2 = r[b + 2], r[b + 10]
+    x3, y3 = r[b + 3], r[b + 11]
+    x4, y4 = r[b + 4], r[b + 12]
+    x5, y5 = r[b + 5], r[b + 13]
+    x6, y6 = r[b + 6], r[b + 14]
+    x7, y7 = r[b + 7], r[b + 15]
+    a0, a1, a2, a3 = max(x0, y0), max(x1, y1), max(x2, y2), max(x3, y3)
+    a4, a5, a6, a7 = max(x4, y4), max(x5, y5), max(x6, y6), max(x7, y7)
+    i0, i1, i2, i3 = min(x0, y0), min(x1, y1), min(x2, y2), min(x3, y3)
+    i4, i5, i6, i7 = min(x4, y4), min(x5, y5), min(x6, y6), min(x7, y7)
     a0, a1, a2, a3 = max(a0, a4), max(a1, a5), max(a2, a6), max(a3, a7)
     i0, i1, i2, i3 = min(i0, i4), min(i1, i5), min(i2, i6), min(i3, i7)
     a0, a1, i0, i1 = max(a0, a2), max(a1, a3), min(i0, i2), min(i1, i3)
