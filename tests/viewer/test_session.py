@@ -419,3 +419,42 @@ def test_a_slow_look_is_drawn_smaller_until_it_holds_the_rate(gl_ctx):
     scripted = ViewerSession(gl_ctx, _terrain(), size=SIZE, hud=False, warn=lambda m: None)
     assert not scripted.resolution.active
     scripted.release()
+
+
+@pytest.mark.gl
+def test_a_moving_frame_keeps_stencil_shadow_volumes(gl_ctx):
+    """On an output with a stencil buffer, the smaller moving frame has one too: object
+    shadow volumes stay volumes (no fallback to shadow maps) and darken the same places."""
+    import warnings
+
+    from terrascape.cli.cmd_render import load_objects_option
+    from terrascape.cli.cmd_view import generate_terrain
+    from terrascape.render.shadow_volumes import ShadowVolumeFallbackWarning
+    from terrascape.render.stencil import StencilFramebuffer
+    from terrascape.viewer.session import ViewerSession
+
+    size = (200, 120)
+    hm = generate_terrain("fbm", 65, 4)
+    inst = load_objects_option("default", hm, seed=4, exaggeration=1.0)
+    target = StencilFramebuffer(gl_ctx, size)
+    s = ViewerSession(gl_ctx, hm, size=size, technique="plain", hud=False, objects=inst,
+                      warn=lambda m: None, target_fps=15.0)
+    try:
+        frames = {}
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", ShadowVolumeFallbackWarning)
+            start = s.camera
+            for mode in ("volumes", "none"):
+                s.state.object_shadows = mode
+                s.resolution.scale = 0.6
+                s.camera = replace(start, yaw=start.yaw + 2.0)
+                s.render(target.fbo, 0.05)
+                s.camera = start
+                s.render(target.fbo, 0.05)
+                assert s.drawn_scale == 0.6
+                frames[mode] = _frame(target.fbo)
+        darker = frames["volumes"].sum(-1) < 0.85 * frames["none"].sum(-1)
+        assert darker.mean() > 0.005  # the volumes' shadows are in the moving frame
+    finally:
+        s.release()
+        target.release()

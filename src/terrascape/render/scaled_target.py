@@ -32,25 +32,41 @@ class ScaledTarget:
         self._fbo = None
         self._colour = None
         self._depth = None
+        self._stencil_target = None  # StencilFramebuffer holding the depth + stencil
+        self._key: tuple | None = None
         self._vao = None
 
     @property
     def size(self) -> tuple[int, int] | None:
         return None if self._fbo is None else tuple(self._fbo.size)
 
-    def target(self, size: tuple[int, int], scale: float):
-        """The framebuffer to draw a frame of output ``size`` into at ``scale``."""
+    def target(self, size: tuple[int, int], scale: float, *, stencil: bool = False):
+        """The framebuffer to draw a frame of output ``size`` into at ``scale``; with
+        ``stencil`` it has a stencil buffer too, as the output has (stencil shadow volumes
+        draw the same on both), when this GL can make one."""
         import moderngl
 
         want = scaled_size(size, scale)
-        if self._fbo is None or tuple(self._fbo.size) != want:
+        if self._fbo is None or self._key != (want, stencil):
             self._release_target()
+            self._key = (want, stencil)
             self._colour = self.ctx.texture(want, 4)
             self._colour.filter = (moderngl.LINEAR, moderngl.LINEAR)
             self._colour.repeat_x = self._colour.repeat_y = False
-            self._depth = self.ctx.depth_renderbuffer(want)
-            self._fbo = self.ctx.framebuffer(color_attachments=[self._colour],
-                                             depth_attachment=self._depth)
+            if stencil:
+                from terrascape.errors import GLUnavailableError
+                from terrascape.render.stencil import StencilFramebuffer
+
+                try:
+                    self._stencil_target = StencilFramebuffer(self.ctx, want,
+                                                              color_texture=self._colour)
+                    self._fbo = self._stencil_target.fbo
+                except GLUnavailableError:  # drawn without; the renderer says what falls back
+                    self._stencil_target = None
+            if self._fbo is None:
+                self._depth = self.ctx.depth_renderbuffer(want)
+                self._fbo = self.ctx.framebuffer(color_attachments=[self._colour],
+                                                 depth_attachment=self._depth)
         return self._fbo
 
     def present(self, dst) -> None:
@@ -74,10 +90,14 @@ class ScaledTarget:
         return self._fbo.read(components=3, alignment=1)
 
     def _release_target(self) -> None:
+        if self._stencil_target is not None:
+            self._stencil_target.release()  # its framebuffer is self._fbo
+            self._fbo = None
         for obj in (self._fbo, self._colour, self._depth):
             if obj is not None:
                 obj.release()
-        self._fbo = self._colour = self._depth = None
+        self._fbo = self._colour = self._depth = self._stencil_target = None
+        self._key = None
 
     def release(self) -> None:
         self._release_target()

@@ -67,7 +67,9 @@ class StencilFramebuffer:
     """An off-screen target with an RGBA8 colour and a DEPTH24_STENCIL8 renderbuffer.
 
     ``fbo`` is a moderngl framebuffer (``ctx.detect_framebuffer`` of the PyOpenGL one), so
-    the renderer draws into it like into any other; ``release()`` frees both.
+    the renderer draws into it like into any other; ``release()`` frees both. With
+    ``color_texture`` (a moderngl texture of ``size``, still the caller's) the colour goes
+    into that texture instead of a renderbuffer, to be sampled afterwards.
 
     Raises
     ------
@@ -75,20 +77,26 @@ class StencilFramebuffer:
         PyOpenGL is missing or the GL cannot make a complete depth + stencil framebuffer.
     """
 
-    def __init__(self, ctx, size: tuple[int, int]) -> None:
+    def __init__(self, ctx, size: tuple[int, int], *, color_texture=None) -> None:
         GL = _gl()
         self.ctx = ctx
         self.size = (int(size[0]), int(size[1]))
         w, h = self.size
-        self.color = ctx.renderbuffer((w, h), 4, samples=0)
+        self._glo = 0
+        self.color = None if color_texture is not None else ctx.renderbuffer((w, h), 4,
+                                                                              samples=0)
         self._depth_stencil = int(GL.glGenRenderbuffers(1))
         GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, self._depth_stencil)
         GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_DEPTH24_STENCIL8, w, h)
         GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, 0)
         self._glo = int(GL.glGenFramebuffers(1))
         GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self._glo)
-        GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_COLOR_ATTACHMENT0,
-                                     GL.GL_RENDERBUFFER, self.color.glo)
+        if color_texture is not None:
+            GL.glFramebufferTexture2D(GL.GL_FRAMEBUFFER, GL.GL_COLOR_ATTACHMENT0,
+                                      GL.GL_TEXTURE_2D, color_texture.glo, 0)
+        else:
+            GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_COLOR_ATTACHMENT0,
+                                         GL.GL_RENDERBUFFER, self.color.glo)
         GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_STENCIL_ATTACHMENT,
                                      GL.GL_RENDERBUFFER, self._depth_stencil)
         status = GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER)

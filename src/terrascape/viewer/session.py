@@ -440,6 +440,7 @@ class ViewerSession:
         self._last_start: float | None = None  # when the previous frame began
         self.clock: Callable[[], float] = time.perf_counter  # of the frame times
         self._scaled_technique = technique  # the look the scale was found for
+        self._stencil_of: dict[tuple, bool] = {}
         self.drawn_scale = 1.0
         if geometry is not None:
             self.renderer.geometry = geometry
@@ -536,7 +537,7 @@ class ViewerSession:
                 from terrascape.render.scaled_target import ScaledTarget
 
                 self._scaled = ScaledTarget(self.ctx)
-            target = self._scaled.target((w, h), scale)
+            target = self._scaled.target((w, h), scale, stencil=self._has_stencil(fbo))
         self.drawn_scale = scale
         if self.geometry is not None:
             if self.state.lod != "none":
@@ -577,6 +578,16 @@ class ViewerSession:
             self.hud.draw(fbo, self.hud_panels((w, h)))
         self.frames += 1
         return self.stats
+
+    def _has_stencil(self, fbo) -> bool:
+        """Whether the output ``fbo`` has a stencil buffer (asked once per framebuffer),
+        which a smaller moving frame then gets too."""
+        key = (fbo.glo, tuple(fbo.size))
+        if key not in self._stencil_of:
+            from terrascape.render.stencil import stencil_bits
+
+            self._stencil_of[key] = stencil_bits(fbo) > 0
+        return self._stencil_of[key]
 
     def _fall_back(self, tech: str, exc: Exception) -> None:
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
