@@ -36,7 +36,7 @@ from terrascape._validate import check_range
 
 #: The frame time aimed at after a change, as a share of the target frame rate's frame time
 #: (room for the frame-to-frame noise).
-HEADROOM = 0.95
+HEADROOM = 0.92
 #: Frames faster than this share of the target's frame time may grow the scale again.
 GROW_BELOW = 0.8
 #: Largest change of the scale from one frame to the next.
