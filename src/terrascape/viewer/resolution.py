@@ -48,11 +48,11 @@ SKIP_AFTER_CHANGE = 1
 MEASURE_FRAMES = 3
 #: Least difference of the squared scales of two measurements to fit the fixed part of the
 #: frame time through them (closer ones amplify the frames' noise).
-MIN_FIT_SPREAD = 0.15
+MIN_FIT_SPREAD = 0.2
 #: A shrink after which the fitted fixed part of the frame is above this share of the
 #: bigger frames' time saved too little (the LOD update, the vertices, the enlargement
 #: dominate): the scale goes back and does not shrink again for :data:`HOLD_FRAMES` frames.
-FUTILE_SHARE = 0.75
+FUTILE_SHARE = 0.85
 HOLD_FRAMES = 150
 #: Scales are multiples of this.
 QUANTUM = 0.05
