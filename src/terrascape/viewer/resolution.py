@@ -10,8 +10,8 @@ looks at (and every screenshot) has the full look.
 
 The control: frame time ≈ fixed + per-pixel · scale². The time of each moving frame (from its
 start to the next frame's: drawing, buffer swap, events) is measured, and the median of the
-last :data:`MEASURE_FRAMES` decides. When that misses the target frame rate, the scale whose
-frames would take :data:`HEADROOM` of the target's frame time is taken: from the fixed and
+last :data:`MEASURE_FRAMES` decides. When that is above :data:`SHRINK_ABOVE` of the target's
+frame time, the scale whose frames would take :data:`HEADROOM` of it is taken: from the fixed and
 per-pixel parts fitted through the medians at this scale and the previous one, or, at the
 first step, counting all of the time as per pixel (which under-corrects when part is fixed,
 so the scale approaches its value from above). It moves at most :data:`MAX_STEP` a frame,
@@ -34,9 +34,12 @@ from dataclasses import dataclass, field
 
 from terrascape._validate import check_range
 
+#: Frames slower than this share of the target frame rate's frame time shrink the scale
+#: (a median right at the target leaves half the frames below the rate).
+SHRINK_ABOVE = 0.97
 #: The frame time aimed at after a change, as a share of the target frame rate's frame time
 #: (room for the frame-to-frame noise).
-HEADROOM = 0.92
+HEADROOM = 0.9
 #: Frames faster than this share of the target's frame time may grow the scale again.
 GROW_BELOW = 0.8
 #: Largest change of the scale from one frame to the next.
@@ -131,7 +134,7 @@ class ResolutionControl:
     def update(self, frame_ms: float) -> float:
         """Take the time of a frame drawn at :attr:`scale` and return the next scale.
 
-        The scale shrinks when the median frame time misses the target frame rate, and
+        The scale shrinks when the median frame time is near or past the target's, and
         grows when it is well within it; it holds in between, and for the first frames at a
         new scale (the first reallocates the targets, then :data:`MEASURE_FRAMES` are
         measured).
@@ -157,7 +160,7 @@ class ResolutionControl:
             self._hold = HOLD_FRAMES
             self.reset()
             return self.scale
-        if self.frame_ms > budget and self._hold == 0:
+        if self.frame_ms > budget * SHRINK_ABOVE and self._hold == 0:
             want = max(self._scale_for(aim), self.scale - MAX_STEP)
             new = min(round(want / QUANTUM) * QUANTUM, self.scale - QUANTUM)
         elif self.frame_ms < budget * GROW_BELOW and self.scale < 1.0:
