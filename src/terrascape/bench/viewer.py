@@ -229,6 +229,35 @@ EVERY_BRANCH = {"TERRAIN_LIGHTING": "u_lighting", "TERRAIN_CASCADES": 1,
                 "TERRAIN_VERTEX_HAZE": 0}
 
 
+def _measure_row(session, surface, cams, table, tech: str, lod: str, budget, label: str, *,
+                 adaptive: bool) -> tuple[dict, int | None]:
+    """Fly ``cams`` with ``tech`` and LOD mode ``lod`` (ROAM time ``budget``), with the
+    dynamic resolution when ``adaptive``, and add the row to ``table``. Returns the
+    measurement and in how many frames the first camera's mesh settled (None: it did not,
+    or no LOD)."""
+    from terrascape.viewer.resolution import ResolutionControl
+
+    session.state.technique, session.state.lod = tech, lod
+    session.lod.time_budget_ms = budget
+    session.resolution = ResolutionControl(target_fps=TARGET_FPS if adaptive else 0.0)
+    built = None
+    if lod != "none":
+        # the flight starts from the first camera's settled mesh (steady state), not from a
+        # mesh still building up under the budget
+        built = settle_frames(session, surface, cams[0])
+    t0 = time.perf_counter()
+    r = _measure(session, surface, cams, ADAPTIVE_WARMUP if adaptive else WARMUP)
+    print(f"bench viewer: {tech} {label}: {r['fps']:.1f} frames/s, ROAM {r['lod_ms']:.1f} ms, "
+          f"draw {r['draw_ms']:.1f} ms per frame at {r['scale']:.0%} size "
+          f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
+    met = ("met" if r["fps"] >= TARGET_FPS else "missed") if adaptive else "-"
+    table.rows.append([tech, label, f"{r['scale']:.0%}", round(r["fps"], 1),
+                       round(r["median_ms"], 1), round(r["p95_ms"], 1),
+                       round(r["lod_ms"], 1) if lod != "none" else "-",
+                       round(r["draw_ms"], 1), f"{r['triangles']:,}", met])
+    return r, built
+
+
 def _shading_table(session, surface, cams, n: int) -> BenchTable:
     """The plain daylight frame's draw (ROAM triangles set, no LOD update, no HUD),
     interleaved frame by frame: the program compiled for the frame's lighting mode against
@@ -270,7 +299,6 @@ def _shading_table(session, surface, cams, n: int) -> BenchTable:
 def run(quick: bool = False) -> list[BenchTable]:
     from terrascape.generate.registry import VIEW_SPACING, generate
     from terrascape.render.techniques import technique_names
-    from terrascape.viewer.resolution import ResolutionControl
     from terrascape.viewer.session import LOD_TIME_BUDGET_MS, ViewerSession, ordered_techniques
 
     n = 257 if quick else 513
@@ -315,37 +343,14 @@ def run(quick: bool = False) -> list[BenchTable]:
                 modes.append(("roam", None, f"{roam_label}, no budget"))
             else:  # the full mesh is the plain-texturing reference only
                 modes = modes[1:]
-            k = 0
-            while k < len(modes):
-                lod, budget, label = modes[k][:3]
-                full_size = len(modes[k]) > 3
-                k += 1
-                session.state.technique, session.state.lod = tech, lod
-                session.lod.time_budget_ms = budget
-                session.resolution = ResolutionControl(
-                    target_fps=0.0 if full_size or lod == "none" else TARGET_FPS)
-                built = None
-                if lod != "none":
-                    # the flight starts from the first camera's settled mesh (steady state),
-                    # not from a mesh still building up under the budget
-                    built = settle_frames(session, surface, cams[0])
-                t0 = time.perf_counter()
-                adaptive = session.resolution.active
-                r = _measure(session, surface, cams,
-                             ADAPTIVE_WARMUP if adaptive else WARMUP)
-                print(f"bench viewer: {tech} {label}: {r['fps']:.1f} frames/s, ROAM "
-                      f"{r['lod_ms']:.1f} ms, draw {r['draw_ms']:.1f} ms per frame at "
-                      f"{r['scale']:.0%} size ({time.perf_counter() - t0:.0f} s)",
-                      file=sys.stderr, flush=True)
-                met = ("-" if lod == "none" or full_size else
-                       "met" if r["fps"] >= TARGET_FPS else "missed")
-                table.rows.append([tech, label, f"{r['scale']:.0%}", round(r["fps"], 1),
-                                   round(r["median_ms"], 1), round(r["p95_ms"], 1),
-                                   round(r["lod_ms"], 1) if lod != "none" else "-",
-                                   round(r["draw_ms"], 1), f"{r['triangles']:,}", met])
-                if r["scale"] < 1.0 and not full_size:
-                    # what the look costs undiminished, for the record
-                    modes.insert(k, (lod, budget, f"{label}, full size", True))
+            for lod, budget, label in modes:
+                # the full mesh is drawn at full size; ROAM rows with the dynamic
+                # resolution, and when that drew smaller, again at full size for the record
+                r, built = _measure_row(session, surface, cams, table, tech, lod, budget,
+                                        label, adaptive=lod != "none")
+                if r["scale"] < 1.0:
+                    _measure_row(session, surface, cams, table, tech, lod, budget,
+                                 f"{label}, full size", adaptive=False)
                 if tech == "plain" and budget is not None:
                     notes.append(f"ROAM time budget {budget:g} ms: the first camera's mesh "
                                  + (f"settled in {built} frame(s)" if built else

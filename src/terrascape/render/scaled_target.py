@@ -10,9 +10,7 @@ resolution) and draws full size frames when it stops.
 
 from __future__ import annotations
 
-from typing import Any
-
-from terrascape.errors import InvalidParameterError
+from terrascape.errors import GLUnavailableError, InvalidParameterError
 from terrascape.render.shaders import load_program
 
 
@@ -54,7 +52,6 @@ class ScaledTarget:
             self._colour.filter = (moderngl.LINEAR, moderngl.LINEAR)
             self._colour.repeat_x = self._colour.repeat_y = False
             if stencil:
-                from terrascape.errors import GLUnavailableError
                 from terrascape.render.stencil import StencilFramebuffer
 
                 try:
@@ -84,10 +81,6 @@ class ScaledTarget:
         self._colour.use(location=0)
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE)
         self._vao.render(moderngl.TRIANGLES, vertices=3)
-
-    def read(self) -> Any:
-        """The small frame's RGB bytes (rows bottom-up), for tests and probes."""
-        return self._fbo.read(components=3, alignment=1)
 
     def _release_target(self) -> None:
         if self._stencil_target is not None:

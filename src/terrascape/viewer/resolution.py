@@ -113,12 +113,11 @@ class ResolutionControl:
                 return per_pixel, self.frame_ms - per_pixel * self.scale * self.scale, other
         return None
 
-    def _scale_for(self, ms: float) -> float:
+    def _scale_for(self, ms: float, fit: tuple | None) -> float:
         """The scale whose frames would take ``ms``: from the fixed and per-pixel parts
-        fitted through this scale's and the previous scale's medians, or, with one scale
-        measured, two too close for the frames' noise, or a fit that makes no sense,
-        counting all of the time as per pixel."""
-        fit = self._fit()
+        of ``fit`` (:meth:`_fit`), or, with none (one scale measured, or two too close for
+        the frames' noise) or one that makes no sense, counting all of the time as per
+        pixel."""
         if fit is not None:
             per_pixel, fixed, _ = fit
             if per_pixel > 0.0 and 0.0 <= fixed < ms:
@@ -126,7 +125,7 @@ class ResolutionControl:
         return self.scale * math.sqrt(ms / self.frame_ms)
 
     def reset(self) -> None:
-        """Forget the measured frame times (the technique or the window changed)."""
+        """Forget the frame times measured at this scale (it changed)."""
         self.frame_ms = None
         self._seen = 0
         self._recent = []
@@ -161,10 +160,10 @@ class ResolutionControl:
             self.reset()
             return self.scale
         if self.frame_ms > budget * SHRINK_ABOVE and self._hold == 0:
-            want = max(self._scale_for(aim), self.scale - MAX_STEP)
+            want = max(self._scale_for(aim, fit), self.scale - MAX_STEP)
             new = min(round(want / QUANTUM) * QUANTUM, self.scale - QUANTUM)
         elif self.frame_ms < budget * GROW_BELOW and self.scale < 1.0:
-            want = min(self._scale_for(aim), self.scale + MAX_STEP)
+            want = min(self._scale_for(aim, fit), self.scale + MAX_STEP)
             new = max(math.floor(want / QUANTUM + 1e-9) * QUANTUM, self.scale)
         else:
             return self.scale
