@@ -1,7 +1,7 @@
 // A frame drawn at a fraction of the window's size, enlarged to the window with the linear
-// filter: one texture read per window pixel. (A Catmull-Rom enlargement in five linear taps
-// was sharper but cost 2.6× the pass's time on llvmpipe — 6.6 against 2.5 ms at
-// 1280×720 — and this pass is paid only while the camera moves, when softness shows least.)
+// filter: one texture read per window pixel (a Catmull-Rom enlargement needs five, and this
+// pass is paid only while the camera moves, when softness shows least). Its cost:
+// scripts/viewer_frame_costs.py.
 #if defined VERTEX_SHADER
 out vec2 v_uv;
 void main() {
