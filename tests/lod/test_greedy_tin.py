@@ -197,3 +197,106 @@ def test_same_mesh_on_one_thread_or_two():
     finally:
         numba.set_num_threads(before)
     np.testing.assert_array_equal(one, two)
+
+
+# --- the mesh built in pieces ----------------------------------------------------------------
+def _piece_maps():
+    rng = np.random.default_rng(11)
+    walk = np.cumsum(np.cumsum(rng.standard_normal((97, 143)), 0), 1).astype(np.float32)
+    quantised = np.round(_terrain(129, seed=6, relief=90.0).heights).astype(np.float32)
+    return [_terrain(129, seed=12, relief=120.0), Heightmap(walk, spacing=(3.0, 3.0)),
+            Heightmap(quantised)]
+
+
+@pytest.mark.parametrize("max_error", [0.0, 0.7, 3.0])
+def test_pieces_keep_the_bound_and_meet_without_cracks(monkeypatch, max_error):
+    from terrascape.lod import greedy_tin as gt
+
+    for hm in _piece_maps():
+        monkeypatch.setattr(gt, "_PIECE", 10**6)
+        whole = gt.greedy_tin(hm, max_error=max_error)
+        monkeypatch.setattr(gt, "_PIECE", 40)
+        assert len(gt._piece_edges(hm.shape[0])) > 2  # several pieces each way
+        pieces = gt.greedy_tin(hm, max_error=max_error)
+        # no crack and no T-junction where pieces meet, and the bound on every sample
+        report = conformity_report(pieces, hm.shape)
+        assert report.ok, str(report)
+        err = max_vertical_error(hm, pieces)
+        assert err <= max_error + 1e-9
+        if max_error == 0.0:
+            assert np.all(sample_errors(hm, pieces) < 1e-4)
+        else:
+            assert err > 0.5 * max_error
+        # the shared lines cost few triangles (here pieces are only 40 samples wide)
+        assert len(pieces) <= 1.1 * len(whole) + 20
+
+
+def test_pieces_share_their_line_vertices(monkeypatch):
+    from terrascape.lod import greedy_tin as gt
+
+    hm = _terrain(129, seed=13, relief=100.0)
+    monkeypatch.setattr(gt, "_PIECE", 40)
+    tri = gt.greedy_tin(hm, max_error=1.5)
+    rows, cols = hm.shape
+    verts = np.unique(tri)
+    r, c = verts // cols, verts % cols
+    row_keep, col_keep = gt._shared_line_points(hm.heights, 1.5, gt._piece_edges(rows),
+                                                gt._piece_edges(cols))
+    for k, y in enumerate(gt._piece_edges(rows)[1:-1], start=1):
+        # the mesh's vertices on an inner line are exactly the line's simplification
+        assert set(c[r == y]) == set(np.flatnonzero(row_keep[k]))
+        # and the simplification holds the line within the error (tighter, not looser)
+        kept = np.flatnonzero(row_keep[k])
+        line = np.interp(np.arange(cols), kept, hm.heights[y, kept].astype(np.float64))
+        assert np.abs(line - hm.heights[y]).max() <= 1.5
+    for k, x in enumerate(gt._piece_edges(cols)[1:-1], start=1):
+        assert set(r[c == x]) == set(np.flatnonzero(col_keep[k]))
+
+
+def test_simplified_line_is_the_greedy_polyline():
+    from terrascape.lod.greedy_tin import _simplify_line
+
+    rng = np.random.default_rng(5)
+    z = np.cumsum(rng.standard_normal(300)).astype(np.float32)
+    keep = np.zeros(300, np.bool_)
+    _simplify_line(z, 2.0, keep)
+    kept = np.flatnonzero(keep)
+    assert kept[0] == 0 and kept[-1] == 299
+    line = np.interp(np.arange(300), kept, z[kept].astype(np.float64))
+    assert np.abs(line - z).max() <= 2.0
+    # the same points as the recursion written out in numpy: split each segment at its
+    # worst sample (the first of equal ones) while that is beyond the error
+    expected = {0, 299}
+    segments = [(0, 299)]
+    while segments:
+        a, b = segments.pop()
+        i = np.arange(a + 1, b)
+        if len(i) == 0:
+            continue
+        za = float(z[a])
+        err = np.abs(za + (float(z[b]) - za) / (b - a) * (i - a) - z[i].astype(np.float64))
+        if err.max() > 2.0:
+            m = int(i[np.argmax(err)])
+            expected.add(m)
+            segments += [(a, m), (m, b)]
+    assert set(kept.tolist()) == expected
+    _simplify_line(np.zeros(50, np.float32), 0.5, keep[:50])
+    assert np.flatnonzero(keep[:50]).tolist() == [0, 49]
+
+
+def test_pieces_same_mesh_on_one_thread_or_two(monkeypatch):
+    import numba
+
+    from terrascape.lod import greedy_tin as gt
+
+    hm = _terrain(129, seed=14, relief=80.0)
+    monkeypatch.setattr(gt, "_PIECE", 50)
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = gt.greedy_tin(hm, max_error=0.8)
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        two = gt.greedy_tin(hm, max_error=0.8)
+    finally:
+        numba.set_num_threads(before)
+    np.testing.assert_array_equal(one, two)

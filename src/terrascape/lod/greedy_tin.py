@@ -19,10 +19,22 @@ is within ``max_error`` (the same exact rasterisation); a vertex is tried again 
 neighbour went. This takes a tenth to a fifth of the triangles away (``terrascape bench
 peers``, 2026-12-04), and the mesh is no longer exactly Delaunay.
 
+For an error bound, the grid is cut into pieces of about 256×256 samples that share the
+grid lines between them, and the pieces are meshed independently, in parallel. Each shared
+line is first simplified alone within the error (the worst sample of a segment is kept
+until every sample is within it: the same greedy insertion in one dimension); those
+vertices are put on both pieces' sides before anything else. A triangle along a side
+interpolates the side's samples as the line did, so the bound holds there, no piece wants
+a vertex its neighbour lacks, and the pieces meet without cracks. The shared lines and the
+pieces' own greedy orders change the triangle count by a few per cent either way
+(``terrascape bench peers``), and the pieces depend only on the grid's size, so the mesh
+is the same on any number of threads. A triangle budget (``max_triangles``) is one
+greedy order over the whole grid and is built in one piece.
+
 Compared with the right-triangulated network of :mod:`terrascape.lod.rtin`, vertices go
 anywhere on the grid, not only at bintree midpoints, so the same error takes fewer
 triangles; the mesh is not a bintree (it cannot be refined per view or stitched to tiles
-by level) and it is built sequentially. It meshes any rectangular grid.
+by level). It meshes any rectangular grid.
 
 References
 ----------
@@ -38,6 +50,10 @@ References
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+from itertools import pairwise
+
+import numba
 import numpy as np
 
 from terrascape._numba import CACHE, FASTMATH, njit
@@ -254,6 +270,8 @@ _TILE = 16
 _TILED_SEARCH = 8 * _TILE * _TILE
 # Triangles whose box holds at most this many samples are scanned sample by sample.
 _BOX_SCAN = 64
+# Samples per side of the pieces meshed independently (in parallel) for an error bound.
+_PIECE = 256
 
 
 @njit(cache=CACHE, fastmath=_RASTER_MATH, _nrt=False)
@@ -370,6 +388,14 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
     p0x, p0y = coords[p0, 0], coords[p0, 1]
     p1x, p1y = coords[p1, 0], coords[p1, 1]
     p2x, p2y = coords[p2, 0], coords[p2, 1]
+    area2 = _orient(p0x, p0y, p1x, p1y, p2x, p2y)
+    if area2 == 1:
+        # the smallest lattice triangle covers no sample but its corners (Pick's theorem):
+        # most triangles of a dense mesh are such
+        cand[t, 0] = p0x
+        cand[t, 1] = p0y
+        cerr[t] = 0.0
+        return
     min_x = min(p0x, p1x, p2x)
     min_y = min(p0y, p1y, p2y)
     max_x = max(p0x, p1x, p2x)
@@ -384,7 +410,7 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
     b12 = p1x - p2x
     a20 = p0y - p2y
     b20 = p2x - p0x
-    area = float(_orient(p0x, p0y, p1x, p1y, p2x, p2y))
+    area = float(area2)
     z0 = float(h[p0y, p0x]) / area
     z1 = float(h[p1y, p1x]) / area
     z2 = float(h[p2y, p2x]) / area
@@ -476,7 +502,7 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
     cerr[t] = best
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
 def _tile_ranges(h, tplane, tres):
     """Per tile: the least-squares plane of its heights (value at the tile's first sample,
     slopes along x and y), the range of the heights' residuals from it, and the range of
@@ -539,6 +565,53 @@ def _flush(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr,
     state[_N_PENDING] = 0
 
 
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True, _nrt=False)
+def _flush_all(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx,
+               state, max_error):
+    """Rasterise every triangle and queue those beyond the error (the start of a piece)."""
+    for t in range(state[_N_EDGES] // 3):
+        _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr)
+        if cerr[t] > max_error:
+            _q_push(queue, qerr, qidx, state, t, cerr[t])
+        else:
+            qidx[t] = _SETTLED
+    state[_N_PENDING] = 0
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True, _nrt=False)
+def _insert_border_points(points, coords, tris, half, queue, qerr, qidx, pending, stack,
+                          state):
+    """Insert the ``points`` (on the grid's border; corners are skipped) into the
+    triangulation as Delaunay vertices, before anything is rasterised."""
+    for k in range(points.shape[0]):
+        px = points[k, 0]
+        py = points[k, 1]
+        on = -1
+        for e in range(state[_N_EDGES]):
+            if half[e] >= 0:
+                continue
+            a = tris[e]
+            b = tris[_next_edge(e)]
+            ax, ay = coords[a, 0], coords[a, 1]
+            bx, by = coords[b, 0], coords[b, 1]
+            if ((ax == px and ay == py) or (bx == px and by == py)):
+                on = -2  # already a vertex
+                break
+            if (_orient(ax, ay, bx, by, px, py) == 0 and min(ax, bx) <= px <= max(ax, bx)
+                    and min(ay, by) <= py <= max(ay, by)):
+                on = e
+                break
+        if on == -2:
+            continue
+        if on < 0:
+            raise RuntimeError("greedy TIN: a shared point is not on the piece's border")
+        pn = _add_point(coords, state, px, py)
+        top = _split_on_edge(tris, half, queue, qerr, qidx, pending, state, stack, pn, on)
+        _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, top)
+        # nothing is rasterised yet: the start rasterises every triangle once
+        state[_N_PENDING] = 0
+
+
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _add_point(coords, state, x, y):
     i = state[_N_POINTS]
@@ -585,7 +658,7 @@ def _split_on_edge(tris, half, queue, qerr, qidx, pending, state, stack, pn, a):
     return 4
 
 
-@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
+@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False, nogil=True)
 def _refine(h, tplane, tres, bound, order, max_error, max_tris, coords, tris, half, cand, cerr,
             queue, qerr, qidx, pending, stack, state):
     """Insert worst candidates until the error is met, the budget is reached, or the arrays
@@ -724,7 +797,6 @@ def _fill_hole(rx, ry, d, pprev, pnext, out):
     return True
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
 def _remove_vertices(h, tplane, tres, bound, order, coords, tris, half, n_points, n_edges,
                      max_error, passes):
     """Remove every vertex (newest first, ``passes`` times over) whose star, refilled
@@ -735,23 +807,37 @@ def _remove_vertices(h, tplane, tres, bound, order, coords, tris, half, n_points
     inserted later near it can make it unnecessary. Removing it takes two triangles away
     and changes no other sample's error."""
     vedge = np.full(n_points, -1, np.int64)  # one halfedge leaving each vertex
-    for e in range(n_edges):
-        if tris[e] >= 0:
-            vedge[tris[e]] = e
     # a vertex is tried again only when a neighbour went (its star changed)
     dirty = np.ones(n_points, np.bool_)
-    ring = np.empty(_MAX_DEGREE, np.int64)
-    rx = np.empty(_MAX_DEGREE, np.int64)  # the link's coordinates and heights
-    ry = np.empty(_MAX_DEGREE, np.int64)
+    ring = np.empty((4, _MAX_DEGREE), np.int64)  # link vertices, x, y, star halfedges
+    outer = np.empty((3, _MAX_DEGREE), np.int64)  # twins outside, ear-clipping links
     rz = np.empty(_MAX_DEGREE, np.float64)
-    ring_e = np.empty(_MAX_DEGREE, np.int64)
-    outer = np.empty(_MAX_DEGREE, np.int64)
-    pprev = np.empty(_MAX_DEGREE, np.int64)
-    pnext = np.empty(_MAX_DEGREE, np.int64)
     fill = np.empty((_MAX_DEGREE, 3), np.int64)
     stris = np.empty(3 * _MAX_DEGREE, np.int32)
     scand = np.empty((_MAX_DEGREE, 2), np.int32)
     scerr = np.empty(_MAX_DEGREE, np.float64)
+    return _remove_kernel(h, tplane, tres, bound, order, coords, tris, half, n_edges,
+                          max_error, passes, vedge, dirty, ring, outer, rz, fill, stris, scand,
+                          scerr)
+
+
+# without the runtime's reference counting: the kernel allocates nothing, and counting the
+# references of a dozen arrays at every inlined rasterisation cost more than the
+# rasterisation of a small triangle
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True, _nrt=False)
+def _remove_kernel(h, tplane, tres, bound, order, coords, tris, half, n_edges, max_error,
+                   passes, vedge, dirty, rings, outers, rz, fill, stris, scand, scerr):
+    ring = rings[0]
+    rx = rings[1]  # the link's coordinates and heights
+    ry = rings[2]
+    ring_e = rings[3]
+    outer = outers[0]
+    pprev = outers[1]
+    pnext = outers[2]
+    n_points = vedge.shape[0]
+    for e in range(n_edges):
+        if tris[e] >= 0:
+            vedge[tris[e]] = e
     rows, cols = h.shape
     removed = 0
     for _ in range(passes):
@@ -931,6 +1017,144 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
     h = np.ascontiguousarray(heightmap.heights, dtype=np.float32)
     if not np.isfinite(h).all():
         raise InvalidParameterError("heights must be finite (fill NaN/inf first)")
+    if max_triangles is not None:
+        # a triangle budget is one greedy order over the whole map
+        coords, tris = _mesh_piece(h, tol, budget, max_error is not None,
+                                   np.empty((0, 2), np.int64))
+        return (coords[:, 1] * cols + coords[:, 0])[tris].astype(np.uint32)
+    return _mesh_in_pieces(h, tol)
+
+
+def _piece_edges(n: int) -> np.ndarray:
+    """Where the pieces along one axis of ``n`` samples start and end (shared lines)."""
+    count = max(1, round((n - 1) / _PIECE))
+    return np.round(np.linspace(0, n - 1, count + 1)).astype(np.int64)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
+def _simplify_line(z, tol, keep):
+    """Mark in ``keep`` the samples of the line ``z`` that a polyline within ``tol`` of every
+    sample needs: the two ends, then recursively the worst sample of a segment beyond ``tol``
+    (in one dimension this is the greedy insertion itself)."""
+    n = z.shape[0]
+    keep[:] = False
+    keep[0] = True
+    keep[n - 1] = True
+    stack = np.empty((n, 2), np.int64)
+    stack[0, 0] = 0
+    stack[0, 1] = n - 1
+    top = 1
+    while top > 0:
+        top -= 1
+        a = stack[top, 0]
+        b = stack[top, 1]
+        za = float(z[a])
+        slope = (float(z[b]) - za) / (b - a)
+        worst = -1.0
+        at = -1
+        for i in range(a + 1, b):
+            d = abs(za + slope * (i - a) - float(z[i]))
+            if d > worst:
+                worst = d
+                at = i
+        if at >= 0 and worst > tol:
+            keep[at] = True
+            stack[top, 0] = a
+            stack[top, 1] = at
+            stack[top + 1, 0] = at
+            stack[top + 1, 1] = b
+            top += 2
+
+
+def _shared_line_points(h: np.ndarray, tol: float, ys: np.ndarray,
+                        xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices on the lines pieces share: per inner row line and inner column line,
+    a mask of the samples kept along each piece's side (sides simplified separately, so a
+    piece corner is always kept).
+
+    The sides are simplified with a slightly tighter error than the mesh, so that the plane
+    of any triangle along a side, evaluated in two dimensions with its own rounding, is
+    still within the mesh's error on the side's samples: no piece then wants a vertex on a
+    side its neighbour does not have (which would crack the mesh)."""
+    rows, cols = h.shape
+    slack = 1e-7 * (1.0 + float(np.max(np.abs(h))))
+    line_tol = tol - slack
+    row_keep = np.zeros((len(ys), cols), np.bool_)
+    col_keep = np.zeros((len(xs), rows), np.bool_)
+    for k, y in enumerate(ys):
+        for x0, x1 in pairwise(xs):
+            if 0 < y < rows - 1:
+                seg = row_keep[k, x0:x1 + 1]
+                if line_tol > 0:
+                    _simplify_line(h[y, x0:x1 + 1], line_tol, seg)
+                else:
+                    seg[:] = True
+    for k, x in enumerate(xs):
+        for y0, y1 in pairwise(ys):
+            if 0 < x < cols - 1:
+                seg = col_keep[k, y0:y1 + 1]
+                if line_tol > 0:
+                    _simplify_line(np.ascontiguousarray(h[y0:y1 + 1, x]), line_tol, seg)
+                else:
+                    seg[:] = True
+    return row_keep, col_keep
+
+
+def _mesh_in_pieces(h: np.ndarray, tol: float) -> np.ndarray:
+    """The mesh of ``h`` within ``tol`` as independent rectangular pieces meshed in parallel.
+
+    Neighbouring pieces share the grid line between them, and on it the same vertices,
+    chosen first by simplifying the line alone within the error: a triangle along a side
+    interpolates the side's samples exactly as the line did, so the bound holds there and
+    no piece inserts a vertex its neighbour lacks. Each piece then runs the greedy
+    insertion and the removal of redundant vertices on its own samples (the shared
+    vertices stay). The pieces depend only on the map's size, so the mesh is the same on
+    any number of threads."""
+    rows, cols = h.shape
+    ys = _piece_edges(rows)
+    xs = _piece_edges(cols)
+    row_keep, col_keep = _shared_line_points(h, tol, ys, xs)
+    jobs = []
+    for i in range(len(ys) - 1):
+        for j in range(len(xs) - 1):
+            y0, y1, x0, x1 = int(ys[i]), int(ys[i + 1]), int(xs[j]), int(xs[j + 1])
+            forced = []
+            # the piece's sides on shared lines, as local coordinates (corners included:
+            # inserting a corner again is skipped)
+            if y0 > 0:
+                forced += [(x - x0, 0) for x in np.flatnonzero(row_keep[i, x0:x1 + 1]) + x0]
+            if y1 < rows - 1:
+                forced += [(x - x0, y1 - y0)
+                           for x in np.flatnonzero(row_keep[i + 1, x0:x1 + 1]) + x0]
+            if x0 > 0:
+                forced += [(0, y - y0) for y in np.flatnonzero(col_keep[j, y0:y1 + 1]) + y0]
+            if x1 < cols - 1:
+                forced += [(x1 - x0, y - y0)
+                           for y in np.flatnonzero(col_keep[j + 1, y0:y1 + 1]) + y0]
+            jobs.append((y0, y1, x0, x1, np.array(forced, np.int64).reshape(-1, 2)))
+
+    def run(job):
+        y0, y1, x0, x1, forced = job
+        piece = np.ascontiguousarray(h[y0:y1 + 1, x0:x1 + 1])
+        coords, tris = _mesh_piece(piece, tol, np.iinfo(np.int64).max, True, forced)
+        return ((coords[:, 1] + y0) * cols + coords[:, 0] + x0)[tris]
+
+    workers = min(len(jobs), numba.get_num_threads())
+    if workers > 1:
+        with ThreadPoolExecutor(workers) as pool:
+            parts = list(pool.map(run, jobs))
+    else:
+        parts = [run(job) for job in jobs]
+    return np.concatenate(parts).astype(np.uint32)
+
+
+def _mesh_piece(h: np.ndarray, tol: float, budget: int, remove: bool,
+                forced: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Greedy insertion (then, when the error was reached and ``remove``, the removal of
+    redundant vertices) over the whole grid ``h``, starting from its corners and the
+    ``forced`` border points; returns the vertices' ``(x, y)`` and the triangles as
+    indices into them."""
+    rows, cols = h.shape
     tiles = (-(-rows // _TILE), -(-cols // _TILE))
     tplane = np.empty((*tiles, 3))
     tres = np.empty((*tiles, 4))
@@ -938,7 +1162,7 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
     # scratch of the tiled search: one bound and one heap slot per tile
     bound = np.empty(tres.shape[0] * tres.shape[1])
     order = np.empty(tres.shape[0] * tres.shape[1], np.int64)
-    arr = _Arrays(1024)
+    arr = _Arrays(max(1024, 4 * len(forced) + 16))
     state = np.zeros(5, np.int64)
     x1, y1 = cols - 1, rows - 1
     p0 = _add_point(arr.coords, state, 0, 0)
@@ -948,8 +1172,11 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
     t0 = _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p3, p0, p2, -1, -1,
                        -1, -1)
     _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p0, p3, p1, t0, -1, -1, -1)
-    _flush(h, tplane, tres, bound, order, arr.coords, arr.tris, arr.cand, arr.cerr, arr.queue,
-           arr.qerr, arr.qidx, arr.pending, state, float(tol))
+    if len(forced):
+        _insert_border_points(forced, arr.coords, arr.tris, arr.half, arr.queue, arr.qerr,
+                              arr.qidx, arr.pending, arr.stack, state)
+    _flush_all(h, tplane, tres, bound, order, arr.coords, arr.tris, arr.cand, arr.cerr,
+               arr.queue, arr.qerr, arr.qidx, state, float(tol))
     while True:
         _refine(h, tplane, tres, bound, order, float(tol), budget, arr.coords, arr.tris, arr.half,
                 arr.cand, arr.cerr, arr.queue, arr.qerr, arr.qidx, arr.pending, arr.stack, state)
@@ -958,14 +1185,11 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         arr = arr.grown()
     n_edges = int(state[_N_EDGES])
     tris = arr.tris[:n_edges]
-    if max_error is not None and (state[_Q_LEN] == 0 or arr.qerr[0] <= tol):
+    if remove and (state[_Q_LEN] == 0 or arr.qerr[0] <= tol):
         # the error bound is met: drop the vertices it no longer needs
         _remove_vertices(h, tplane, tres, bound, order, arr.coords, tris, arr.half,
                          int(state[_N_POINTS]), n_edges, float(tol), _REMOVAL_PASSES)
     tris = tris.reshape(-1, 3)
-    tris = tris[tris[:, 0] >= 0]
-    coords = arr.coords[: state[_N_POINTS]]
-    grid_index = coords[:, 1] * cols + coords[:, 0]
     # the insertion keeps the winding of the two first triangles: counter-clockwise seen
     # from above (+Y) with rows growing southward
-    return grid_index[tris].astype(np.uint32)
+    return arr.coords[: state[_N_POINTS]], tris[tris[:, 0] >= 0]
