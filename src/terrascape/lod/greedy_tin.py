@@ -19,7 +19,7 @@ is within ``max_error`` (the same exact rasterisation); a vertex is tried again 
 neighbour went. This takes a tenth to a fifth of the triangles away (``terrascape bench
 peers``, 2026-12-04), and the mesh is no longer exactly Delaunay.
 
-For an error bound, the grid is cut into pieces of about 256×256 samples that share the
+For an error bound, the grid is cut into pieces of about 224×224 samples that share the
 grid lines between them, and the pieces are meshed independently, in parallel. Each shared
 line is first simplified alone within the error (the worst sample of a segment is kept
 until every sample is within it: the same greedy insertion in one dimension); those
@@ -271,7 +271,7 @@ _TILED_SEARCH = 8 * _TILE * _TILE
 # Triangles whose box holds at most this many samples are scanned sample by sample.
 _BOX_SCAN = 64
 # Samples per side of the pieces meshed independently (in parallel) for an error bound.
-_PIECE = 256
+_PIECE = 224
 
 
 @njit(cache=CACHE, fastmath=_RASTER_MATH, _nrt=False)
