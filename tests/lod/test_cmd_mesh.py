@@ -138,3 +138,28 @@ def test_greedy_mesher_meets_the_error_with_fewer_triangles(tmp_path):
                 "--camera", "0,50,0", "--target", "30,0,30", "-q"]) == 2
     assert run(["mesh", str(src), "-o", str(tmp_path / "b.obj"), "--max-error", "1",
                 "--mesher", "bogus", "-q"]) == 2
+
+
+def test_greedy_one_piece_is_the_single_greedy_order(tmp_path, monkeypatch):
+    import trimesh
+
+    from terrascape.cli.app import run_app as run
+    from terrascape.generate import diamond_square
+    from terrascape.io import read_heightmap, write_heightmap
+    from terrascape.lod import greedy_tin as gt
+
+    monkeypatch.setattr(gt, "_PIECE", 40)  # several pieces on a small map
+    src = tmp_path / "hm.npy"
+    write_heightmap(diamond_square(129, roughness=20.0, seed=5), src)
+    hm = read_heightmap(src)
+    faces = {}
+    for name, flag in (("pieces", []), ("one", ["--one-piece"])):
+        out = tmp_path / f"{name}.obj"
+        assert run(["mesh", str(src), "-o", str(out), "--max-error", "1.5", "--mesher",
+                    "greedy", "-q", *flag]) == 0
+        faces[name] = len(trimesh.load(out, force="mesh", process=False).faces)
+    assert faces["one"] == len(gt.greedy_tin(hm, max_error=1.5, in_pieces=False))
+    assert faces["pieces"] == len(gt.greedy_tin(hm, max_error=1.5))
+    assert faces["one"] != faces["pieces"]
+    assert run(["mesh", str(src), "-o", str(tmp_path / "r.obj"), "--max-error", "1",
+                "--one-piece", "-q"]) == 2
