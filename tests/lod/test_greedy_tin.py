@@ -322,3 +322,29 @@ def test_pieces_same_mesh_on_one_thread_or_two(monkeypatch):
     finally:
         numba.set_num_threads(before)
     np.testing.assert_array_equal(one, two)
+
+
+def test_pieces_tile_bounds_are_the_whole_maps(monkeypatch):
+    """The seams are searched with the whole map's tile bounds, put together from the
+    pieces' own: they must be exactly those of the map (a wrong bound could skip the worst
+    sample of a triangle)."""
+    from terrascape.lod import greedy_tin as gt
+
+    rng = np.random.default_rng(8)
+    h = np.cumsum(rng.standard_normal((150, 211)), 1).astype(np.float32)
+    monkeypatch.setattr(gt, "_PIECE", 48)
+    seen = {}
+    join = gt._join_pieces
+
+    def spy(h, tol, parts, tplane, tres, ys, xs):
+        seen["tiles"] = tplane.copy(), tres.copy()
+        return join(h, tol, parts, tplane, tres, ys, xs)
+
+    monkeypatch.setattr(gt, "_join_pieces", spy)
+    gt.greedy_tin(Heightmap(h), max_error=0.5)
+    assert all(e % gt._TILE == 0 for e in gt._piece_edges(150)[:-1])
+    tiles = (-(-150 // gt._TILE), -(-211 // gt._TILE))
+    tplane, tres = np.empty((*tiles, 3)), np.empty((*tiles, 4))
+    gt._tile_ranges(h, tplane, tres)
+    np.testing.assert_array_equal(seen["tiles"][0], tplane)
+    np.testing.assert_array_equal(seen["tiles"][1], tres)
