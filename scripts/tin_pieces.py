@@ -1,0 +1,77 @@
+"""The greedy TIN in pieces against one greedy order over the whole map.
+
+    python scripts/tin_pieces.py
+
+For the maps of ``terrascape bench peers``' TIN rows (synthetic 1025², Jacksboro DEM) at
+1, 2, 5 and 10 m: triangles and build time (median of 7 interleaved rounds, all threads)
+of ``greedy_tin(in_pieces=False)`` and of the default (pieces meshed in parallel, joined,
+seams relaxed), and how much of the pieces' shared lines' length is still mesh edges
+(one greedy order: the same lines measured on its mesh).
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import numba
+import numpy as np
+
+from terrascape.bench.peers import real_dem
+from terrascape.bench.shade import terrain
+from terrascape.lod import greedy_tin as gt
+
+ERRORS = (1.0, 2.0, 5.0, 10.0)
+ROUNDS = 7
+
+
+def line_share(shape: tuple[int, int], tri: np.ndarray) -> float:
+    """Share of the inner piece lines' length that runs along mesh edges."""
+    rows, cols = shape
+    ys, xs = gt._piece_edges(rows)[1:-1], gt._piece_edges(cols)[1:-1]
+    t = tri.astype(np.int64)
+    x, y = t % cols, t // cols
+    length = 0
+    for i in range(3):
+        j = (i + 1) % 3
+        on_row = (y[:, i] == y[:, j]) & np.isin(y[:, i], ys)
+        on_col = (x[:, i] == x[:, j]) & np.isin(x[:, i], xs)
+        length += np.abs(x[on_row, i] - x[on_row, j]).sum()
+        length += np.abs(y[on_col, i] - y[on_col, j]).sum()
+    total = len(ys) * (cols - 1) + len(xs) * (rows - 1)
+    return float(length) / 2 / total if total else 0.0
+
+
+def main() -> None:
+    print(f"threads: {numba.get_num_threads()}; medians of {ROUNDS} interleaved rounds")
+    print("map | max error m | one order: triangles, ms, line share | pieces: triangles, "
+          "ms, line share | time pieces ÷ one")
+    for name, hm in (("synthetic 1025²", terrain(1025).normalised(0.0, 400.0)),
+                     ("Jacksboro DEM 344×403", real_dem())):
+        for err in ERRORS:
+            def one(err=err, hm=hm):
+                return gt.greedy_tin(hm, max_error=err, in_pieces=False)
+
+            def pieces(err=err, hm=hm):
+                return gt.greedy_tin(hm, max_error=err)
+
+            t_one, t_pieces, ratios = [], [], []
+            tri_one, tri_pieces = one(), pieces()
+            for r in range(ROUNDS):
+                order = [(0, one), (1, pieces)] if r % 2 == 0 else [(1, pieces), (0, one)]
+                times = [0.0, 0.0]
+                for slot, job in order:
+                    t0 = time.perf_counter()
+                    job()
+                    times[slot] = time.perf_counter() - t0
+                t_one.append(times[0])
+                t_pieces.append(times[1])
+                ratios.append(times[1] / times[0])
+            print(f"{name} | {err:g} | {len(tri_one)}, {statistics.median(t_one) * 1e3:.1f}, "
+                  f"{line_share(hm.shape, tri_one):.3f} | {len(tri_pieces)}, "
+                  f"{statistics.median(t_pieces) * 1e3:.1f}, "
+                  f"{line_share(hm.shape, tri_pieces):.3f} | {statistics.median(ratios):.2f}")
+
+
+if __name__ == "__main__":
+    main()
