@@ -1204,9 +1204,9 @@ def _mesh_in_pieces(h: np.ndarray, tol: float) -> np.ndarray:
     chosen first by simplifying the line alone within the error: a triangle along a side
     interpolates the side's samples exactly as the line did, so the bound holds there and
     no piece inserts a vertex its neighbour lacks. Each piece then runs the greedy
-    insertion and the removal of redundant vertices on its own samples (the shared
-    vertices stay). The pieces depend only on the map's size, so the mesh is the same on
-    any number of threads."""
+    insertion and the removal of redundant vertices on its own samples, and the pieces are
+    joined (:func:`_join_pieces`). The pieces depend only on the map's size, so the mesh is
+    the same on any number of threads."""
     rows, cols = h.shape
     ys = _piece_edges(rows)
     xs = _piece_edges(cols)
