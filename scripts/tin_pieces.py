@@ -1,17 +1,20 @@
 """The greedy TIN in pieces against one greedy order over the whole map.
 
-    python scripts/tin_pieces.py
+    python scripts/tin_pieces.py             # the bench's maps, 7 rounds
+    python scripts/tin_pieces.py SIZE ERROR  # one synthetic SIZE² map, one round
 
 For the maps of ``terrascape bench peers``' TIN rows (synthetic 1025², Jacksboro DEM) at
 1, 2, 5 and 10 m: triangles and build time (median of 7 interleaved rounds, all threads)
 of ``greedy_tin(in_pieces=False)`` and of the default (pieces meshed in parallel, joined,
 seams relaxed), and how much of the pieces' shared lines' length is still mesh edges
-(one greedy order: the same lines measured on its mesh).
+(one greedy order: the same lines measured on its mesh). With SIZE and ERROR: the synthetic
+map of that size (heights 0–1000 m) at that error, each build once.
 """
 
 from __future__ import annotations
 
 import statistics
+import sys
 import time
 
 import numba
@@ -40,6 +43,17 @@ def line_share(shape: tuple[int, int], tri: np.ndarray) -> float:
         length += np.abs(y[on_col, i] - y[on_col, j]).sum()
     total = len(ys) * (cols - 1) + len(xs) * (rows - 1)
     return float(length) / 2 / total if total else 0.0
+
+
+def once(size: int, err: float) -> None:
+    hm = terrain(size).normalised(0.0, 1000.0)
+    for label, pieces in (("one greedy order", False), ("pieces", True)):
+        t0 = time.perf_counter()
+        tri = gt.greedy_tin(hm, max_error=err, in_pieces=pieces)
+        took = time.perf_counter() - t0
+        print(f"synthetic {size}², {err:g} m, {numba.get_num_threads()} threads, {label}: "
+              f"{len(tri)} triangles in {took:.2f} s, line share "
+              f"{line_share(hm.shape, tri):.3f}")
 
 
 def main() -> None:
@@ -74,4 +88,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    if len(sys.argv) == 3:
+        once(int(sys.argv[1]), float(sys.argv[2]))
+    else:
+        main()

@@ -202,14 +202,19 @@ def _tin_rows(quick: bool, rounds: int, table: BenchTable) -> None:
 
     have_peer = importlib.util.find_spec("pydelatin") is not None
     maps = [("synthetic 1025²" if not quick else "synthetic 513²",
-             terrain(513 if quick else 1025).normalised(0.0, 400.0))]
+             terrain(513 if quick else 1025).normalised(0.0, 400.0), TIN_ERRORS, rounds)]
     try:
-        maps.append(("Jacksboro DEM 344×403", real_dem()))
+        maps.append(("Jacksboro DEM 344×403", real_dem(), TIN_ERRORS, rounds))
     except (ImportError, OSError):
         table.notes.append("matplotlib's sample DEM is missing: real-DEM rows skipped")
-    for name, hm in maps:
+    if not quick:
+        # a large map, where the pieces also keep each one's work in cache (a few seconds a
+        # build, so one error and fewer rounds)
+        maps.append(("synthetic 4097²", terrain(4097).normalised(0.0, 1000.0), (2.0,),
+                     max(3, rounds // 2)))
+    for name, hm, errors, map_rounds in maps:
         rows, cols = hm.shape
-        for err in TIN_ERRORS:
+        for err in errors:
             ours = lambda hm=hm, err=err: greedy_tin(hm, max_error=err)  # noqa: E731
             tri = ours()
             measured = max_vertical_error(hm, tri)
@@ -221,9 +226,9 @@ def _tin_rows(quick: bool, rounds: int, table: BenchTable) -> None:
             peer = lambda hm=hm, err=err, rows=rows, cols=cols: Delatin(  # noqa: E731
                 hm.heights, width=cols, height=rows, max_error=err)
             n_peer = len(peer().triangles)
-            ratio, lo, hi, _, _ = paired_ratio(ours, peer, rounds)
+            ratio, lo, hi, _, _ = paired_ratio(ours, peer, map_rounds)
             # the peer runs on one thread: ours on one thread too, for a fair reading
-            alone, _, _, _, _ = paired_ratio(_with_threads(1, ours), peer, rounds)
+            alone, _, _, _, _ = paired_ratio(_with_threads(1, ours), peer, map_rounds)
             table.rows.append([name, err, len(tri), n_peer, len(tri) / n_peer, ratio,
                                f"{lo:.2f}–{hi:.2f}", alone, measured])
             table.check_target(f"{name} at {err:g} m: triangles ÷ pydelatin's", len(tri) / n_peer,
@@ -382,8 +387,9 @@ def run(quick: bool = False) -> list[BenchTable]:
     )
     _tin_rows(quick, rounds, tin)
     tin.notes += [
-        f"medians of {rounds} interleaved rounds; ours on {numba.get_num_threads()} threads "
-        "(pieces of the map meshed in parallel), pydelatin on one",
+        f"medians of {rounds} interleaved rounds (4097²: {max(3, rounds // 2)}); ours on "
+        f"{numba.get_num_threads()} threads (pieces of the map meshed in parallel), pydelatin "
+        "on one",
         "measured error: the largest |mesh − height| over every sample of the map",
     ]
     noise = BenchTable(
