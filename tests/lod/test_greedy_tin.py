@@ -348,3 +348,14 @@ def test_pieces_tile_bounds_are_the_whole_maps(monkeypatch):
     gt._tile_ranges(h, tplane, tres)
     np.testing.assert_array_equal(seen["tiles"][0], tplane)
     np.testing.assert_array_equal(seen["tiles"][1], tres)
+
+
+def test_magnitude_is_the_largest_height_and_flags_non_finite():
+    from terrascape.lod.greedy_tin import _magnitude
+
+    h = np.array([[1.0, -7.5], [3.0, 2.0]], np.float32)
+    assert _magnitude(h) == 7.5
+    for bad in (np.nan, np.inf, -np.inf):
+        g = h.copy()
+        g[1, 0] = bad
+        assert not np.isfinite(_magnitude(g))

@@ -1109,14 +1109,15 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
     if rows < 2 or cols < 2:
         raise InvalidParameterError(f"greedy TIN needs at least 2×2 samples, got {rows}×{cols}")
     h = np.ascontiguousarray(heightmap.heights, dtype=np.float32)
-    if not np.isfinite(h).all():
+    magnitude = _magnitude(h)
+    if not np.isfinite(magnitude):
         raise InvalidParameterError("heights must be finite (fill NaN/inf first)")
     if max_triangles is not None or not in_pieces:
         # a triangle budget is one greedy order over the whole map
         coords, tris, _, _, _ = _mesh_piece(h, tol, budget, max_error is not None,
                                             np.empty((0, 2), np.int64))
         return _grid_triangles(coords, tris, cols)
-    return _mesh_in_pieces(h, tol)
+    return _mesh_in_pieces(h, tol, magnitude)
 
 
 def _piece_edges(n: int) -> np.ndarray:
@@ -1163,41 +1164,51 @@ def _simplify_line(z, tol, keep):
             top += 2
 
 
+def _magnitude(h: np.ndarray) -> float:
+    """The largest |height|; NaN or inf when a height is not finite (numpy's minimum and
+    maximum carry NaN through, and SIMD makes the two passes cheaper than one loop)."""
+    return float(max(-float(h.min()), float(h.max())))
+
+
+def _line_tolerance(magnitude: float, tol: float) -> float:
+    """The error the shared lines are simplified within: slightly tighter than the mesh's,
+    so that the plane of any triangle along a side, evaluated in two dimensions with its
+    own rounding (relative to the heights' magnitude), is still within the mesh's error on
+    the side's samples: no piece then wants a vertex on a side its neighbour does not have
+    (which would crack the mesh). At most 0: every sample of the lines is kept."""
+    return tol - 1e-7 * (1.0 + magnitude)
+
+
+def _side_keep(side: np.ndarray, line_tol: float) -> np.ndarray:
+    """Mask of the samples of one piece's side (a stretch of a shared line, corners
+    included) that the side's simplification keeps."""
+    keep = np.ones(side.shape[0], np.bool_)
+    if line_tol > 0:
+        _simplify_line(np.ascontiguousarray(side), line_tol, keep)
+    return keep
+
+
 def _shared_line_points(h: np.ndarray, tol: float, ys: np.ndarray,
                         xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The vertices on the lines pieces share: per inner row line and inner column line,
-    a mask of the samples kept along each piece's side (sides simplified separately, so a
-    piece corner is always kept).
-
-    The sides are simplified with a slightly tighter error than the mesh, so that the plane
-    of any triangle along a side, evaluated in two dimensions with its own rounding, is
-    still within the mesh's error on the side's samples: no piece then wants a vertex on a
-    side its neighbour does not have (which would crack the mesh)."""
+    """The vertices on the lines pieces share: per row line and column line (the map's
+    own borders stay empty), a mask of the samples kept along each piece's side (sides
+    simplified separately, so a piece corner is always kept)."""
     rows, cols = h.shape
-    slack = 1e-7 * (1.0 + float(np.max(np.abs(h))))
-    line_tol = tol - slack
+    line_tol = _line_tolerance(_magnitude(h), tol)
     row_keep = np.zeros((len(ys), cols), np.bool_)
     col_keep = np.zeros((len(xs), rows), np.bool_)
     for k, y in enumerate(ys):
         for x0, x1 in pairwise(xs):
             if 0 < y < rows - 1:
-                seg = row_keep[k, x0:x1 + 1]
-                if line_tol > 0:
-                    _simplify_line(h[y, x0:x1 + 1], line_tol, seg)
-                else:
-                    seg[:] = True
+                row_keep[k, x0:x1 + 1] = _side_keep(h[y, x0:x1 + 1], line_tol)
     for k, x in enumerate(xs):
         for y0, y1 in pairwise(ys):
             if 0 < x < cols - 1:
-                seg = col_keep[k, y0:y1 + 1]
-                if line_tol > 0:
-                    _simplify_line(np.ascontiguousarray(h[y0:y1 + 1, x]), line_tol, seg)
-                else:
-                    seg[:] = True
+                col_keep[k, y0:y1 + 1] = _side_keep(h[y0:y1 + 1, x], line_tol)
     return row_keep, col_keep
 
 
-def _mesh_in_pieces(h: np.ndarray, tol: float) -> np.ndarray:
+def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
     """The mesh of ``h`` within ``tol`` as independent rectangular pieces meshed in parallel.
 
     Neighbouring pieces share the grid line between them, and on it the same vertices,
@@ -1210,33 +1221,34 @@ def _mesh_in_pieces(h: np.ndarray, tol: float) -> np.ndarray:
     rows, cols = h.shape
     ys = _piece_edges(rows)
     xs = _piece_edges(cols)
-    row_keep, col_keep = _shared_line_points(h, tol, ys, xs)
-    jobs = []
-    for i in range(len(ys) - 1):
-        for j in range(len(xs) - 1):
-            y0, y1, x0, x1 = int(ys[i]), int(ys[i + 1]), int(xs[j]), int(xs[j + 1])
-            forced = []
-            # the piece's sides on shared lines, as local coordinates (corners included:
-            # inserting a corner again is skipped)
-            if y0 > 0:
-                forced += [(x - x0, 0) for x in np.flatnonzero(row_keep[i, x0:x1 + 1]) + x0]
-            if y1 < rows - 1:
-                forced += [(x - x0, y1 - y0)
-                           for x in np.flatnonzero(row_keep[i + 1, x0:x1 + 1]) + x0]
-            if x0 > 0:
-                forced += [(0, y - y0) for y in np.flatnonzero(col_keep[j, y0:y1 + 1]) + y0]
-            if x1 < cols - 1:
-                forced += [(x1 - x0, y - y0)
-                           for y in np.flatnonzero(col_keep[j + 1, y0:y1 + 1]) + y0]
-            jobs.append((y0, y1, x0, x1, np.array(forced, np.int64).reshape(-1, 2)))
+    line_tol = _line_tolerance(magnitude, tol)
+    jobs = [(int(ys[i]), int(ys[i + 1]), int(xs[j]), int(xs[j + 1]))
+            for i in range(len(ys) - 1) for j in range(len(xs) - 1)]
 
     tiles = (-(-rows // _TILE), -(-cols // _TILE))
     tplane = np.empty((*tiles, 3))
     tres = np.empty((*tiles, 4))
 
     def run(job):
-        y0, y1, x0, x1, forced = job
+        y0, y1, x0, x1 = job
         piece = np.ascontiguousarray(h[y0:y1 + 1, x0:x1 + 1])
+        # the piece's sides on shared lines, simplified here (its neighbour simplifies the
+        # same samples the same way), as local coordinates; corners come twice and are
+        # inserted once
+        ny, nx = piece.shape
+        forced = []
+        if y0 > 0:
+            forced.append(np.flatnonzero(_side_keep(piece[0], line_tol)) * [[1], [0]])
+        if y1 < rows - 1:
+            forced.append(np.flatnonzero(_side_keep(piece[-1], line_tol)) * [[1], [0]]
+                          + [[0], [ny - 1]])
+        if x0 > 0:
+            forced.append(np.flatnonzero(_side_keep(piece[:, 0], line_tol)) * [[0], [1]])
+        if x1 < cols - 1:
+            forced.append(np.flatnonzero(_side_keep(piece[:, -1], line_tol)) * [[0], [1]]
+                          + [[nx - 1], [0]])
+        forced = (np.concatenate(forced, axis=1).T.astype(np.int64) if forced
+                  else np.empty((0, 2), np.int64))
         coords, tris, half, p_plane, p_res = _mesh_piece(piece, tol, np.iinfo(np.int64).max,
                                                          True, forced)
         # the piece's tiles are the map's (pieces start on tile multiples); a piece's last
