@@ -272,6 +272,10 @@ def _span(w, a, lo, hi):
 # Max-reductions vectorise only without NaN/signed-zero semantics; heights are checked
 # finite, and no sum is reassociated, so results are the same bits as without the flags.
 _RASTER_MATH = {"nnan", "ninf", "nsz"}
+# The tiles' fits may sum in any order (SIMD): a tile's plane only has to be the one its
+# residuals' range is measured from, and any plane gives a true bound; the mesh does not
+# depend on which (the search scans the same samples' exact errors).
+_TILE_MATH = {"nnan", "ninf", "nsz", "reassoc", "contract"}
 # Tiles of the fitted-plane grid that bounds the error of large triangles (samples per side).
 _TILE = 16
 # Triangles whose box holds more samples than this search tiles by their error bound.
@@ -510,7 +514,7 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
     cerr[t] = best
 
 
-@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
+@njit(cache=CACHE, fastmath=_TILE_MATH, nogil=True)
 def _tile_ranges(h, tplane, tres):
     """Per tile: the least-squares plane of its heights (value at the tile's first sample,
     slopes along x and y), the range of the heights' residuals from it, and the range of
