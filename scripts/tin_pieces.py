@@ -13,14 +13,13 @@ map of that size (heights 0–1000 m) at that error, each build once.
 
 from __future__ import annotations
 
-import statistics
 import sys
 import time
 
 import numba
 import numpy as np
 
-from terrascape.bench.peers import real_dem
+from terrascape.bench.peers import paired_ratio, real_dem
 from terrascape.bench.shade import terrain
 from terrascape.lod import greedy_tin as gt
 
@@ -69,22 +68,12 @@ def main() -> None:
             def pieces(err=err, hm=hm):
                 return gt.greedy_tin(hm, max_error=err)
 
-            t_one, t_pieces, ratios = [], [], []
             tri_one, tri_pieces = one(), pieces()
-            for r in range(ROUNDS):
-                order = [(0, one), (1, pieces)] if r % 2 == 0 else [(1, pieces), (0, one)]
-                times = [0.0, 0.0]
-                for slot, job in order:
-                    t0 = time.perf_counter()
-                    job()
-                    times[slot] = time.perf_counter() - t0
-                t_one.append(times[0])
-                t_pieces.append(times[1])
-                ratios.append(times[1] / times[0])
-            print(f"{name} | {err:g} | {len(tri_one)}, {statistics.median(t_one) * 1e3:.1f}, "
+            ratio, _, _, t_pieces, t_one = paired_ratio(pieces, one, ROUNDS)
+            print(f"{name} | {err:g} | {len(tri_one)}, {t_one * 1e3:.1f}, "
                   f"{line_share(hm.shape, tri_one):.3f} | {len(tri_pieces)}, "
-                  f"{statistics.median(t_pieces) * 1e3:.1f}, "
-                  f"{line_share(hm.shape, tri_pieces):.3f} | {statistics.median(ratios):.2f}")
+                  f"{t_pieces * 1e3:.1f}, "
+                  f"{line_share(hm.shape, tri_pieces):.3f} | {ratio:.2f}")
 
 
 if __name__ == "__main__":

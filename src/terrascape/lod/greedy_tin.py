@@ -190,13 +190,9 @@ def _q_remove(queue, qerr, qidx, pending, state, t):
 
 # --- the triangulation ---------------------------------------------------------------------
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
-def _add_triangle(tris, half, qidx, pending, state, a, b, c, ab, bc, ca, e):
-    """Write triangle (a, b, c) at halfedge slot ``e`` (-1: append) and queue it for
-    rasterisation; returns its first halfedge."""
-    if e < 0:
-        e = state[_N_EDGES]
-        state[_N_EDGES] = e + 3
-    t = e // 3
+def _set_triangle(tris, half, e, a, b, c, ab, bc, ca):
+    """Write triangle (a, b, c) at halfedges ``e … e + 2``, twinned with ``ab``, ``bc``,
+    ``ca`` (-1: none)."""
     tris[e] = a
     tris[e + 1] = b
     tris[e + 2] = c
@@ -209,12 +205,37 @@ def _add_triangle(tris, half, qidx, pending, state, a, b, c, ab, bc, ca, e):
         half[bc] = e + 1
     if ca >= 0:
         half[ca] = e + 2
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+def _add_triangle(tris, half, qidx, pending, state, a, b, c, ab, bc, ca, e):
+    """Write triangle (a, b, c) at halfedge slot ``e`` (-1: append) and queue it for
+    rasterisation; returns its first halfedge."""
+    if e < 0:
+        e = state[_N_EDGES]
+        state[_N_EDGES] = e + 3
+    t = e // 3
+    _set_triangle(tris, half, e, a, b, c, ab, bc, ca)
     qidx[t] = -1
     if state[_N_PENDING] >= pending.shape[0]:
         raise RuntimeError("greedy TIN: pending list overflow")
     pending[state[_N_PENDING]] = t
     state[_N_PENDING] += 1
     return e
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+def _quad(tris, a, b):
+    """The two triangles around halfedge ``a`` (twin ``b``): their first halfedges, the
+    halfedges beside ``a`` and ``b``, and the four corners — ``p0`` opposite ``a``, ``pr``
+    and ``pl`` at its ends, ``p1`` opposite ``b``."""
+    a0 = a - a % 3
+    b0 = b - b % 3
+    al = a0 + (a + 1) % 3
+    ar = a0 + (a + 2) % 3
+    bl = b0 + (b + 2) % 3
+    br = b0 + (b + 1) % 3
+    return a0, b0, al, ar, bl, br, tris[ar], tris[a], tris[al], tris[bl]
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
@@ -227,16 +248,7 @@ def _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, top)
         b = half[a]
         if b < 0:
             continue
-        a0 = a - a % 3
-        b0 = b - b % 3
-        al = a0 + (a + 1) % 3
-        ar = a0 + (a + 2) % 3
-        bl = b0 + (b + 2) % 3
-        br = b0 + (b + 1) % 3
-        p0 = tris[ar]
-        pr = tris[a]
-        pl = tris[al]
-        p1 = tris[bl]
+        a0, b0, al, ar, bl, br, p0, pr, pl, p1 = _quad(tris, a, b)
         if not _in_circle(coords[p0, 0], coords[p0, 1], coords[pr, 0], coords[pr, 1],
                           coords[pl, 0], coords[pl, 1], coords[p1, 0], coords[p1, 1]):
             continue
@@ -565,15 +577,22 @@ def _tile_ranges(h, tplane, tres):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always", _nrt=False)
+def _queue(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, state,
+           max_error, t):
+    """Rasterise triangle ``t``: queue it when beyond the error, else settle it."""
+    _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr)
+    if cerr[t] > max_error:
+        _q_push(queue, qerr, qidx, state, t, cerr[t])
+    else:
+        qidx[t] = _SETTLED
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always", _nrt=False)
 def _flush(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
            state, max_error):
     for k in range(state[_N_PENDING]):
-        t = pending[k]
-        _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr)
-        if cerr[t] > max_error:
-            _q_push(queue, qerr, qidx, state, t, cerr[t])
-        else:
-            qidx[t] = _SETTLED
+        _queue(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx,
+               state, max_error, pending[k])
     state[_N_PENDING] = 0
 
 
@@ -582,11 +601,8 @@ def _flush_all(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, q
                state, max_error):
     """Rasterise every triangle and queue those beyond the error (the start of a piece)."""
     for t in range(state[_N_EDGES] // 3):
-        _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr)
-        if cerr[t] > max_error:
-            _q_push(queue, qerr, qidx, state, t, cerr[t])
-        else:
-            qidx[t] = _SETTLED
+        _queue(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx,
+               state, max_error, t)
     state[_N_PENDING] = 0
 
 
@@ -975,16 +991,7 @@ def _relax_edges(h, tplane, tres, bound, order, coords, tris, half, stack, top, 
         b = half[a]
         if b < 0:
             continue
-        a0 = a - a % 3
-        b0 = b - b % 3
-        al = a0 + (a + 1) % 3
-        ar = a0 + (a + 2) % 3
-        bl = b0 + (b + 2) % 3
-        br = b0 + (b + 1) % 3
-        p0 = tris[ar]
-        pr = tris[a]
-        pl = tris[al]
-        p1 = tris[bl]
+        a0, b0, al, ar, bl, br, p0, pr, pl, p1 = _quad(tris, a, b)
         x0, y0 = coords[p0, 0], coords[p0, 1]
         xr, yr = coords[pr, 0], coords[pr, 1]
         xl, yl = coords[pl, 0], coords[pl, 1]
@@ -1010,26 +1017,8 @@ def _relax_edges(h, tplane, tres, bound, order, coords, tris, half, stack, top, 
         har = half[ar]
         hbl = half[bl]
         hbr = half[br]
-        tris[a0] = p0
-        tris[a0 + 1] = p1
-        tris[a0 + 2] = pl
-        half[a0] = b0
-        half[a0 + 1] = hbl
-        half[a0 + 2] = hal
-        tris[b0] = p1
-        tris[b0 + 1] = p0
-        tris[b0 + 2] = pr
-        half[b0] = a0
-        half[b0 + 1] = har
-        half[b0 + 2] = hbr
-        if hbl >= 0:
-            half[hbl] = a0 + 1
-        if hal >= 0:
-            half[hal] = a0 + 2
-        if har >= 0:
-            half[har] = b0 + 1
-        if hbr >= 0:
-            half[hbr] = b0 + 2
+        _set_triangle(tris, half, a0, p0, p1, pl, -1, hbl, hal)
+        _set_triangle(tris, half, b0, p1, p0, pr, a0, har, hbr)
         if top + 4 <= stack.shape[0]:
             stack[top] = a0 + 1
             stack[top + 1] = a0 + 2
