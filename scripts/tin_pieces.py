@@ -22,6 +22,7 @@ import numpy as np
 from terrascape.bench.peers import paired_ratio, real_dem
 from terrascape.bench.shade import terrain
 from terrascape.lod import greedy_tin as gt
+from terrascape.lod.mesh_checks import line_edge_share
 
 ERRORS = (1.0, 2.0, 5.0, 10.0)
 ROUNDS = 7
@@ -30,18 +31,7 @@ ROUNDS = 7
 def line_share(shape: tuple[int, int], tri: np.ndarray) -> float:
     """Share of the inner piece lines' length that runs along mesh edges."""
     rows, cols = shape
-    ys, xs = gt._piece_edges(rows)[1:-1], gt._piece_edges(cols)[1:-1]
-    t = tri.astype(np.int64)
-    x, y = t % cols, t // cols
-    length = 0
-    for i in range(3):
-        j = (i + 1) % 3
-        on_row = (y[:, i] == y[:, j]) & np.isin(y[:, i], ys)
-        on_col = (x[:, i] == x[:, j]) & np.isin(x[:, i], xs)
-        length += np.abs(x[on_row, i] - x[on_row, j]).sum()
-        length += np.abs(y[on_col, i] - y[on_col, j]).sum()
-    total = len(ys) * (cols - 1) + len(xs) * (rows - 1)
-    return float(length) / 2 / total if total else 0.0
+    return line_edge_share(tri, shape, gt._piece_edges(rows)[1:-1], gt._piece_edges(cols)[1:-1])
 
 
 def once(size: int, err: float) -> None:

@@ -12,7 +12,12 @@ from terrascape.generate import diamond_square
 from terrascape.heightmap import Heightmap
 from terrascape.lod import rtin_mesh
 from terrascape.lod.greedy_tin import greedy_tin
-from terrascape.lod.mesh_checks import conformity_report, max_vertical_error, sample_errors
+from terrascape.lod.mesh_checks import (
+    conformity_report,
+    line_edge_share,
+    max_vertical_error,
+    sample_errors,
+)
 
 
 def _terrain(n=129, seed=3, relief=60.0):
@@ -231,6 +236,26 @@ def test_pieces_keep_the_bound_and_meet_without_cracks(monkeypatch, max_error):
         assert len(pieces) <= 1.1 * len(whole) + 20
 
 
+def _line_keeps(h, tol, ys, xs):
+    """Per row line and column line, the samples each piece's side keeps (as the pieces
+    simplify them; the map's own borders stay empty)."""
+    from itertools import pairwise
+
+    from terrascape.lod import greedy_tin as gt
+
+    rows, cols = h.shape
+    line_tol = gt._line_tolerance(gt._magnitude(h), tol)
+    row_keep = np.zeros((len(ys), cols), np.bool_)
+    col_keep = np.zeros((len(xs), rows), np.bool_)
+    for k, y in enumerate(ys[1:-1], start=1):
+        for x0, x1 in pairwise(xs):
+            row_keep[k, x0:x1 + 1] = gt._side_keep(h[y, x0:x1 + 1], line_tol)
+    for k, x in enumerate(xs[1:-1], start=1):
+        for y0, y1 in pairwise(ys):
+            col_keep[k, y0:y1 + 1] = gt._side_keep(h[y0:y1 + 1, x], line_tol)
+    return row_keep, col_keep
+
+
 def test_pieces_meet_on_their_line_vertices_and_relax_the_seams(monkeypatch):
     from terrascape.lod import greedy_tin as gt
 
@@ -238,7 +263,7 @@ def test_pieces_meet_on_their_line_vertices_and_relax_the_seams(monkeypatch):
     monkeypatch.setattr(gt, "_PIECE", 40)
     rows, cols = hm.shape
     ys, xs = gt._piece_edges(rows), gt._piece_edges(cols)
-    row_keep, col_keep = gt._shared_line_points(hm.heights, 1.5, ys, xs)
+    row_keep, col_keep = _line_keeps(hm.heights, 1.5, ys, xs)
     for k, y in enumerate(ys[1:-1], start=1):
         # the simplification holds each line within the error (tighter, not looser)
         kept = np.flatnonzero(row_keep[k])
@@ -247,16 +272,7 @@ def test_pieces_meet_on_their_line_vertices_and_relax_the_seams(monkeypatch):
 
     def line_edges(tri):
         """How much of the inner lines' length runs along mesh edges."""
-        t = tri.astype(np.int64)
-        x, y = t % cols, t // cols
-        length = 0
-        for i in range(3):
-            j = (i + 1) % 3
-            on_row = (y[:, i] == y[:, j]) & np.isin(y[:, i], ys[1:-1])
-            on_col = (x[:, i] == x[:, j]) & np.isin(x[:, i], xs[1:-1])
-            length += np.abs(x[on_row, i] - x[on_row, j]).sum()
-            length += np.abs(y[on_col, i] - y[on_col, j]).sum()
-        return length / 2 / ((len(ys) - 2) * (cols - 1) + (len(xs) - 2) * (rows - 1))
+        return line_edge_share(tri, hm.shape, ys[1:-1], xs[1:-1])
 
     tri = gt.greedy_tin(hm, max_error=1.5)
     verts = np.unique(tri)

@@ -146,3 +146,37 @@ def test_bad_inputs():
         max_screen_error(np.zeros((5, 5), np.float32), tri, Camera(), (0, 10))
     with pytest.raises(InvalidParameterError, match="Camera"):
         max_screen_error(np.zeros((5, 5), np.float32), tri, "camera", (10, 10))
+
+
+def test_line_edge_share_measures_grid_lines_running_along_edges():
+    from terrascape.lod.mesh_checks import line_edge_share
+
+    shape = (9, 9)
+    full = full_resolution_triangles(shape)
+    # the full grid has an edge between every two neighbouring samples of every row
+    assert line_edge_share(full, shape, [4], []) == 1.0
+    assert line_edge_share(full, shape, [2, 6], [3]) == 1.0
+    # two triangles over the whole grid: an inner line is only crossed
+    two = np.array([[8 * 9 + 8, 0, 8 * 9], [0, 8 * 9 + 8, 8]], np.uint32)
+    assert conformity_report(two, shape).ok
+    assert line_edge_share(two, shape, [4], [4]) == 0.0
+    # a fan around the centre (4, 4) with a vertex at the left end of row 4: that row runs
+    # along an edge for its left half only
+    def idx(r, c):
+        return r * 9 + c
+
+    fan = []
+    for a, b, c in ([(0, 0), (0, 8), (4, 4)], [(0, 0), (4, 4), (4, 0)],
+                    [(4, 0), (4, 4), (8, 0)], [(4, 4), (8, 8), (8, 0)],
+                    [(0, 8), (8, 8), (4, 4)]):
+        t = [idx(*a), idx(*b), idx(*c)]
+        # counter-clockwise seen from above, as conformity_report wants
+        (r0, c0), (r1, c1), (r2, c2) = a, b, c
+        if (c1 - c0) * (r2 - r0) - (r1 - r0) * (c2 - c0) > 0:
+            t[1], t[2] = t[2], t[1]
+        fan.append(t)
+    mixed = np.array(fan, np.uint32)
+    assert conformity_report(mixed, shape).ok
+    assert line_edge_share(mixed, shape, [4], []) == 0.5
+    assert line_edge_share(mixed, shape, [], [4]) == 0.0
+    assert line_edge_share(mixed, shape, [], []) == 0.0

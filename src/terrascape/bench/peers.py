@@ -178,6 +178,12 @@ def _shadow_rows(size: int, rounds: int, table: BenchTable) -> None:
 TIN_ERRORS = (1.0, 2.0, 5.0, 10.0)
 TIN_TRIANGLE_TARGET = 1.0
 TIN_SPEED_TARGET = 0.2  # ours ÷ peer time (5× faster)
+# the large map's row: one error, a few seconds a build
+TIN_LARGE = ("synthetic 4097²", 4097, 2.0)
+
+
+def _large_rounds(rounds: int) -> int:
+    return max(3, rounds // 2)
 
 
 def real_dem():
@@ -210,8 +216,9 @@ def _tin_rows(quick: bool, rounds: int, table: BenchTable) -> None:
     if not quick:
         # a large map, where the pieces also keep each one's work in cache (a few seconds a
         # build, so one error and fewer rounds)
-        maps.append(("synthetic 4097²", terrain(4097).normalised(0.0, 1000.0), (2.0,),
-                     max(3, rounds // 2)))
+        name, size, err = TIN_LARGE
+        maps.append((name, terrain(size).normalised(0.0, 1000.0), (err,),
+                     _large_rounds(rounds)))
     for name, hm, errors, map_rounds in maps:
         rows, cols = hm.shape
         for err in errors:
@@ -386,10 +393,10 @@ def run(quick: bool = False) -> list[BenchTable]:
          "time ours/peer", "spread", "1 thread ours/peer", "measured error m"],
     )
     _tin_rows(quick, rounds, tin)
+    large = "" if quick else f" ({TIN_LARGE[0].split()[-1]}: {_large_rounds(rounds)})"
     tin.notes += [
-        f"medians of {rounds} interleaved rounds (4097²: {max(3, rounds // 2)}); ours on "
-        f"{numba.get_num_threads()} threads (pieces of the map meshed in parallel), pydelatin "
-        "on one",
+        f"medians of {rounds} interleaved rounds{large}; ours on {numba.get_num_threads()} "
+        "threads (pieces of the map meshed in parallel), pydelatin on one",
         "measured error: the largest |mesh − height| over every sample of the map",
     ]
     noise = BenchTable(

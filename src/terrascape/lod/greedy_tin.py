@@ -59,7 +59,6 @@ References
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
-from itertools import pairwise
 
 import numba
 import numpy as np
@@ -1181,26 +1180,6 @@ def _side_keep(side: np.ndarray, line_tol: float) -> np.ndarray:
     return keep
 
 
-def _shared_line_points(h: np.ndarray, tol: float, ys: np.ndarray,
-                        xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The vertices on the lines pieces share: per row line and column line (the map's
-    own borders stay empty), a mask of the samples kept along each piece's side (sides
-    simplified separately, so a piece corner is always kept)."""
-    rows, cols = h.shape
-    line_tol = _line_tolerance(_magnitude(h), tol)
-    row_keep = np.zeros((len(ys), cols), np.bool_)
-    col_keep = np.zeros((len(xs), rows), np.bool_)
-    for k, y in enumerate(ys):
-        for x0, x1 in pairwise(xs):
-            if 0 < y < rows - 1:
-                row_keep[k, x0:x1 + 1] = _side_keep(h[y, x0:x1 + 1], line_tol)
-    for k, x in enumerate(xs):
-        for y0, y1 in pairwise(ys):
-            if 0 < x < cols - 1:
-                col_keep[k, y0:y1 + 1] = _side_keep(h[y0:y1 + 1, x], line_tol)
-    return row_keep, col_keep
-
-
 def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
     """The mesh of ``h`` within ``tol`` as independent rectangular pieces meshed in parallel.
 
@@ -1229,19 +1208,16 @@ def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
         # same samples the same way), as local coordinates; corners come twice and are
         # inserted once
         ny, nx = piece.shape
-        forced = []
-        if y0 > 0:
-            forced.append(np.flatnonzero(_side_keep(piece[0], line_tol)) * [[1], [0]])
-        if y1 < rows - 1:
-            forced.append(np.flatnonzero(_side_keep(piece[-1], line_tol)) * [[1], [0]]
-                          + [[0], [ny - 1]])
-        if x0 > 0:
-            forced.append(np.flatnonzero(_side_keep(piece[:, 0], line_tol)) * [[0], [1]])
-        if x1 < cols - 1:
-            forced.append(np.flatnonzero(_side_keep(piece[:, -1], line_tol)) * [[0], [1]]
-                          + [[nx - 1], [0]])
-        forced = (np.concatenate(forced, axis=1).T.astype(np.int64) if forced
-                  else np.empty((0, 2), np.int64))
+        forced = [np.empty((0, 2), np.int64)]
+        for shared, side, x, y in ((y0 > 0, piece[0], None, 0),
+                                   (y1 < rows - 1, piece[-1], None, ny - 1),
+                                   (x0 > 0, piece[:, 0], 0, None),
+                                   (x1 < cols - 1, piece[:, -1], nx - 1, None)):
+            if shared:  # along x (y fixed) or along y (x fixed)
+                at = np.flatnonzero(_side_keep(side, line_tol))
+                fixed = np.full_like(at, x if y is None else y)
+                forced.append(np.column_stack([fixed, at] if y is None else [at, fixed]))
+        forced = np.concatenate(forced).astype(np.int64)
         coords, tris, half, p_plane, p_res = _mesh_piece(piece, tol, np.iinfo(np.int64).max,
                                                          True, forced)
         # the piece's tiles are the map's (pieces start on tile multiples); a piece's last
@@ -1272,8 +1248,8 @@ def _join_pieces(h: np.ndarray, tol: float, parts: list, tplane: np.ndarray,
     Alone, every piece's mesh has the shared lines as edges, and the lines' vertices stay:
     a wireframe shows the pieces' outlines. Joined, the lines' vertices are offered to the
     removal of redundant vertices, and the line edges left are flipped towards Delaunay
-    where both new triangles stay within the error, so the mesh crosses the lines like
-    anywhere else."""
+    where both new triangles stay within the error. Where the error forbids a flip, the
+    line stays a run of edges (``python scripts/tin_pieces.py`` measures how much)."""
     rows, cols = h.shape
     coords = np.concatenate([c for c, _, _ in parts])
     tris = np.concatenate([t for _, t, _ in parts])
@@ -1286,9 +1262,15 @@ def _join_pieces(h: np.ndarray, tol: float, parts: list, tplane: np.ndarray,
     is_col_line[xs[1:-1]] = np.arange(len(xs) - 2)
     ids = np.empty(len(coords), np.int64)
     on_line = np.zeros(len(coords), np.bool_)
-    seams = np.empty(len(tris), np.int64)
+    # a slot per sample of the shared lines: the vertex there, and the halfedge of the line
+    # segment starting there (waiting for its twin); each seam takes one
+    line_slots = (len(ys) - 2) * cols + (len(xs) - 2) * rows
+    slot_vertex = np.full(line_slots, -1, np.int64)
+    slot_edge = np.full(line_slots, -1, np.int64)
+    seams = np.empty(line_slots, np.int64)
     n_points, n_seams = _stitch(coords, tris, half, v_start, e_start, is_row_line,
-                                is_col_line, ids, on_line, seams)
+                                is_col_line, len(ys) - 2, slot_vertex, slot_edge, ids, on_line,
+                                seams)
     coords = coords[:n_points]
     on_line = on_line[:n_points]
     bound = np.empty(tres.shape[0] * tres.shape[1])
@@ -1302,29 +1284,20 @@ def _join_pieces(h: np.ndarray, tol: float, parts: list, tplane: np.ndarray,
     return _grid_triangles(coords, tris, cols)
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _stitch(coords, tris, half, v_start, e_start, is_row_line, is_col_line, ids, on_line,
-            seams):
+@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
+def _stitch(coords, tris, half, v_start, e_start, is_row_line, is_col_line, n_row_lines,
+            slot_vertex, slot_edge, ids, on_line, seams):
     """Join the pieces' meshes in place: one vertex number per grid sample (the pieces'
     copies of a shared vertex merged; ``coords`` compacted to the numbers' order), the
     triangles renumbered, halfedge twins offset to the joined arrays, and the open
     halfedges of the shared lines twinned with their neighbour piece's. Marks the vertices
     on shared lines in ``on_line``; ``seams`` gets one halfedge of each line edge. Returns
-    the vertex and seam counts."""
+    the vertex and seam counts.
+
+    ``slot_vertex`` and ``slot_edge`` (-1 filled) have a slot per sample of the shared
+    lines: the row lines' first (``is_row_line[y]·cols + x``), then the column lines'."""
     rows = is_row_line.shape[0]
     cols = is_col_line.shape[0]
-    n_row_lines = 0
-    for y in range(rows):
-        if is_row_line[y] >= 0:
-            n_row_lines += 1
-    n_col_lines = 0
-    for x in range(cols):
-        if is_col_line[x] >= 0:
-            n_col_lines += 1
-    # a slot per sample of the shared lines: the vertex there, and the halfedge of the
-    # line segment starting there (waiting for its twin)
-    slot_vertex = np.full(n_row_lines * cols + n_col_lines * rows, -1, np.int64)
-    slot_edge = np.full(slot_vertex.shape[0], -1, np.int64)
     n = 0
     for p in range(v_start.shape[0] - 1):
         for v in range(v_start[p], v_start[p + 1]):

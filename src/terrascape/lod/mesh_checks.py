@@ -34,6 +34,7 @@ __all__ = [
     "conformity_report",
     "frustum_mask",
     "is_conforming",
+    "line_edge_share",
     "max_screen_error",
     "max_vertical_error",
     "sample_errors",
@@ -249,6 +250,39 @@ def is_conforming(triangles, shape) -> bool:
 # --------------------------------------------------------------------------------------------
 # vertical error: rasterise every triangle over the grid samples it covers
 # --------------------------------------------------------------------------------------------
+def line_edge_share(triangles, shape, rows_at, cols_at) -> float:
+    """Share of the length of the grid rows ``rows_at`` and columns ``cols_at`` (across
+    the whole grid) that runs along mesh edges: 0 when the mesh only crosses them, 1 when
+    they are edges end to end. It shows where a mesh built in pieces keeps their outlines.
+
+    Parameters
+    ----------
+    triangles
+        ``(M, 3)`` grid vertex indices ``row·cols + col`` of a conforming mesh.
+    shape
+        ``(rows, cols)`` of the grid.
+    rows_at, cols_at
+        Row and column numbers of the lines.
+    """
+    rows, cols = _as_shape(shape)
+    tri = as_triangles(triangles, (rows, cols)).astype(np.int64)
+    rows_at = np.asarray(rows_at, np.int64)
+    cols_at = np.asarray(cols_at, np.int64)
+    total = len(rows_at) * (cols - 1) + len(cols_at) * (rows - 1)
+    if total == 0:
+        return 0.0
+    x, y = tri % cols, tri // cols
+    length = 0
+    for i in range(3):
+        j = (i + 1) % 3
+        on_row = (y[:, i] == y[:, j]) & np.isin(y[:, i], rows_at)
+        on_col = (x[:, i] == x[:, j]) & np.isin(x[:, i], cols_at)
+        length += np.abs(x[on_row, i] - x[on_row, j]).sum()
+        length += np.abs(y[on_col, i] - y[on_col, j]).sum()
+    # an interior edge belongs to two triangles
+    return float(length) / 2.0 / total
+
+
 @njit(cache=CACHE, fastmath={"nnan", "nsz"})
 def _tri_error_upto(h, ar, ac, br, bc, cr, cc, tol):
     """Maximum ``|h − plane|`` over the grid samples of triangle (a, b, c), edges included,

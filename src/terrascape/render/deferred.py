@@ -44,7 +44,7 @@ class DeferredShading:
         #: float16 normal and tangent, only the world position and depth cleared; False:
         #: every attachment float32 and cleared (``terrascape bench terrain_shading``)
         self.light_gbuffer = True
-        # (key, fbo, textures, clear fbo) per target size, the last used last: two kept, so
+        # (fbo, textures, clear fbo) per target size, the last used last: two kept, so
         # the viewer's full-size and smaller moving frames do not reallocate at every
         # start and stop of the camera
         self._gbuffers: dict[tuple, tuple] = {}
@@ -85,11 +85,11 @@ class DeferredShading:
         # read them for their own colour (the depth test rejects it).
         clear = (ctx.framebuffer(color_attachments=colours[:1], depth_attachment=depth)
                  if self.light_gbuffer else fbo)
-        self._gbuffers[key] = (key, fbo, [*colours, depth], clear)
+        self._gbuffers[key] = (fbo, [*colours, depth], clear)
         return self._gbuffers[key]
 
     def _release_gbuffer(self, key) -> None:
-        _, fbo, textures, clear = self._gbuffers.pop(key)
+        fbo, textures, clear = self._gbuffers.pop(key)
         if clear is not fbo:
             clear.release()
         fbo.release()
@@ -110,7 +110,7 @@ class DeferredShading:
         tangents = "u_gbuffer_tangent" in shading
         geometry = load_program(ctx, "terrain/gbuffer",
                                 {"TERRAIN_TANGENTS": 1} if tangents else None)
-        _, gbuf, (world, normal, tangent, depth), clear = self._gbuffer_for(fbo.size)
+        gbuf, (world, normal, tangent, depth), clear = self._gbuffer_for(fbo.size)
         # --- PASS 1: surface attributes of the nearest terrain per pixel
         clear.use()
         clear.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
