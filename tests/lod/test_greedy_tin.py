@@ -236,6 +236,17 @@ def test_pieces_keep_the_bound_and_meet_without_cracks(monkeypatch, max_error):
         assert len(pieces) <= 1.1 * len(whole) + 20
 
 
+def _side_keep(side, line_tol):
+    """Mask of the samples of one piece's side that its simplification keeps (every
+    sample when the tolerance is not above 0), as the pieces compute it."""
+    from terrascape.lod.greedy_tin import _simplify_line
+
+    keep = np.ones(side.shape[0], np.bool_)
+    if line_tol > 0:
+        _simplify_line(np.ascontiguousarray(side), line_tol, keep)
+    return keep
+
+
 def _line_keeps(h, tol, ys, xs):
     """Per row line and column line, the samples each piece's side keeps (as the pieces
     simplify them; the map's own borders stay empty)."""
@@ -249,10 +260,10 @@ def _line_keeps(h, tol, ys, xs):
     col_keep = np.zeros((len(xs), rows), np.bool_)
     for k, y in enumerate(ys[1:-1], start=1):
         for x0, x1 in pairwise(xs):
-            row_keep[k, x0:x1 + 1] = gt._side_keep(h[y, x0:x1 + 1], line_tol)
+            row_keep[k, x0:x1 + 1] = _side_keep(h[y, x0:x1 + 1], line_tol)
     for k, x in enumerate(xs[1:-1], start=1):
         for y0, y1 in pairwise(ys):
-            col_keep[k, y0:y1 + 1] = gt._side_keep(h[y0:y1 + 1, x], line_tol)
+            col_keep[k, y0:y1 + 1] = _side_keep(h[y0:y1 + 1, x], line_tol)
     return row_keep, col_keep
 
 

@@ -295,6 +295,8 @@ _TILED_SEARCH = 8 * _TILE * _TILE
 _BOX_SCAN = 64
 # Samples per side of the pieces meshed independently (in parallel) for an error bound.
 _PIECE = 224
+# a triangle budget that never stops the insertion
+_NO_BUDGET = np.iinfo(np.int64).max
 
 
 @njit(cache=CACHE, fastmath=_RASTER_MATH, _nrt=False)
@@ -824,19 +826,18 @@ def _fill_hole(rx, ry, d, pprev, pnext, out):
     return True
 
 
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
 def _remove_vertices(h, tplane, tres, bound, order, coords, tris, half, n_points, n_edges,
-                     max_error, passes, candidates=None):
+                     max_error, passes, dirty):
     """Remove every vertex (newest first, ``passes`` times over) whose star, refilled
     without it, keeps every sample it covers within ``max_error``; the triangles left over
     get vertex −1. Returns how many vertices went.
 
     The greedy insertion adds a vertex where the error was largest at that moment; vertices
     inserted later near it can make it unnecessary. Removing it takes two triangles away
-    and changes no other sample's error. With ``candidates`` (a mask of the vertices),
-    only those are tried first (and then their neighbours when one goes)."""
+    and changes no other sample's error. Only the vertices marked in ``dirty`` are tried
+    (then their neighbours when one goes: a star changed); ``dirty`` is consumed."""
     vedge = np.full(n_points, -1, np.int64)  # one halfedge leaving each vertex
-    # a vertex is tried again only when a neighbour went (its star changed)
-    dirty = np.ones(n_points, np.bool_) if candidates is None else candidates.copy()
     ring = np.empty((4, _MAX_DEGREE), np.int64)  # link vertices, x, y, star halfedges
     outer = np.empty((3, _MAX_DEGREE), np.int64)  # twins outside, ear-clipping links
     rz = np.empty(_MAX_DEGREE, np.float64)
@@ -1026,34 +1027,6 @@ def _relax_edges(h, tplane, tres, bound, order, coords, tris, half, stack, top, 
             top += 4
 
 
-class _Arrays:
-    """The kernel's growable arrays (capacity in triangles); indices are 32-bit to halve
-    the memory the insertion walks through (coordinates stay 64-bit for the in-circle
-    test's products)."""
-
-    def __init__(self, capacity: int) -> None:
-        self.capacity = capacity
-        self.coords = np.zeros((capacity // 2 + 8, 2), np.int64)
-        self.tris = np.zeros(3 * capacity, np.int32)
-        self.half = np.full(3 * capacity, -1, np.int32)
-        self.cand = np.zeros((capacity, 2), np.int32)
-        self.cerr = np.zeros(capacity, np.float64)
-        self.queue = np.zeros(capacity, np.int32)
-        self.qerr = np.zeros(capacity, np.float64)
-        self.qidx = np.full(capacity, -1, np.int32)
-        self.pending = np.zeros(1 << 16, np.int32)
-        self.stack = np.zeros(1 << 16, np.int32)
-
-    def grown(self) -> _Arrays:
-        new = _Arrays(2 * self.capacity)
-        for name in ("coords", "tris", "half", "cand", "cerr", "queue", "qerr", "qidx"):
-            old = getattr(self, name)
-            getattr(new, name)[: old.shape[0]] = old
-        new.pending = self.pending
-        new.stack = self.stack
-        return new
-
-
 def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
                max_triangles: int | None = None, in_pieces: bool = True) -> np.ndarray:
     """Mesh with a guaranteed maximum vertical error by greedy Delaunay insertion.
@@ -1094,7 +1067,7 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
     tol = 0.0
     if max_error is not None:
         tol = check_positive(max_error, "max_error (world units)", allow_zero=True)
-    budget = np.iinfo(np.int64).max
+    budget = _NO_BUDGET
     if max_triangles is not None:
         budget = check_int(max_triangles, "max_triangles", minimum=2)
     rows, cols = heightmap.shape
@@ -1106,8 +1079,10 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         raise InvalidParameterError("heights must be finite (fill NaN/inf first)")
     if max_triangles is not None or not in_pieces:
         # a triangle budget is one greedy order over the whole map
-        coords, tris, _, _, _ = _mesh_piece(h, tol, budget, max_error is not None,
-                                            np.empty((0, 2), np.int64))
+        passes = _REMOVAL_PASSES if max_error is not None else 0
+        tiles = (-(-rows // _TILE), -(-cols // _TILE))
+        coords, tris, _ = _mesh_piece(h, 0, rows - 1, 0, cols - 1, float(tol), 0.0, budget,
+                                      passes, np.empty((*tiles, 3)), np.empty((*tiles, 4)))
         return _grid_triangles(coords, tris, cols)
     return _mesh_in_pieces(h, tol, magnitude)
 
@@ -1171,15 +1146,6 @@ def _line_tolerance(magnitude: float, tol: float) -> float:
     return tol - 1e-7 * (1.0 + magnitude)
 
 
-def _side_keep(side: np.ndarray, line_tol: float) -> np.ndarray:
-    """Mask of the samples of one piece's side (a stretch of a shared line, corners
-    included) that the side's simplification keeps."""
-    keep = np.ones(side.shape[0], np.bool_)
-    if line_tol > 0:
-        _simplify_line(np.ascontiguousarray(side), line_tol, keep)
-    return keep
-
-
 def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
     """The mesh of ``h`` within ``tol`` as independent rectangular pieces meshed in parallel.
 
@@ -1203,31 +1169,8 @@ def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
 
     def run(job):
         y0, y1, x0, x1 = job
-        piece = np.ascontiguousarray(h[y0:y1 + 1, x0:x1 + 1])
-        # the piece's sides on shared lines, simplified here (its neighbour simplifies the
-        # same samples the same way), as local coordinates; corners come twice and are
-        # inserted once
-        ny, nx = piece.shape
-        forced = [np.empty((0, 2), np.int64)]
-        for shared, side, x, y in ((y0 > 0, piece[0], None, 0),
-                                   (y1 < rows - 1, piece[-1], None, ny - 1),
-                                   (x0 > 0, piece[:, 0], 0, None),
-                                   (x1 < cols - 1, piece[:, -1], nx - 1, None)):
-            if shared:  # along x (y fixed) or along y (x fixed)
-                at = np.flatnonzero(_side_keep(side, line_tol))
-                fixed = np.full_like(at, x if y is None else y)
-                forced.append(np.column_stack([fixed, at] if y is None else [at, fixed]))
-        forced = np.concatenate(forced).astype(np.int64)
-        coords, tris, half, p_plane, p_res = _mesh_piece(piece, tol, np.iinfo(np.int64).max,
-                                                         True, forced)
-        # the piece's tiles are the map's (pieces start on tile multiples); a piece's last
-        # row or column of tiles holds only its shared line, the next piece's first tiles
-        ty, tx = y0 // _TILE, x0 // _TILE
-        ny = p_plane.shape[0] - (1 if y1 < rows - 1 else 0)
-        nx = p_plane.shape[1] - (1 if x1 < cols - 1 else 0)
-        tplane[ty:ty + ny, tx:tx + nx] = p_plane[:ny, :nx]
-        tres[ty:ty + ny, tx:tx + nx] = p_res[:ny, :nx]
-        return coords + np.array([x0, y0], np.int64), tris, half
+        return _mesh_piece(h, y0, y1, x0, x1, float(tol), float(line_tol), _NO_BUDGET,
+                           _REMOVAL_PASSES, tplane, tres)
 
     workers = min(len(jobs), numba.get_num_threads())
     if workers > 1:
@@ -1276,7 +1219,7 @@ def _join_pieces(h: np.ndarray, tol: float, parts: list, tplane: np.ndarray,
     bound = np.empty(tres.shape[0] * tres.shape[1])
     tile_order = np.empty(tres.shape[0] * tres.shape[1], np.int64)
     _remove_vertices(h, tplane, tres, bound, tile_order, coords, tris, half, n_points,
-                     len(tris), float(tol), _REMOVAL_PASSES, candidates=on_line)
+                     len(tris), float(tol), _REMOVAL_PASSES, on_line)
     stack = np.empty(max(64, 8 * n_seams), np.int64)
     stack[:n_seams] = seams[:n_seams]
     _relax_edges(h, tplane, tres, bound, tile_order, coords, tris, half, stack, n_seams,
@@ -1371,48 +1314,121 @@ def _grid_triangles(coords, tris, cols):
     return out
 
 
-def _mesh_piece(h: np.ndarray, tol: float, budget: int, remove: bool,
-                forced: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Greedy insertion (then, when the error was reached and ``remove``, the removal of
-    redundant vertices) over the whole grid ``h``, starting from its corners and the
-    ``forced`` border points; returns the vertices' ``(x, y)``, the triangles as indices
-    into them (flat, vertex -1 for removed ones), their halfedge twins, and the grid's
-    tile planes and ranges (:func:`_tile_ranges`)."""
+@njit(cache=CACHE, nogil=True)
+def _grown(a, size, fill):
+    """``a`` in a new array of ``size`` rows, the new rows set to ``fill``."""
+    out = np.full((size, *a.shape[1:]), fill, a.dtype)
+    out[:a.shape[0]] = a
+    return out
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
+def _mesh_piece(h, y0, y1, x0, x1, tol, line_tol, budget, passes, tplane, tres):
+    """Greedy insertion over the piece ``h[y0 : y1 + 1, x0 : x1 + 1]`` (then, when the
+    error was reached, ``passes`` of the removal of redundant vertices), from its corners
+    and the vertices of its sides on lines shared with other pieces: each such side is
+    simplified alone within ``line_tol`` first (its neighbour simplifies the same samples
+    the same way). The piece's tiles (:func:`_tile_ranges`) go into the map's ``tplane``
+    and ``tres``. Returns the vertices as map coordinates ``(x, y)``, the triangles as
+    indices into them (flat, vertex -1 for removed ones) and their halfedge twins.
+
+    One compiled call for the whole piece, growing its own arrays: pieces meshed on
+    several threads hold the interpreter's lock only to enter. Indices are 32-bit to halve
+    the memory the insertion walks through (coordinates stay 64-bit for the in-circle
+    test's products)."""
     rows, cols = h.shape
-    tiles = (-(-rows // _TILE), -(-cols // _TILE))
-    tplane = np.empty((*tiles, 3))
-    tres = np.empty((*tiles, 4))
-    _tile_ranges(h, tplane, tres)
+    piece = np.ascontiguousarray(h[y0:y1 + 1, x0:x1 + 1])
+    ny, nx = piece.shape
+    forced = np.empty((2 * (nx + ny), 2), np.int64)
+    keep = np.empty(max(nx, ny), np.bool_)
+    n_forced = 0
+    # the sides on shared lines: top, bottom (along x), left, right (along y), in local
+    # coordinates; corners come twice and are inserted once
+    for side in range(4):
+        along_x = side < 2
+        if side == 0:
+            shared = y0 > 0
+        elif side == 1:
+            shared = y1 < rows - 1
+        elif side == 2:
+            shared = x0 > 0
+        else:
+            shared = x1 < cols - 1
+        if not shared:
+            continue
+        fixed = (0 if side == 0 else ny - 1) if along_x else (0 if side == 2 else nx - 1)
+        n = nx if along_x else ny
+        line = np.ascontiguousarray(piece[fixed]) if along_x else np.ascontiguousarray(
+            piece[:, fixed])
+        keep[:n] = True
+        if line_tol > 0:
+            _simplify_line(line, line_tol, keep[:n])
+        for i in range(n):
+            if keep[i]:
+                forced[n_forced, 0] = i if along_x else fixed
+                forced[n_forced, 1] = fixed if along_x else i
+                n_forced += 1
+    ty, tx = -(-ny // _TILE), -(-nx // _TILE)
+    p_plane = np.empty((ty, tx, 3))
+    p_res = np.empty((ty, tx, 4))
+    _tile_ranges(piece, p_plane, p_res)
     # scratch of the tiled search: one bound and one heap slot per tile
-    bound = np.empty(tres.shape[0] * tres.shape[1])
-    order = np.empty(tres.shape[0] * tres.shape[1], np.int64)
-    arr = _Arrays(max(1024, 4 * len(forced) + 16))
+    bound = np.empty(ty * tx)
+    order = np.empty(ty * tx, np.int64)
+    capacity = max(1024, 4 * n_forced + 16)
+    coords = np.zeros((capacity // 2 + 8, 2), np.int64)
+    tris = np.zeros(3 * capacity, np.int32)
+    half = np.full(3 * capacity, -1, np.int32)
+    cand = np.zeros((capacity, 2), np.int32)
+    cerr = np.zeros(capacity, np.float64)
+    queue = np.zeros(capacity, np.int32)
+    qerr = np.zeros(capacity, np.float64)
+    qidx = np.full(capacity, -1, np.int32)
+    pending = np.zeros(1 << 16, np.int32)
+    stack = np.zeros(1 << 16, np.int32)
     state = np.zeros(5, np.int64)
-    x1, y1 = cols - 1, rows - 1
-    p0 = _add_point(arr.coords, state, 0, 0)
-    p1 = _add_point(arr.coords, state, x1, 0)
-    p2 = _add_point(arr.coords, state, 0, y1)
-    p3 = _add_point(arr.coords, state, x1, y1)
-    t0 = _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p3, p0, p2, -1, -1,
-                       -1, -1)
-    _add_triangle(arr.tris, arr.half, arr.qidx, arr.pending, state, p0, p3, p1, t0, -1, -1, -1)
-    if len(forced):
-        _insert_border_points(forced, arr.coords, arr.tris, arr.half, arr.queue, arr.qerr,
-                              arr.qidx, arr.pending, arr.stack, state)
-    _flush_all(h, tplane, tres, bound, order, arr.coords, arr.tris, arr.cand, arr.cerr,
-               arr.queue, arr.qerr, arr.qidx, state, float(tol))
+    p0 = _add_point(coords, state, 0, 0)
+    p1 = _add_point(coords, state, nx - 1, 0)
+    p2 = _add_point(coords, state, 0, ny - 1)
+    p3 = _add_point(coords, state, nx - 1, ny - 1)
+    t0 = _add_triangle(tris, half, qidx, pending, state, p3, p0, p2, -1, -1, -1, -1)
+    _add_triangle(tris, half, qidx, pending, state, p0, p3, p1, t0, -1, -1, -1)
+    if n_forced > 0:
+        _insert_border_points(forced[:n_forced], coords, tris, half, queue, qerr, qidx,
+                              pending, stack, state)
+    _flush_all(piece, p_plane, p_res, bound, order, coords, tris, cand, cerr, queue, qerr,
+               qidx, state, tol)
     while True:
-        _refine(h, tplane, tres, bound, order, float(tol), budget, arr.coords, arr.tris, arr.half,
-                arr.cand, arr.cerr, arr.queue, arr.qerr, arr.qidx, arr.pending, arr.stack, state)
+        _refine(piece, p_plane, p_res, bound, order, tol, budget, coords, tris, half, cand,
+                cerr, queue, qerr, qidx, pending, stack, state)
         if state[_STATUS] != _FULL:
             break
-        arr = arr.grown()
-    n_edges = int(state[_N_EDGES])
-    tris = arr.tris[:n_edges]
-    if remove and (state[_Q_LEN] == 0 or arr.qerr[0] <= tol):
+        capacity *= 2
+        coords = _grown(coords, capacity // 2 + 8, 0)
+        tris = _grown(tris, 3 * capacity, 0)
+        half = _grown(half, 3 * capacity, -1)
+        cand = _grown(cand, capacity, 0)
+        cerr = _grown(cerr, capacity, 0.0)
+        queue = _grown(queue, capacity, 0)
+        qerr = _grown(qerr, capacity, 0.0)
+        qidx = _grown(qidx, capacity, -1)
+    n_points = state[_N_POINTS]
+    n_edges = state[_N_EDGES]
+    if passes > 0 and (state[_Q_LEN] == 0 or qerr[0] <= tol):
         # the error bound is met: drop the vertices it no longer needs
-        _remove_vertices(h, tplane, tres, bound, order, arr.coords, tris, arr.half,
-                         int(state[_N_POINTS]), n_edges, float(tol), _REMOVAL_PASSES)
+        _remove_vertices(piece, p_plane, p_res, bound, order, coords, tris, half, n_points,
+                         n_edges, tol, passes, np.ones(n_points, np.bool_))
+    # the piece's tiles are the map's (pieces start on tile multiples); a piece's last
+    # row or column of tiles holds only its shared line, the next piece's first tiles
+    t_y, t_x = y0 // _TILE, x0 // _TILE
+    nty = ty - (1 if y1 < rows - 1 else 0)
+    ntx = tx - (1 if x1 < cols - 1 else 0)
+    tplane[t_y:t_y + nty, t_x:t_x + ntx] = p_plane[:nty, :ntx]
+    tres[t_y:t_y + nty, t_x:t_x + ntx] = p_res[:nty, :ntx]
+    coords = coords[:n_points]
+    for v in range(n_points):
+        coords[v, 0] += x0
+        coords[v, 1] += y0
     # the insertion keeps the winding of the two first triangles: counter-clockwise seen
     # from above (+Y) with rows growing southward; removed triangles have vertex -1
-    return arr.coords[: state[_N_POINTS]], tris, arr.half[:n_edges], tplane, tres
+    return coords, tris[:n_edges], half[:n_edges]
