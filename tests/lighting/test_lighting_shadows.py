@@ -260,7 +260,8 @@ def test_lightmap_clamps_to_one_and_validates():
 @pytest.mark.parametrize("shape", [(97, 97), (65, 130), (130, 65)])
 @pytest.mark.parametrize("az", [0.0, 17.0, 45.0, 133.0, 200.0, 271.0, 333.0])
 def test_sweep_in_blocks_equals_one_sweep(terrain, shape, az):
-    """Any number of blocks (and so of threads) decides every sample as one serial sweep."""
+    """Any number of blocks (and so of threads) decides every sample as one serial sweep,
+    and writes every sample."""
     from terrascape.lighting import shadows as sh
 
     hm = Heightmap(terrain(shape[0], 3, cols=shape[1]))
@@ -269,6 +270,11 @@ def test_sweep_in_blocks_equals_one_sweep(terrain, shape, az):
         results = []
         for blocks in (1, 2, 3, 8, 40):
             h, full, out = sh._oriented(hm, transpose)
+            sh._line_sweep_kernel(h, da, db, rise, sh._NEAR, out, blocks)
+            results.append(full)
+            # every sample is written (the public function does not zero its mask first)
+            h, full, out = sh._oriented(hm, transpose)
+            full[:] = True
             sh._line_sweep_kernel(h, da, db, rise, sh._NEAR, out, blocks)
             results.append(full)
         for other in results[1:]:

@@ -825,7 +825,9 @@ def _fast_mask_for_light(hm: Heightmap, light: np.ndarray,
     # each block copies a band of neighbouring columns at a time into rows it keeps in
     # cache, and its mask goes back into the map's orientation the same way.
     h = _read_only(hm.heights)
-    out = np.zeros(hm.shape, dtype=np.bool_)
+    # not zeroed first: the blocks write every sample (a zeroing pass would be serial work
+    # before the parallel sweep)
+    out = np.empty(hm.shape, dtype=np.bool_)
     with numba.parallel_chunksize(1):  # blocks differ in work: hand them out one by one
         _line_sweep_kernel(h, da, db, rise, _NEAR, out,
                            _sweep_blocks(h.shape[0] if transpose else h.shape[1]), a_org,
