@@ -144,7 +144,9 @@ def _candidate_reference(h, p):
 @pytest.mark.parametrize("rough", [False, True])
 def test_candidate_search_equals_brute_force(rough):
     """Every path of the candidate search (sample by sample, row spans, tiles searched by
-    their error bound) finds the brute-force maximum and its first sample in row order."""
+    their error bound) finds the brute-force maximum and its first sample in row order;
+    searched from a floor, the same when the maximum is above it; asked whether any sample
+    is above the floor, the right answer."""
     from terrascape.lod import greedy_tin as gt
 
     rng = np.random.default_rng(11 if rough else 12)
@@ -177,7 +179,7 @@ def test_candidate_search_equals_brute_force(rough):
         coords = p.astype(np.int64)
         tris = np.arange(3, dtype=np.int32)
         cand, cerr = np.zeros((1, 2), np.int32), np.zeros(1)
-        gt._rasterise(h, tplane, tres, bound, order, coords, tris, 0, cand, cerr)
+        gt._rasterise(h, tplane, tres, bound, order, coords, tris, 0, cand, cerr, 0.0, False)
         err, xs, ys = _candidate_reference(h64, coords)
         best = err.max()
         if best < 1e-6:
@@ -186,6 +188,23 @@ def test_candidate_search_equals_brute_force(rough):
         assert cerr[0] == pytest.approx(best, rel=1e-9)
         first = np.flatnonzero(err.ravel() >= best - 1e-9 * best)[0]
         assert (cand[0, 0], cand[0, 1]) == (xs.ravel()[first], ys.ravel()[first])
+        found = cerr[0], tuple(cand[0])
+        # from a floor (the mesh's error) below the maximum: the same sample; above it: no
+        # sample beyond the floor. Asked only whether one is beyond: the answer, not the
+        # largest
+        for floor in (0.5 * best, 0.99 * best, 1.01 * best, 2.0 * best):
+            gt._rasterise(h, tplane, tres, bound, order, coords, tris, 0, cand, cerr, floor,
+                          False)
+            if best > floor:
+                assert (cerr[0], tuple(cand[0])) == found
+            else:
+                assert cerr[0] <= floor
+            gt._rasterise(h, tplane, tres, bound, order, coords, tris, 0, cand, cerr, floor,
+                          True)
+            assert (cerr[0] > floor) == (best > floor)
+            if best > floor:  # a sample of the triangle, with its own error
+                at = (xs == cand[0, 0]) & (ys == cand[0, 1])
+                assert cerr[0] == pytest.approx(err[at][0], rel=1e-9)
     assert min(sizes.values()) >= 20, sizes
 
 

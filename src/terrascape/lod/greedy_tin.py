@@ -394,8 +394,11 @@ def _tile_sift(bound, order, i, n):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
-def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
-    """Largest |h − plane| over the samples of triangle ``t``, and where it is.
+def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr, floor, any_above):
+    """Largest |h − plane| over the samples of triangle ``t``, and where it is, when it is
+    above ``floor``; otherwise an error of at most ``floor``. With ``any_above``, only
+    whether some sample is above ``floor``: a large triangle's search may stop at the first
+    tile that holds one (the error is then above ``floor``, not necessarily the largest).
 
     The samples inside are those where the three edge functions are ≥ 0; on each row they
     form one span, found exactly in integers, so the inner loop has no inside test. Each
@@ -405,7 +408,9 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
     the tile's height range, or that of the plane minus the tile's least-squares plane
     against the residuals' range, whichever is smaller),
     stopping at the first tile whose bound is below the best error found: the same sample as
-    a full scan, without scanning most of the triangle.
+    a full scan, without scanning most of the triangle. The search starts from ``floor``
+    (the mesh's error): what is within it needs no position, so a tile bounded within it is
+    never scanned.
     """
     p0 = tris[3 * t]
     p1 = tris[3 * t + 1]
@@ -454,8 +459,10 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
             by = p0y
     elif box <= _TILED_SEARCH:
         best, bx, by = _scan_rows(h, min_y, max_y, min_x, max_x, min_x, min_y, w00, w01, w02,
-                                  a12, a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, best, bx, by)
+                                  a12, a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, floor, bx,
+                                  by)
     else:
+        best = floor
         z00 = z0 * w00 + z1 * w01 + z2 * w02
         slack = 1e-9 * (1.0 + abs(z00) + abs(dz_dx) * (max_x - min_x)
                         + abs(dz_dy) * (max_y - min_y))
@@ -519,6 +526,8 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr):
                 h, max(min_y, ty * _TILE), min(max_y, ty * _TILE + _TILE - 1),
                 max(min_x, tx * _TILE), min(max_x, tx * _TILE + _TILE - 1), min_x, min_y,
                 w00, w01, w02, a12, a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, best, bx, by)
+            if any_above and best > floor:
+                break
     if ((bx == p0x and by == p0y) or (bx == p1x and by == p1y)
             or (bx == p2x and by == p2y)):
         best = 0.0
@@ -581,7 +590,7 @@ def _tile_ranges(h, tplane, tres):
 def _queue(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, state,
            max_error, t):
     """Rasterise triangle ``t``: queue it when beyond the error, else settle it."""
-    _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr)
+    _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr, max_error, False)
     if cerr[t] > max_error:
         _q_push(queue, qerr, qidx, state, t, cerr[t])
     else:
@@ -934,7 +943,8 @@ def _remove_kernel(h, tplane, tres, bound, order, coords, tris, half, n_edges, m
             for k in range(d - 2):
                 for m in range(3):
                     stris[3 * k + m] = ring[fill[k, m]]
-                _rasterise(h, tplane, tres, bound, order, coords, stris, k, scand, scerr)
+                _rasterise(h, tplane, tres, bound, order, coords, stris, k, scand, scerr,
+                           max_error, True)
                 if scerr[k] > max_error:
                     fits = False
                     break
@@ -1007,10 +1017,12 @@ def _relax_edges(h, tplane, tres, bound, order, coords, tris, half, stack, top, 
         stris[3] = p1
         stris[4] = p0
         stris[5] = pr
-        _rasterise(h, tplane, tres, bound, order, coords, stris, 0, scand, scerr)
+        _rasterise(h, tplane, tres, bound, order, coords, stris, 0, scand, scerr, max_error,
+                   True)
         if scerr[0] > max_error:
             continue
-        _rasterise(h, tplane, tres, bound, order, coords, stris, 1, scand, scerr)
+        _rasterise(h, tplane, tres, bound, order, coords, stris, 1, scand, scerr, max_error,
+                   True)
         if scerr[1] > max_error:
             continue
         hal = half[al]
