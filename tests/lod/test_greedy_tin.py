@@ -208,9 +208,15 @@ def test_candidate_search_equals_brute_force(rough):
     assert min(sizes.values()) >= 20, sizes
 
 
-def test_same_mesh_on_one_thread_or_two():
+@pytest.mark.parametrize("piece", [224, 40])
+def test_same_mesh_on_one_thread_or_two(piece, monkeypatch):
+    """One piece, or nine meshed on the threads' pool (kept for the next mesh): the same
+    mesh on one thread, on two, and on two again."""
     import numba
 
+    from terrascape.lod import greedy_tin as gt
+
+    monkeypatch.setattr(gt, "_PIECE", piece)
     hm = _terrain(129, seed=4)
     before = numba.get_num_threads()
     try:
@@ -218,9 +224,11 @@ def test_same_mesh_on_one_thread_or_two():
         one = greedy_tin(hm, max_error=1.0)
         numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
         two = greedy_tin(hm, max_error=1.0)
+        again = greedy_tin(hm, max_error=1.0)
     finally:
         numba.set_num_threads(before)
     np.testing.assert_array_equal(one, two)
+    np.testing.assert_array_equal(one, again)
 
 
 # --- the mesh built in pieces ----------------------------------------------------------------

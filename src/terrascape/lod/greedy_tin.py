@@ -58,6 +58,7 @@ References
 
 from __future__ import annotations
 
+import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numba
@@ -1158,6 +1159,20 @@ def _line_tolerance(magnitude: float, tol: float) -> float:
     return tol - 1e-7 * (1.0 + magnitude)
 
 
+_POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
+
+
+def _thread_pool(workers: int) -> ThreadPoolExecutor:
+    """A pool of ``workers`` threads for the pieces, kept for the next mesh: starting the
+    threads anew took as long as meshing a sparse piece. One per process (a forked child
+    has the pool but not its threads)."""
+    key = (os.getpid(), workers)
+    pool = _POOLS.get(key)
+    if pool is None:
+        pool = _POOLS[key] = ThreadPoolExecutor(workers, thread_name_prefix="greedy-tin")
+    return pool
+
+
 def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
     """The mesh of ``h`` within ``tol`` as independent rectangular pieces meshed in parallel.
 
@@ -1186,8 +1201,7 @@ def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
 
     workers = min(len(jobs), numba.get_num_threads())
     if workers > 1:
-        with ThreadPoolExecutor(workers) as pool:
-            parts = list(pool.map(run, jobs))
+        parts = list(_thread_pool(workers).map(run, jobs))
     else:
         parts = [run(job) for job in jobs]
     if len(parts) == 1:
