@@ -238,7 +238,9 @@ def _quad(tris, a, b):
     return a0, b0, al, ar, bl, br, tris[ar], tris[a], tris[al], tris[bl]
 
 
-@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+# not inlined: called once per inserted point (its flips are the work), and compiled once
+# for the insertion and the shared lines' points
+@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
 def _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, top):
     """Restore the Delaunay condition by flips, depth first from the halfedges
     ``stack[:top]`` (the last one first, and all it flips before the next)."""
@@ -394,6 +396,81 @@ def _tile_sift(bound, order, i, n):
     order[i] = k
 
 
+@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
+def _tiled_search(h, tplane, tres, bound, order, min_x, min_y, max_x, max_y, w00, w01, w02, a12,
+                  a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, dz_dy, floor, any_above, bx, by):
+    """:func:`_rasterise`'s search of a large triangle, tile by tile in decreasing order of
+    their error bounds (compiled once, not into each caller: it is most of the code and a
+    small share of the calls)."""
+    best = floor
+    z00 = z0 * w00 + z1 * w01 + z2 * w02
+    slack = 1e-9 * (1.0 + abs(z00) + abs(dz_dx) * (max_x - min_x)
+                    + abs(dz_dy) * (max_y - min_y))
+    tx0, tx1 = min_x // _TILE, max_x // _TILE
+    ty0, ty1 = min_y // _TILE, max_y // _TILE
+    ntx = tx1 - tx0 + 1
+    n = ntx * (ty1 - ty0 + 1)
+    for k in range(n):
+        ty = ty0 + k // ntx
+        tx = tx0 + k % ntx
+        xa = max(min_x, tx * _TILE) - min_x
+        xb = min(max_x, tx * _TILE + _TILE - 1) - min_x
+        ya = max(min_y, ty * _TILE) - min_y
+        yb = min(max_y, ty * _TILE + _TILE - 1) - min_y
+        # a plane's extremes over a rectangle are at its corners
+        # the triangle's plane minus the tile's fitted plane at the rectangle's corners
+        # (tile coordinates u, v); |plane − h| = |(plane − fit) − residual|
+        q0 = tplane[ty, tx, 0]
+        qx = tplane[ty, tx, 1]
+        qy = tplane[ty, tx, 2]
+        u0 = min_x + xa - tx * _TILE
+        u1 = min_x + xb - tx * _TILE
+        v0 = min_y + ya - ty * _TILE
+        v1 = min_y + yb - ty * _TILE
+        c00 = z00 + dz_dx * xa + dz_dy * ya
+        c10 = z00 + dz_dx * xb + dz_dy * ya
+        c01 = z00 + dz_dx * xa + dz_dy * yb
+        c11 = z00 + dz_dx * xb + dz_dy * yb
+        # a plane's extremes over a rectangle are at its corners: against the heights'
+        # range, and against the residuals from the fitted plane; the smaller bound holds
+        pmin = min(min(c00, c10), min(c01, c11))
+        pmax = max(max(c00, c10), max(c01, c11))
+        plain = max(pmax - tres[ty, tx, 2], tres[ty, tx, 3] - pmin)
+        c00 -= q0 + qx * u0 + qy * v0
+        c10 -= q0 + qx * u1 + qy * v0
+        c01 -= q0 + qx * u0 + qy * v1
+        c11 -= q0 + qx * u1 + qy * v1
+        dmin = min(min(c00, c10), min(c01, c11))
+        dmax = max(max(c00, c10), max(c01, c11))
+        fitted = (max(dmax - tres[ty, tx, 0], tres[ty, tx, 1] - dmin)
+                  + 1e-9 * (abs(q0) + abs(qx) * _TILE + abs(qy) * _TILE))
+        bound[k] = min(plain, fitted) + slack
+        order[k] = k
+    # tiles in decreasing bound from a max-heap built in place (usually only a few are
+    # popped before the bound drops below the best error, so no full sort); ties in
+    # bound are taken in any order, which cannot change the result: the scan keeps the
+    # largest error and, among equal errors, the first sample in row-major order
+    for i in range(n // 2 - 1, -1, -1):
+        _tile_sift(bound, order, i, n)
+    m = n
+    while m > 0:
+        k = order[0]
+        if bound[k] < best:
+            break
+        m -= 1
+        order[0] = order[m]
+        _tile_sift(bound, order, 0, m)
+        ty = ty0 + k // ntx
+        tx = tx0 + k % ntx
+        best, bx, by = _scan_rows(
+            h, max(min_y, ty * _TILE), min(max_y, ty * _TILE + _TILE - 1),
+            max(min_x, tx * _TILE), min(max_x, tx * _TILE + _TILE - 1), min_x, min_y,
+            w00, w01, w02, a12, a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, best, bx, by)
+        if any_above and best > floor:
+            break
+    return best, bx, by
+
+
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
 def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr, floor, any_above):
     """Largest |h − plane| over the samples of triangle ``t``, and where it is, when it is
@@ -463,72 +540,9 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr, floor
                                   a12, a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, floor, bx,
                                   by)
     else:
-        best = floor
-        z00 = z0 * w00 + z1 * w01 + z2 * w02
-        slack = 1e-9 * (1.0 + abs(z00) + abs(dz_dx) * (max_x - min_x)
-                        + abs(dz_dy) * (max_y - min_y))
-        tx0, tx1 = min_x // _TILE, max_x // _TILE
-        ty0, ty1 = min_y // _TILE, max_y // _TILE
-        ntx = tx1 - tx0 + 1
-        n = ntx * (ty1 - ty0 + 1)
-        for k in range(n):
-            ty = ty0 + k // ntx
-            tx = tx0 + k % ntx
-            xa = max(min_x, tx * _TILE) - min_x
-            xb = min(max_x, tx * _TILE + _TILE - 1) - min_x
-            ya = max(min_y, ty * _TILE) - min_y
-            yb = min(max_y, ty * _TILE + _TILE - 1) - min_y
-            # a plane's extremes over a rectangle are at its corners
-            # the triangle's plane minus the tile's fitted plane at the rectangle's corners
-            # (tile coordinates u, v); |plane − h| = |(plane − fit) − residual|
-            q0 = tplane[ty, tx, 0]
-            qx = tplane[ty, tx, 1]
-            qy = tplane[ty, tx, 2]
-            u0 = min_x + xa - tx * _TILE
-            u1 = min_x + xb - tx * _TILE
-            v0 = min_y + ya - ty * _TILE
-            v1 = min_y + yb - ty * _TILE
-            c00 = z00 + dz_dx * xa + dz_dy * ya
-            c10 = z00 + dz_dx * xb + dz_dy * ya
-            c01 = z00 + dz_dx * xa + dz_dy * yb
-            c11 = z00 + dz_dx * xb + dz_dy * yb
-            # a plane's extremes over a rectangle are at its corners: against the heights'
-            # range, and against the residuals from the fitted plane; the smaller bound holds
-            pmin = min(min(c00, c10), min(c01, c11))
-            pmax = max(max(c00, c10), max(c01, c11))
-            plain = max(pmax - tres[ty, tx, 2], tres[ty, tx, 3] - pmin)
-            c00 -= q0 + qx * u0 + qy * v0
-            c10 -= q0 + qx * u1 + qy * v0
-            c01 -= q0 + qx * u0 + qy * v1
-            c11 -= q0 + qx * u1 + qy * v1
-            dmin = min(min(c00, c10), min(c01, c11))
-            dmax = max(max(c00, c10), max(c01, c11))
-            fitted = (max(dmax - tres[ty, tx, 0], tres[ty, tx, 1] - dmin)
-                      + 1e-9 * (abs(q0) + abs(qx) * _TILE + abs(qy) * _TILE))
-            bound[k] = min(plain, fitted) + slack
-            order[k] = k
-        # tiles in decreasing bound from a max-heap built in place (usually only a few are
-        # popped before the bound drops below the best error, so no full sort); ties in
-        # bound are taken in any order, which cannot change the result: the scan keeps the
-        # largest error and, among equal errors, the first sample in row-major order
-        for i in range(n // 2 - 1, -1, -1):
-            _tile_sift(bound, order, i, n)
-        m = n
-        while m > 0:
-            k = order[0]
-            if bound[k] < best:
-                break
-            m -= 1
-            order[0] = order[m]
-            _tile_sift(bound, order, 0, m)
-            ty = ty0 + k // ntx
-            tx = tx0 + k % ntx
-            best, bx, by = _scan_rows(
-                h, max(min_y, ty * _TILE), min(max_y, ty * _TILE + _TILE - 1),
-                max(min_x, tx * _TILE), min(max_x, tx * _TILE + _TILE - 1), min_x, min_y,
-                w00, w01, w02, a12, a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, best, bx, by)
-            if any_above and best > floor:
-                break
+        best, bx, by = _tiled_search(h, tplane, tres, bound, order, min_x, min_y, max_x, max_y,
+                                     w00, w01, w02, a12, a20, a01, b12, b20, b01, z0, z1, z2,
+                                     dz_dx, dz_dy, floor, any_above, bx, by)
     if ((bx == p0x and by == p0y) or (bx == p1x and by == p1y)
             or (bx == p2x and by == p2y)):
         best = 0.0
