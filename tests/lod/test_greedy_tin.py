@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import os
 
 import numpy as np
 import pytest
@@ -224,7 +225,11 @@ def test_same_mesh_on_one_thread_or_two(piece, monkeypatch):
         one = greedy_tin(hm, max_error=1.0)
         numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
         two = greedy_tin(hm, max_error=1.0)
+        pools = dict(gt._POOLS)
         again = greedy_tin(hm, max_error=1.0)
+        assert pools == gt._POOLS  # the same threads meshed it again
+        if piece == 40 and numba.get_num_threads() == 2:
+            assert (os.getpid(), 2) in pools
     finally:
         numba.set_num_threads(before)
     np.testing.assert_array_equal(one, two)
