@@ -156,10 +156,13 @@ def test_line_edge_share_measures_grid_lines_running_along_edges():
     # the full grid has an edge between every two neighbouring samples of every row
     assert line_edge_share(full, shape, [4], []) == 1.0
     assert line_edge_share(full, shape, [2, 6], [3]) == 1.0
+    # the map's own border lines too (their edges belong to one triangle each)
+    assert line_edge_share(full, shape, [0, 8], [0]) == 1.0
     # two triangles over the whole grid: an inner line is only crossed
     two = np.array([[8 * 9 + 8, 0, 8 * 9], [0, 8 * 9 + 8, 8]], np.uint32)
     assert conformity_report(two, shape).ok
     assert line_edge_share(two, shape, [4], [4]) == 0.0
+    assert line_edge_share(two, shape, [0], [8]) == 1.0  # the outline is two edges
     # a fan around the centre (4, 4) with a vertex at the left end of row 4: that row runs
     # along an edge for its left half only
     def idx(r, c):

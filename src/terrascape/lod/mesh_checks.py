@@ -271,16 +271,15 @@ def line_edge_share(triangles, shape, rows_at, cols_at) -> float:
     total = len(rows_at) * (cols - 1) + len(cols_at) * (rows - 1)
     if total == 0:
         return 0.0
-    x, y = tri % cols, tri // cols
-    length = 0
-    for i in range(3):
-        j = (i + 1) % 3
-        on_row = (y[:, i] == y[:, j]) & np.isin(y[:, i], rows_at)
-        on_col = (x[:, i] == x[:, j]) & np.isin(x[:, i], cols_at)
-        length += np.abs(x[on_row, i] - x[on_row, j]).sum()
-        length += np.abs(y[on_col, i] - y[on_col, j]).sum()
-    # an interior edge belongs to two triangles
-    return float(length) / 2.0 / total
+    # each edge once (an inner edge belongs to two triangles, one on the border to one)
+    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    edges = np.unique(np.sort(edges, axis=1), axis=0)
+    x, y = edges % cols, edges // cols
+    on_row = (y[:, 0] == y[:, 1]) & np.isin(y[:, 0], rows_at)
+    on_col = (x[:, 0] == x[:, 1]) & np.isin(x[:, 0], cols_at)
+    length = (np.abs(x[on_row, 0] - x[on_row, 1]).sum()
+              + np.abs(y[on_col, 0] - y[on_col, 1]).sum())
+    return float(length) / total
 
 
 @njit(cache=CACHE, fastmath={"nnan", "nsz"})
