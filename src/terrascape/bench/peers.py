@@ -393,7 +393,7 @@ def run(quick: bool = False) -> list[BenchTable]:
          "time ours/peer", "spread", "1 thread ours/peer", "measured error m"],
     )
     _tin_rows(quick, rounds, tin)
-    large = "" if quick else f" ({TIN_LARGE[0].split()[-1]}: {_large_rounds(rounds)})"
+    large = "" if quick else f" ({TIN_LARGE[1]}²: {_large_rounds(rounds)})"
     tin.notes += [
         f"medians of {rounds} interleaved rounds{large}; ours on {numba.get_num_threads()} "
         "threads (pieces of the map meshed in parallel), pydelatin on one",

@@ -102,7 +102,7 @@ def mesh_command(
         False, "--one-piece",
         help="With --mesher greedy and --max-error: one greedy order over the whole map "
              "instead of pieces meshed in parallel (no straight runs of edges where the "
-             "pieces meet; half to two thirds the speed on two threads)."),
+             "pieces meet; about twice the time on two threads)."),
     fit: str = typer.Option(
         "none", "--fit",
         help="Non-(2**n+1) maps: none (static meshes take any size, view meshes refuse), "

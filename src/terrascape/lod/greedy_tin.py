@@ -28,11 +28,11 @@ interpolates the side's samples as the line did, so the bound holds there, no pi
 vertex its neighbour lacks, and the pieces meet without cracks. Joined into one mesh, the
 lines' vertices are offered to the removal, and the edges along the lines are flipped
 towards Delaunay (Lawson's flips) wherever both new triangles stay within the error. On two
-threads this takes half to two thirds of one greedy order's time for 0.98–1.00× its
-triangles; what stays of the lines as straight runs of edges shows in a wireframe
-(``python scripts/tin_pieces.py`` measures both). The pieces depend only on the grid's size,
-so the mesh is the same on any number of threads. A triangle budget (``max_triangles``), or
-``in_pieces=False``, is one greedy order over the whole grid.
+threads this takes about half of one greedy order's time (0.47–0.54× on the bench's maps)
+for 0.98–1.00× its triangles; what stays of the lines as straight runs of edges shows in a
+wireframe (``python scripts/tin_pieces.py`` measures both, 2026-12-06). The pieces depend
+only on the grid's size, so the mesh is the same on any number of threads. A triangle budget
+(``max_triangles``), or ``in_pieces=False``, is one greedy order over the whole grid.
 
 Compared with the right-triangulated network of :mod:`terrascape.lod.rtin`, vertices go
 anywhere on the grid, not only at bintree midpoints, so the same error takes fewer
@@ -640,7 +640,9 @@ def _insert_border_points(points, coords, tris, half, queue, qerr, qidx, pending
         px = points[k, 0]
         py = points[k, 1]
         on = -1
-        for e in range(state[_N_EDGES]):
+        # newest edges first: a side's points come in order, so the next one lies on the
+        # border edge the last split made (a point is on one border edge only, or a vertex)
+        for e in range(state[_N_EDGES] - 1, -1, -1):
             if half[e] >= 0:
                 continue
             a = tris[e]
@@ -1070,9 +1072,8 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         criterion reached wins. The redundant vertices are removed only when the error
         bound was reached.
     in_pieces
-        For an error bound alone: mesh pieces of the map in parallel (the default, in half
-        to two thirds of the time on two threads), or with False one greedy order over the
-        whole map.
+        For an error bound alone: mesh pieces of the map in parallel (the default, in about
+        half the time on two threads), or with False one greedy order over the whole map.
         Both meet the bound on every sample with about the same number of triangles; in a
         wireframe, some of the lines the pieces share stay visible as straight runs of
         edges.
