@@ -209,15 +209,9 @@ def test_candidate_search_equals_brute_force(rough):
     assert min(sizes.values()) >= 20, sizes
 
 
-@pytest.mark.parametrize("piece", [224, 40])
-def test_same_mesh_on_one_thread_or_two(piece, monkeypatch):
-    """One piece, or nine meshed on the threads' pool (kept for the next mesh): the same
-    mesh on one thread, on two, and on two again."""
+def test_same_mesh_on_one_thread_or_two():
     import numba
 
-    from terrascape.lod import greedy_tin as gt
-
-    monkeypatch.setattr(gt, "_PIECE", piece)
     hm = _terrain(129, seed=4)
     before = numba.get_num_threads()
     try:
@@ -225,15 +219,9 @@ def test_same_mesh_on_one_thread_or_two(piece, monkeypatch):
         one = greedy_tin(hm, max_error=1.0)
         numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
         two = greedy_tin(hm, max_error=1.0)
-        pools = dict(gt._POOLS)
-        again = greedy_tin(hm, max_error=1.0)
-        assert pools == gt._POOLS  # the same threads meshed it again
-        if piece == 40 and numba.get_num_threads() == 2:
-            assert (os.getpid(), 2) in pools
     finally:
         numba.set_num_threads(before)
     np.testing.assert_array_equal(one, two)
-    np.testing.assert_array_equal(one, again)
 
 
 # --- the mesh built in pieces ----------------------------------------------------------------
@@ -366,6 +354,8 @@ def test_simplified_line_is_the_greedy_polyline():
 
 
 def test_pieces_same_mesh_on_one_thread_or_two(monkeypatch):
+    """Pieces meshed on one thread, on two (the threads' pool), and on two again (the pool
+    kept for the next mesh): the same mesh."""
     import numba
 
     from terrascape.lod import greedy_tin as gt
@@ -378,9 +368,15 @@ def test_pieces_same_mesh_on_one_thread_or_two(monkeypatch):
         one = gt.greedy_tin(hm, max_error=0.8)
         numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
         two = gt.greedy_tin(hm, max_error=0.8)
+        pools = dict(gt._POOLS)
+        again = gt.greedy_tin(hm, max_error=0.8)
+        assert pools == gt._POOLS  # the same threads meshed it again
+        if numba.get_num_threads() == 2:
+            assert (os.getpid(), 2) in pools
     finally:
         numba.set_num_threads(before)
     np.testing.assert_array_equal(one, two)
+    np.testing.assert_array_equal(one, again)
 
 
 def test_pieces_tile_bounds_are_the_whole_maps(monkeypatch):
