@@ -18,6 +18,7 @@ import time
 import numba
 import numpy as np
 
+from terrascape._numba import read_only
 from terrascape.bench.shade import terrain
 from terrascape.lighting import shadows as sweep
 from terrascape.lighting._common import sun_above_horizon
@@ -35,7 +36,7 @@ def _extrema(h):
 
 def main(size: int) -> None:
     hm = terrain(size)
-    h = sweep._read_only(hm.heights)
+    h = read_only(hm.heights)
     n0, n1 = h.shape
     for az, el in SUNS:
         transpose, da, db, rise = sweep._sweep_geometry(hm, sun_above_horizon(az, el))

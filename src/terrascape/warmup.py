@@ -31,6 +31,9 @@ from pathlib import Path
 #: Side of the maps the tasks run on: compile time does not depend on the size, and 33 is
 #: the smallest size every generator accepts (diamond-square needs 2**n + 1).
 WARM_UP_SIZE = 33
+#: Side of the greedy mesher's map: two pieces along each axis (a piece is about 224
+#: samples), so that the pieces' join compiles too.
+_GREEDY_SIZE = 400
 _TAG = "warm-up-task"  # marks the lines a worker reports its task times on
 _SKIP_TAG = "warm-up-skipped"  # ... and an optional command it could not run
 
@@ -41,13 +44,15 @@ class WarmUpTask:
     a 33² float32 heightmap in it), then functions of this module called with the work
     folder (the demo's own steps), and a rough compile cost in seconds on an idle two-core
     machine, used to balance the processes (longest first). ``optional`` commands need
-    OpenGL: where they fail, the task goes on without them and reports it."""
+    OpenGL: where they fail, the task goes on without them and reports it. A task that is
+    not ``default`` runs only when asked for by name."""
 
     summary: str
     commands: tuple[tuple[str, ...], ...]
     cost: float
     calls: tuple[str, ...] = ()
     optional: tuple[tuple[str, ...], ...] = ()
+    default: bool = True
 
 
 #: Task name → what it compiles. Kernels shared by two commands (the normals used by
@@ -81,7 +86,18 @@ WARM_UP_TASKS: dict[str, WarmUpTask] = {
         (("mesh", "{map}", "-o", "{dir}/mesh.obj", "--max-error", "0.5"),),
         20.0,
         calls=("demo_lod",)),
+    # not by default: the demo does not use it, and it would lengthen every set-up
+    "greedy": WarmUpTask(
+        "terrascape mesh --mesher greedy (static meshes by greedy insertion: in pieces, in "
+        "one order, under a triangle budget)",
+        (),
+        22.0,
+        calls=("greedy_meshes",),
+        default=False),
 }
+
+#: The tasks ``terrascape warm-up`` runs when none is named.
+DEFAULT_TASKS: tuple[str, ...] = tuple(n for n, t in WARM_UP_TASKS.items() if t.default)
 
 
 def check_tasks(names: list[str]) -> None:
@@ -133,6 +149,19 @@ def demo_lod(folder: Path) -> None:
     simplified_tile_triangles(tile_bintree_errors(hm.heights), hm.rows, 0.5)
 
 
+def greedy_meshes(folder: Path) -> None:
+    """``terrascape mesh --mesher greedy`` on a map of two pieces by two (the pieces, their
+    join and its seams), as one greedy order, and under a triangle budget."""
+    big = _write_map(folder, _GREEDY_SIZE, "greedy_map.npy")
+    runs = (("--max-error", "0.5"), ("--max-error", "0.5", "--one-piece"),
+            ("--triangles", "500"))
+    for k, extra in enumerate(runs):
+        failure = _run_command(("mesh", "{map}", "-o", f"{{dir}}/greedy{k}.obj", "--mesher",
+                                "greedy", *extra), folder, big)
+        if failure is not None:
+            raise RuntimeError(f"warm-up task greedy: {failure}")
+
+
 def render_textures(folder: Path) -> None:
     """What the renderer builds on the CPU for its techniques and the demo's showcase: the
     height-region colour texture, the cone map of the relief field, the default objects."""
@@ -148,13 +177,13 @@ def render_textures(folder: Path) -> None:
     load_objects("default", hm, seed=1, sea_level=float(hm.heights.mean()))
 
 
-def _write_map(folder: Path) -> Path:
-    """A small smooth float32 heightmap (.npy), the input of the tasks that read one."""
+def _write_map(folder: Path, size: int = WARM_UP_SIZE, name: str = "map.npy") -> Path:
+    """A smooth float32 heightmap (.npy) of ``size``², the input of the tasks that read one."""
     import numpy as np
 
-    z, x = np.mgrid[0:WARM_UP_SIZE, 0:WARM_UP_SIZE].astype(np.float64) / (WARM_UP_SIZE - 1)
+    z, x = np.mgrid[0:size, 0:size].astype(np.float64) / (size - 1)
     heights = 20.0 * (np.sin(3.1 * x + 0.4) * np.cos(2.3 * z) + 0.3 * np.sin(9.0 * x * z))
-    path = folder / "map.npy"
+    path = folder / name
     np.save(path, heights.astype(np.float32))
     return path
 
@@ -221,13 +250,13 @@ class WarmUpResult:
 
 
 def warm_up(tasks: list[str] | None = None, processes: int | None = None) -> WarmUpResult:
-    """Compile (or load) the kernels of ``tasks`` (default: all of :data:`WARM_UP_TASKS`)
-    in ``processes`` fresh Python processes at once (default: one per CPU).
+    """Compile (or load) the kernels of ``tasks`` (default: :data:`DEFAULT_TASKS`) in
+    ``processes`` fresh Python processes at once (default: one per CPU).
 
     The cache is the one the processes see: ``$NUMBA_CACHE_DIR`` when set, else
     ``__pycache__`` next to the modules. Raises :class:`RuntimeError` when a task fails.
     """
-    names = list(WARM_UP_TASKS) if tasks is None else list(tasks)
+    names = list(DEFAULT_TASKS) if tasks is None else list(tasks)
     check_tasks(names)
     if processes is None:
         processes = os.cpu_count() or 1
@@ -279,5 +308,5 @@ if __name__ == "__main__":
     sys.exit(_main(sys.argv[1:]))
 
 
-__all__ = ["WARM_UP_SIZE", "WARM_UP_TASKS", "WarmUpResult", "WarmUpTask", "check_tasks", "plan",
-           "run_tasks", "warm_up"]
+__all__ = ["DEFAULT_TASKS", "WARM_UP_SIZE", "WARM_UP_TASKS", "WarmUpResult", "WarmUpTask",
+           "check_tasks", "plan", "run_tasks", "warm_up"]

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 import terrascape
-from terrascape.warmup import WARM_UP_TASKS, plan
+from terrascape.warmup import DEFAULT_TASKS, WARM_UP_TASKS, plan
 
 SRC = str(Path(terrascape.__file__).resolve().parents[1])
 
@@ -114,3 +114,30 @@ def test_demo_lod_share_runs_without_the_world_extra(tmp_path: Path) -> None:
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
+
+
+def test_greedy_is_warmed_up_only_when_named() -> None:
+    assert "greedy" in WARM_UP_TASKS and "greedy" not in DEFAULT_TASKS
+    assert set(DEFAULT_TASKS) == {"shade", "noise", "terrain", "lod"}
+
+
+def test_greedy_warm_up_leaves_nothing_to_compile_for_the_greedy_mesher(tmp_path: Path) -> None:
+    """After ``warm-up --only greedy``, meshing a bigger map in pieces, in one order and under
+    a budget compiles none of the greedy mesher's kernels."""
+    cache = tmp_path / "numba-cache"
+    result = subprocess.run(
+        [sys.executable, "-m", "terrascape", "warm-up", "--only", "greedy", "--processes", "1"],
+        capture_output=True, text=True, env=_env(cache), timeout=600, check=False)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert list(cache.rglob("greedy_tin._mesh_piece-*.nbc"))
+    import numpy as np
+
+    rng = np.random.default_rng(3)
+    path = tmp_path / "map.npy"
+    np.save(path, np.cumsum(rng.standard_normal((530, 470)), 0).astype(np.float32))
+    runs = (("--max-error", "1"), ("--max-error", "1", "--one-piece"), ("--triangles", "2000"))
+    for k, extra in enumerate(runs):
+        probe = _probe(cache, "mesh", str(path), "-o", str(tmp_path / f"tin{k}.obj"),
+                       "--mesher", "greedy", *extra)
+        assert probe["code"] == 0
+        assert [f for f in probe["compiled"] if ".greedy_tin." in f] == []

@@ -157,6 +157,7 @@ def test_candidate_search_equals_brute_force(rough):
     else:
         h = np.cumsum(np.cumsum(rng.standard_normal((rows, cols)), 0), 1) * 0.1
     h = h.astype(np.float32)
+    h.flags.writeable = False  # as the mesher hands heights to its kernels
     tiles = (-(-rows // gt._TILE), -(-cols // gt._TILE))
     tplane, tres = np.empty((*tiles, 3)), np.empty((*tiles, 4))
     gt._tile_ranges(h, tplane, tres)
@@ -414,3 +415,38 @@ def test_magnitude_is_the_largest_height_and_flags_non_finite():
         g = h.copy()
         g[1, 0] = bad
         assert not np.isfinite(_magnitude(g))
+
+
+def test_each_kernel_compiles_once_whatever_the_heights(monkeypatch):
+    """float32 and float64 heights, in pieces, as one greedy order and under a budget: the
+    kernels always get read-only float32 heights, so numba compiles each once. (The
+    pieces' writable copies beside the map's read-only heights made it compile the removal
+    and the search twice.) A kernel loaded from numba's disk cache lists no types, so the
+    count is at most one."""
+    from terrascape.lod import greedy_tin as gt
+
+    if not hasattr(gt._refine, "signatures"):
+        pytest.skip("numba's compiler is switched off")
+    monkeypatch.setattr(gt, "_PIECE", 50)
+    seen = []
+    for name in ("_mesh_piece", "_remove_vertices", "_relax_edges"):
+        def spy(heights, *args, _kernel=getattr(gt, name), _name=name):
+            seen.append((_name, heights.dtype, heights.flags.writeable,
+                         heights.flags.c_contiguous))
+            return _kernel(heights, *args)
+
+        monkeypatch.setattr(gt, name, spy)
+    rng = np.random.default_rng(5)
+    h = np.cumsum(rng.standard_normal((90, 120)), 0)
+    for dtype in (np.float32, np.float64):
+        hm = Heightmap(h.astype(dtype))
+        gt.greedy_tin(hm, max_error=1.0)
+        gt.greedy_tin(hm, max_error=1.0, in_pieces=False)
+        gt.greedy_tin(hm, max_triangles=60)
+    assert {name for name, *_ in seen} == {"_mesh_piece", "_remove_vertices", "_relax_edges"}
+    assert {tuple(rest) for _, *rest in seen} == {(np.dtype(np.float32), False, True)}
+    monkeypatch.undo()
+    for name in ("_mesh_piece", "_refine", "_flush_all", "_insert_border_points", "_legalize",
+                 "_split_on_edge", "_tiled_search", "_scan_rows", "_remove_vertices",
+                 "_remove_kernel", "_relax_edges"):
+        assert len(getattr(gt, name).signatures) <= 1, (name, getattr(gt, name).signatures)

@@ -97,7 +97,8 @@ def mesh_command(
     mesher: str = typer.Option(
         "rtin", "--mesher",
         help="Static mesh: rtin (right triangles, crack-free tiles, fast) or greedy (Delaunay "
-             "greedy insertion: fewer triangles for the same error, any grid)."),
+             "greedy insertion: fewer triangles for the same error, any grid; its first "
+             "run compiles for a while, or ahead with `terrascape warm-up --only greedy`)."),
     one_piece: bool = typer.Option(
         False, "--one-piece",
         help="With --mesher greedy and --max-error: one greedy order over the whole map "

@@ -7,6 +7,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from terrascape.cli.app import app, out
+from terrascape.warmup import DEFAULT_TASKS, WARM_UP_TASKS
 
 
 @app.command("warm-up")
@@ -16,7 +17,8 @@ def warm_up_command(
         help="Processes compiling at once (default: one per CPU)."),
     tasks: str = typer.Option(
         "", "--only",
-        help="Comma-separated parts of the work: shade, noise, terrain, lod (default: all)."),
+        help=f"Comma-separated parts of the work: {', '.join(WARM_UP_TASKS)} (default: "
+             f"{', '.join(DEFAULT_TASKS)})."),
 ) -> None:
     """Prepare a new installation: compile the machine code of the common commands once,
     several at a time, so that their first runs start at full speed.
@@ -26,9 +28,12 @@ def warm_up_command(
     erode, shade, normalmap, render, mesh and the demo's steps on a tiny map, one process
     per CPU, filling that cache in a fraction of the time the first runs would take one
     after another. Running it again only loads the cache.
+
+    The greedy mesher (``mesh --mesher greedy``) compiles only when asked for with
+    ``--only greedy``: the demo does not use it.
     """
     from terrascape.errors import InvalidParameterError
-    from terrascape.warmup import WARM_UP_TASKS, check_tasks, warm_up
+    from terrascape.warmup import check_tasks, warm_up
 
     chosen = [t.strip() for t in tasks.split(",") if t.strip()] or None
     try:

@@ -47,7 +47,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from terrascape._numba import CACHE, FASTMATH, njit, prange
+from terrascape._numba import CACHE, FASTMATH, njit, prange, read_only
 from terrascape._validate import check_int, check_range
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
@@ -671,20 +671,6 @@ def _sweep_lines(h, src, lines, ring_rows, ranges, da, db, rise, near, out, j_lo
         a -= da
 
 
-def _read_only(a: np.ndarray) -> np.ndarray:
-    """``a`` as a read-only array (a view when it is writable; no copy).
-
-    numba compiles a kernel separately for read-only and writable arrays: heightmap heights
-    are read-only, an array a caller hands in may not be, so without this the sweep could
-    compile twice.
-    """
-    if not a.flags.writeable:
-        return a
-    view = a.view()
-    view.flags.writeable = False
-    return view
-
-
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
 def _line_sweep_kernel(h, da, db, rise, near, out, blocks, a_org=0, b_org=0,
                        out_transposed=False, h_transposed=False):
@@ -824,7 +810,7 @@ def _fast_mask_for_light(hm: Heightmap, light: np.ndarray,
     # them): for light closer to the x axis its grid lines are the map's columns, which
     # each block copies a band of neighbouring columns at a time into rows it keeps in
     # cache, and its mask goes back into the map's orientation the same way.
-    h = _read_only(hm.heights)
+    h = read_only(hm.heights)
     # not zeroed first: the blocks write every sample (a zeroing pass would be serial work
     # before the parallel sweep)
     out = np.empty(hm.shape, dtype=np.bool_)

@@ -64,7 +64,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numba
 import numpy as np
 
-from terrascape._numba import CACHE, FASTMATH, njit
+from terrascape._numba import CACHE, FASTMATH, njit, read_only
 from terrascape._validate import check_int, check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
@@ -398,10 +398,12 @@ def _tile_sift(bound, order, i, n):
 
 @njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
 def _tiled_search(h, tplane, tres, bound, order, min_x, min_y, max_x, max_y, w00, w01, w02, a12,
-                  a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, dz_dy, floor, any_above, bx, by):
+                  a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, dz_dy, floor, stop, bx, by):
     """:func:`_rasterise`'s search of a large triangle, tile by tile in decreasing order of
-    their error bounds (compiled once, not into each caller: it is most of the code and a
-    small share of the calls)."""
+    their error bounds, from ``floor``; it ends early once an error above ``stop`` is found
+    (``inf``: never). Compiled once, not into each caller: it is most of the code and a
+    small share of the calls; ``stop`` is a number, not a flag, so that the callers'
+    constants do not make numba compile it once per value."""
     best = floor
     z00 = z0 * w00 + z1 * w01 + z2 * w02
     slack = 1e-9 * (1.0 + abs(z00) + abs(dz_dx) * (max_x - min_x)
@@ -466,7 +468,7 @@ def _tiled_search(h, tplane, tres, bound, order, min_x, min_y, max_x, max_y, w00
             h, max(min_y, ty * _TILE), min(max_y, ty * _TILE + _TILE - 1),
             max(min_x, tx * _TILE), min(max_x, tx * _TILE + _TILE - 1), min_x, min_y,
             w00, w01, w02, a12, a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, best, bx, by)
-        if any_above and best > floor:
+        if best > stop:
             break
     return best, bx, by
 
@@ -542,7 +544,8 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr, floor
     else:
         best, bx, by = _tiled_search(h, tplane, tres, bound, order, min_x, min_y, max_x, max_y,
                                      w00, w01, w02, a12, a20, a01, b12, b20, b01, z0, z1, z2,
-                                     dz_dx, dz_dy, floor, any_above, bx, by)
+                                     dz_dx, dz_dy, floor, floor if any_above else np.inf,
+                                     bx, by)
     if ((bx == p0x and by == p0y) or (bx == p1x and by == p1y)
             or (bx == p2x and by == p2y)):
         best = 0.0
@@ -676,7 +679,7 @@ def _add_point(coords, state, x, y):
     return i
 
 
-@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+@njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
 def _split_on_edge(tris, half, queue, qerr, qidx, pending, state, stack, pn, a):
     """Insert point ``pn`` lying on halfedge ``a``: split the edge's one or two triangles;
     returns how many halfedges it put on ``stack`` for legalisation."""
@@ -1101,7 +1104,7 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
     rows, cols = heightmap.shape
     if rows < 2 or cols < 2:
         raise InvalidParameterError(f"greedy TIN needs at least 2×2 samples, got {rows}×{cols}")
-    h = np.ascontiguousarray(heightmap.heights, dtype=np.float32)
+    h = read_only(np.ascontiguousarray(heightmap.heights, dtype=np.float32))
     magnitude = _magnitude(h)
     if not np.isfinite(magnitude):
         raise InvalidParameterError("heights must be finite (fill NaN/inf first)")
@@ -1109,8 +1112,9 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         # a triangle budget is one greedy order over the whole map
         passes = _REMOVAL_PASSES if max_error is not None else 0
         tiles = (-(-rows // _TILE), -(-cols // _TILE))
-        coords, tris, _ = _mesh_piece(h, 0, rows - 1, 0, cols - 1, float(tol), 0.0, budget,
-                                      passes, np.empty((*tiles, 3)), np.empty((*tiles, 4)))
+        coords, tris, _ = _mesh_piece(read_only(h), rows, cols, 0, 0, float(tol), 0.0,
+                                      budget, passes, np.empty((*tiles, 3)),
+                                      np.empty((*tiles, 4)))
         return _grid_triangles(coords, tris, cols)
     return _mesh_in_pieces(h, tol, magnitude)
 
@@ -1211,8 +1215,8 @@ def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
 
     def run(job):
         y0, y1, x0, x1 = job
-        return _mesh_piece(h, y0, y1, x0, x1, float(tol), float(line_tol), _NO_BUDGET,
-                           _REMOVAL_PASSES, tplane, tres)
+        return _mesh_piece(_piece_of(h, y0, y1, x0, x1), rows, cols, y0, x0, float(tol),
+                           float(line_tol), _NO_BUDGET, _REMOVAL_PASSES, tplane, tres)
 
     workers = min(len(jobs), numba.get_num_threads())
     if workers > 1:
@@ -1363,11 +1367,22 @@ def _grown(a, size, fill):
     return out
 
 
+def _piece_of(h: np.ndarray, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
+    """The piece ``h[y0 : y1 + 1, x0 : x1 + 1]`` as its own array (a copy unless it is the
+    whole map: its rows stay together in cache while it is meshed), read-only like the
+    map's heights, so the kernels that see both compile once."""
+    rows, cols = h.shape
+    if (y0, y1, x0, x1) == (0, rows - 1, 0, cols - 1):
+        return read_only(h)
+    return read_only(np.ascontiguousarray(h[y0:y1 + 1, x0:x1 + 1]))
+
+
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
-def _mesh_piece(h, y0, y1, x0, x1, tol, line_tol, budget, passes, tplane, tres):
-    """Greedy insertion over the piece ``h[y0 : y1 + 1, x0 : x1 + 1]`` (then, when the
-    error was reached, ``passes`` of the removal of redundant vertices), from its corners
-    and the vertices of its sides on lines shared with other pieces: each such side is
+def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, tplane, tres):
+    """Greedy insertion over ``piece`` (:func:`_piece_of`: the samples from row ``y0`` and
+    column ``x0`` of a ``rows × cols`` map), then, when the error was reached, ``passes``
+    of the removal of redundant vertices. The insertion starts from the piece's corners and
+    the vertices of its sides on lines shared with other pieces: each such side is
     simplified alone within ``line_tol`` first (its neighbour simplifies the same samples
     the same way). The piece's tiles (:func:`_tile_ranges`) go into the map's ``tplane``
     and ``tres``. Returns the vertices as map coordinates ``(x, y)``, the triangles as
@@ -1377,9 +1392,9 @@ def _mesh_piece(h, y0, y1, x0, x1, tol, line_tol, budget, passes, tplane, tres):
     several threads hold the interpreter's lock only to enter. Indices are 32-bit to halve
     the memory the insertion walks through (coordinates stay 64-bit for the in-circle
     test's products)."""
-    rows, cols = h.shape
-    piece = np.ascontiguousarray(h[y0:y1 + 1, x0:x1 + 1])
     ny, nx = piece.shape
+    y1 = y0 + ny - 1
+    x1 = x0 + nx - 1
     forced = np.empty((2 * (nx + ny), 2), np.int64)
     keep = np.empty(max(nx, ny), np.bool_)
     n_forced = 0
