@@ -9,7 +9,10 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING
 
-from numba import njit, prange
+from llvmlite import ir
+from numba import njit, prange, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 if TYPE_CHECKING:
     import numpy as np
@@ -38,4 +41,28 @@ def read_only(a: np.ndarray) -> np.ndarray:
     return view
 
 
-__all__ = ["CACHE", "FASTMATH", "njit", "prange", "read_only"]
+@intrinsic
+def prefetch(typingctx, array, index):
+    """Ask the CPU to bring ``array[index]`` (a 1-D array) into cache, without waiting for
+    it (LLVM's prefetch: a hint, no load, no fault)."""
+    sig = types.void(array, index)
+
+    def codegen(context, builder, signature, args):
+        array_type, index_type = signature.args
+        arr = context.make_array(array_type)(context, builder, args[0])
+        i = context.cast(builder, args[1], index_type, types.intp)
+        ptr = cgutils.get_item_pointer(context, builder, array_type, arr, [i],
+                                       wraparound=False, boundscheck=False)
+        ptr = builder.bitcast(ptr, ir.IntType(8).as_pointer())
+        i32 = ir.IntType(32)
+        fn = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32]),
+            "llvm.prefetch.p0")
+        # read, keep in all cache levels, data cache
+        builder.call(fn, [ptr, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+__all__ = ["CACHE", "FASTMATH", "njit", "prange", "prefetch", "read_only"]
