@@ -10,6 +10,7 @@ import os
 from typing import TYPE_CHECKING
 
 from llvmlite import ir
+from llvmlite.binding import llvm_version_info
 from numba import njit, prange, types
 from numba.core import cgutils
 from numba.extending import intrinsic
@@ -41,6 +42,12 @@ def read_only(a: np.ndarray) -> np.ndarray:
     return view
 
 
+# LLVM names its intrinsics by their pointer types: typed i8* up to LLVM 16 (numba < 0.61),
+# one opaque pointer type from LLVM 17
+_PREFETCH_INTRINSIC = ("llvm.prefetch.p0" if llvm_version_info[0] >= 17
+                       else "llvm.prefetch.p0i8")
+
+
 @intrinsic
 def prefetch(typingctx, array, index):
     """Ask the CPU to bring ``array[index]`` (a 1-D array) into cache, without waiting for
@@ -57,7 +64,7 @@ def prefetch(typingctx, array, index):
         i32 = ir.IntType(32)
         fn = cgutils.get_or_insert_function(
             builder.module, ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32]),
-            "llvm.prefetch.p0")
+            _PREFETCH_INTRINSIC)
         # read, keep in all cache levels, data cache
         builder.call(fn, [ptr, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
         return context.get_dummy_value()
