@@ -26,7 +26,6 @@ CACHE: bool = os.environ.get("TERRASCAPE_NUMBA_CACHE", "1") != "0"
 FASTMATH: bool = False
 
 
-
 def read_only(a: np.ndarray) -> np.ndarray:
     """``a`` as a read-only array (a view when it is writable; no copy).
 
