@@ -29,8 +29,8 @@ def warm_up_command(
     per CPU, filling that cache in a fraction of the time the first runs would take one
     after another. Running it again only loads the cache.
 
-    The greedy mesher (``mesh --mesher greedy``) compiles only when asked for with
-    ``--only greedy``: the demo does not use it.
+    The greedy mesher (mesh --mesher greedy) compiles only when asked for with
+    --only greedy: the demo does not use it.
     """
     from terrascape.errors import InvalidParameterError
     from terrascape.warmup import check_tasks, warm_up
