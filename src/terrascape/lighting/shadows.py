@@ -492,6 +492,15 @@ def _write_sample(out, band, band_lines, count, b):
             target[band_lines[i, 0]] = band[i, b]
 
 
+@njit(cache=CACHE, _nrt=False, inline="always")
+def _block_span(a, lo, hi, j_lo, a_org, b_org, e, n1, margin):
+    """The samples of grid line ``a`` (of ``n1``) that the block of ray lines ``lo … hi``
+    reads there, with ``margin`` samples more on each side: ``(first, last)``."""
+    fl, fr = _line_offset(a, a_org, b_org, e)
+    shift = fl + j_lo + (1 if fr != 0.0 else 0)
+    return max(0, lo + shift - margin), min(n1 - 1, hi + shift + margin)
+
+
 @njit(cache=CACHE, _nrt=False)
 def _fill_lines(h, lines, t0, count, a0, da, lo, hi, j_lo, a_org, b_org, e, margin, ranges):
     """Grid lines ``t0 … t0 + count - 1`` of a sweep along ``h``'s columns (line ``t`` is
@@ -506,10 +515,8 @@ def _fill_lines(h, lines, t0, count, a0, da, lo, hi, j_lo, a_org, b_org, e, marg
     n1 = h.shape[0]
     rows = lines.shape[0]
     for i in range(count):
-        fl, fr = _line_offset(a0 - i * da, a_org, b_org, e)
-        shift = fl + j_lo + (1 if fr != 0.0 else 0)
-        ranges[i, 0] = max(0, lo + shift - margin)
-        ranges[i, 1] = min(n1 - 1, hi + shift + margin)
+        ranges[i, 0], ranges[i, 1] = _block_span(a0 - i * da, lo, hi, j_lo, a_org, b_org, e,
+                                                 n1, margin)
         ranges[i, 2] = (t0 + i) % rows
     b_min, b_max, all_lo, all_hi = _ranges_span(ranges[:, 0], ranges[:, 1], count, n1)
     # the samples every line of the band needs, in blocks of 8 map rows: each line's row
@@ -608,11 +615,7 @@ def _prefetch_block_line(line, a, lo, hi, j_lo, a_org, b_org, e):
     started cold on each one: at 4097² that made four blocks about a tenth slower than
     one sweep (``scripts/shadow_block_costs.py``). Asked for a few lines ahead, the
     samples are in cache when the sweep gets there (a hint only: it changes no value)."""
-    n1 = line.shape[0]
-    fl, fr = _line_offset(a, a_org, b_org, e)
-    shift = fl + j_lo + (1 if fr != 0.0 else 0)
-    b0 = max(0, lo + shift - 1)
-    b1 = min(n1 - 1, hi + shift + 2)
+    b0, b1 = _block_span(a, lo, hi, j_lo, a_org, b_org, e, line.shape[0], 2)
     for b in range(b0, b1 + 1, 16):  # one request per 64-byte cache line of float32
         prefetch(line, b)
     if b0 <= b1:

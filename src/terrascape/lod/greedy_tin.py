@@ -1112,9 +1112,8 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         # a triangle budget is one greedy order over the whole map
         passes = _REMOVAL_PASSES if max_error is not None else 0
         tiles = (-(-rows // _TILE), -(-cols // _TILE))
-        coords, tris, _ = _mesh_piece(read_only(h), rows, cols, 0, 0, float(tol), 0.0,
-                                      budget, passes, np.empty((*tiles, 3)),
-                                      np.empty((*tiles, 4)))
+        coords, tris, _ = _mesh_piece(h, rows, cols, 0, 0, float(tol), 0.0, budget, passes,
+                                      np.empty((*tiles, 3)), np.empty((*tiles, 4)))
         return _grid_triangles(coords, tris, cols)
     return _mesh_in_pieces(h, tol, magnitude)
 
