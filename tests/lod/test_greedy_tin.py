@@ -147,7 +147,8 @@ def test_candidate_search_equals_brute_force(rough):
     """Every path of the candidate search (sample by sample, row spans, tiles searched by
     their error bound) finds the brute-force maximum and its first sample in row order;
     searched from a floor, the same when the maximum is above it; asked whether any sample
-    is above the floor, the right answer."""
+    is above the floor, the right answer; searched sparsely (the refinement), the worst
+    lattice sample when it is above the floor, else the full search's answer."""
     from terrascape.lod import greedy_tin as gt
 
     rng = np.random.default_rng(11 if rough else 12)
@@ -163,7 +164,7 @@ def test_candidate_search_equals_brute_force(rough):
     gt._tile_ranges(h, tplane, tres)
     bound, order = np.empty(tres[..., 0].size), np.empty(tres[..., 0].size, np.int64)
     h64 = h.astype(np.float64)
-    sizes = {"box": 0, "rows": 0, "tiles": 0}
+    sizes = {"box": 0, "rows": 0, "tiles": 0, "lattice": 0}
     for k in range(300):
         span = (6, 40, 200)[k % 3]
         p = np.stack([rng.integers(0, min(cols, span), 3), rng.integers(0, min(rows, span), 3)], 1)
@@ -207,7 +208,43 @@ def test_candidate_search_equals_brute_force(rough):
             if best > floor:  # a sample of the triangle, with its own error
                 at = (xs == cand[0, 0]) & (ys == cand[0, 1])
                 assert cerr[0] == pytest.approx(err[at][0], rel=1e-9)
+            # the refinement's sparse search: a large triangle's worst lattice sample when
+            # it is beyond the floor, otherwise the full search's answer
+            step = 1
+            while n_box > gt._SPARSE_SAMPLES * (2 * step) ** 2:
+                step *= 2
+            sizes["lattice"] += step > 1
+            lattice = np.where((xs % step == 0) & (ys % step == 0), err, -1.0)
+            gt._rasterise(h, tplane, tres, bound, order, coords, tris, 0, cand, cerr, floor,
+                          False, True)
+            if step > 1 and lattice.max() > floor:
+                first = np.flatnonzero(lattice.ravel() >= lattice.max() * (1 - 1e-9))[0]
+                assert cerr[0] == pytest.approx(lattice.max(), rel=1e-9)
+                assert (cand[0, 0], cand[0, 1]) == (xs.ravel()[first], ys.ravel()[first])
+            elif best > floor:
+                assert (cerr[0], tuple(cand[0])) == found
+            else:
+                assert cerr[0] <= floor
     assert min(sizes.values()) >= 20, sizes
+
+
+@pytest.mark.parametrize("in_pieces", [True, False])
+def test_a_spike_between_the_lattice_samples_is_still_found(monkeypatch, in_pieces):
+    """Single-sample spikes on odd rows and columns of a flat map: the sparse search of a
+    large triangle never sees them, so only the full search before a triangle is settled
+    finds them; every one must become a vertex."""
+    from terrascape.lod import greedy_tin as gt
+
+    monkeypatch.setattr(gt, "_PIECE", 100)
+    h = np.zeros((301, 257), np.float32)
+    spikes = [(37, 101), (151, 201), (255, 33), (99, 99), (201, 155)]
+    for y, x in spikes:
+        h[y, x] = 5.0
+    hm = Heightmap(h)
+    tri = gt.greedy_tin(hm, max_error=1.0, in_pieces=in_pieces)
+    assert max_vertical_error(hm, tri) <= 1.0
+    used = set(np.unique(tri).tolist())
+    assert all(y * 257 + x in used for y, x in spikes)
 
 
 def test_same_mesh_on_one_thread_or_two():

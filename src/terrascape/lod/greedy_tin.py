@@ -2,13 +2,19 @@
 
 Start from the two triangles of the grid's corners. Every triangle knows its *candidate*:
 the grid sample it covers whose height is farthest from the triangle's plane, found by
-rasterising the triangle over every sample it covers. A priority queue keeps the triangles
-by that error (those already within ``max_error`` stay out of it: they can never be
-refined); the worst candidate is inserted (splitting its triangle in three, or the two
-triangles of an edge it lies on in four), the Delaunay condition is restored by edge flips,
-and only the triangles that changed are rasterised again. Refinement stops when the largest
-error left is at most ``max_error``: since every sample is covered by a triangle that was
-rasterised, the bound holds on every sample of the grid.
+rasterising the triangle over every sample it covers. A large triangle is first searched on
+a sparser lattice (every 2nd, 4th, … row and column, so that it holds about 128–512 of its
+samples); when a lattice sample is beyond ``max_error``, the worst of them is the candidate:
+the triangle will be split anyway, and a point nearly as far from the plane as the farthest
+serves as well (the meshes have as many triangles, ``python scripts/greedy_sparse_search.py``).
+Only a triangle whose lattice is within the error is searched over every sample. A priority
+queue keeps the triangles by their candidate's error (those within ``max_error`` stay out of
+it: they can never be refined); the worst candidate is inserted (splitting its triangle in
+three, or the two triangles of an edge it lies on in four), the Delaunay condition is
+restored by edge flips, and only the triangles that changed are rasterised again.
+Refinement stops when the largest error left is at most ``max_error``: since every sample
+is covered by a triangle that was searched over every sample, the bound holds on every
+sample of the grid.
 
 Then the vertices the finished mesh no longer needs are removed. A vertex inserted early,
 where the error was largest at the time, is often made redundant by the vertices inserted
@@ -296,6 +302,11 @@ _TILE = 16
 _TILED_SEARCH = 8 * _TILE * _TILE
 # Triangles whose box holds at most this many samples are scanned sample by sample.
 _BOX_SCAN = 64
+# A triangle beyond the error is first searched on a lattice of every 2nd, 4th, … row and
+# column holding about this many to four times as many samples of its box (the triangle
+# about half of them); smaller ones are searched over every sample at once. 128 gave the
+# shortest build at the same number of triangles (``scripts/greedy_sparse_search.py``).
+_SPARSE_SAMPLES = 128
 # Samples per side of the pieces meshed independently (in parallel) for an error bound.
 _PIECE = 224
 # a triangle budget that never stops the insertion
@@ -375,6 +386,39 @@ def _scan_box(h, min_x, min_y, max_x, max_y, w00, w01, w02, a12, a20, a01, b12, 
         w0r += b12
         w1r += b20
         w2r += b01
+    return best, bx, by
+
+
+@njit(cache=CACHE, fastmath=_RASTER_MATH, _nrt=False)
+def _scan_lattice(h, step, min_x, min_y, max_x, max_y, w00, w01, w02, a12, a20, a01, b12, b20,
+                  b01, z0, z1, z2, dz_dx):
+    """The best ``(error, x, y)`` among a triangle's samples whose row and column are
+    multiples of ``step`` (``x = -1`` when it holds none), ties going to the first in
+    row-major order: :func:`_scan_rows` on a sparser lattice."""
+    best = 0.0
+    bx = -1
+    by = -1
+    y = -(-min_y // step) * step
+    while y <= max_y:
+        dy = y - min_y
+        w0r = w00 + b12 * dy
+        w1r = w01 + b20 * dy
+        w2r = w02 + b01 * dy
+        lo, hi = 0, max_x - min_x
+        lo, hi = _span(w0r, a12, lo, hi)
+        lo, hi = _span(w1r, a20, lo, hi)
+        lo, hi = _span(w2r, a01, lo, hi)
+        if lo <= hi:
+            zr = z0 * w0r + z1 * w1r + z2 * w2r
+            x = -(-(min_x + lo) // step) * step
+            while x <= min_x + hi:
+                d = abs(zr + dz_dx * (x - min_x) - float(h[y, x]))
+                if d > best:
+                    best = d
+                    bx = x
+                    by = y
+                x += step
+        y += step
     return best, bx, by
 
 
@@ -474,11 +518,17 @@ def _tiled_search(h, tplane, tres, bound, order, min_x, min_y, max_x, max_y, w00
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
-def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr, floor, any_above):
+def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr, floor, any_above,
+               sparse=False):
     """Largest |h − plane| over the samples of triangle ``t``, and where it is, when it is
     above ``floor``; otherwise an error of at most ``floor``. With ``any_above``, only
     whether some sample is above ``floor``: a large triangle's search may stop at the first
     tile that holds one (the error is then above ``floor``, not necessarily the largest).
+    With ``sparse``, a triangle whose box holds more than ``4 × _SPARSE_SAMPLES`` samples
+    is first searched on a lattice of every ``step``-th row and column (:func:`_scan_lattice`,
+    ``step`` the power of two that leaves ``_SPARSE_SAMPLES`` to four times as many of the
+    box's samples); when the worst of them is above ``floor``, it is the answer (above
+    ``floor``, not necessarily the largest), otherwise every sample is searched.
 
     The samples inside are those where the three edge functions are ≥ 0; on each row they
     form one span, found exactly in integers, so the inner loop has no inside test. Each
@@ -531,7 +581,16 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr, floor
     bx = p0x
     by = p0y
     box = (max_x - min_x + 1) * (max_y - min_y + 1)
-    if box <= _BOX_SCAN:
+    step = 1
+    if sparse:
+        while box > _SPARSE_SAMPLES * (2 * step) * (2 * step):
+            step *= 2
+    if step > 1:
+        best, bx, by = _scan_lattice(h, step, min_x, min_y, max_x, max_y, w00, w01, w02, a12,
+                                     a20, a01, b12, b20, b01, z0, z1, z2, dz_dx)
+    if step > 1 and best > floor:
+        pass  # a lattice sample beyond the floor: the triangle is refined from it
+    elif box <= _BOX_SCAN:
         best, bx, by = _scan_box(h, min_x, min_y, max_x, max_y, w00, w01, w02, a12, a20, a01,
                                  b12, b20, b01, z0, z1, z2, dz_dx)
         if bx < 0:
@@ -539,13 +598,13 @@ def _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr, floor
             by = p0y
     elif box <= _TILED_SEARCH:
         best, bx, by = _scan_rows(h, min_y, max_y, min_x, max_x, min_x, min_y, w00, w01, w02,
-                                  a12, a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, floor, bx,
-                                  by)
+                                  a12, a20, a01, b12, b20, b01, z0, z1, z2, dz_dx, floor, p0x,
+                                  p0y)
     else:
         best, bx, by = _tiled_search(h, tplane, tres, bound, order, min_x, min_y, max_x, max_y,
                                      w00, w01, w02, a12, a20, a01, b12, b20, b01, z0, z1, z2,
                                      dz_dx, dz_dy, floor, floor if any_above else np.inf,
-                                     bx, by)
+                                     p0x, p0y)
     if ((bx == p0x and by == p0y) or (bx == p1x and by == p1y)
             or (bx == p2x and by == p2y)):
         best = 0.0
@@ -608,7 +667,8 @@ def _tile_ranges(h, tplane, tres):
 def _queue(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, state,
            max_error, t):
     """Rasterise triangle ``t``: queue it when beyond the error, else settle it."""
-    _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr, max_error, False)
+    _rasterise(h, tplane, tres, bound, order, coords, tris, t, cand, cerr, max_error, False,
+               True)
     if cerr[t] > max_error:
         _q_push(queue, qerr, qidx, state, t, cerr[t])
     else:
