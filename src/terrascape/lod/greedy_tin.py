@@ -25,19 +25,21 @@ is within ``max_error`` (the same exact rasterisation); a vertex is tried again 
 neighbour went. This takes a tenth to a fifth of the triangles away (``terrascape bench
 peers``, 2026-12-04), and the mesh is no longer exactly Delaunay.
 
-For an error bound, the grid is cut into pieces of about 224×224 samples that share the
-grid lines between them, and the pieces are meshed independently, in parallel. Each shared
-line is first simplified alone, slightly within the error (the worst sample of a segment is
-kept until every sample is within it: the same greedy insertion in one dimension); those
-vertices are put on both pieces' sides before anything else. A triangle along a side
-interpolates the side's samples as the line did, so the bound holds there, no piece wants a
-vertex its neighbour lacks, and the pieces meet without cracks. Joined into one mesh, the
-lines' vertices are offered to the removal, and the edges along the lines are flipped
-towards Delaunay (Lawson's flips) wherever both new triangles stay within the error. On two
-threads this takes about half of one greedy order's time (0.47–0.54× on the bench's maps)
-for 0.98–1.00× its triangles; what stays of the lines as straight runs of edges shows in a
-wireframe (``python scripts/tin_pieces.py`` measures both, 2026-12-06). The pieces depend
-only on the grid's size, so the mesh is the same on any number of threads. A triangle budget
+For an error bound, the grid is cut into pieces of about 448×448 samples (a side of more
+than about 336 samples into at least two) that share the grid lines between them, and the
+pieces are meshed independently, in parallel. Each shared line is first simplified alone,
+slightly within the error (the worst sample of a segment is kept until every sample is
+within it: the same greedy insertion in one dimension); those vertices are put on both
+pieces' sides before anything else. A triangle along a side interpolates the side's
+samples as the line did, so the bound holds there, no piece wants a vertex its neighbour
+lacks, and the pieces meet without cracks. Joined into one mesh, the lines' vertices are
+offered to the removal, and the edges along the lines are flipped towards Delaunay
+(Lawson's flips) wherever both new triangles stay within the error. On two threads this
+takes about half of one greedy order's time (0.45–0.72× on the bench's maps, the most on
+the sparsest mesh) for 1.00× its triangles (0.996–1.005×); what stays of the lines as
+straight runs of edges shows in a wireframe (``python scripts/tin_pieces.py`` measures
+both, 2026-12-06). The pieces depend only on the grid's size, so the mesh is the same on
+any number of threads. A triangle budget
 (``max_triangles``), or ``in_pieces=False``, is one greedy order over the whole grid.
 
 Compared with the right-triangulated network of :mod:`terrascape.lod.rtin`, vertices go
@@ -307,8 +309,12 @@ _BOX_SCAN = 64
 # about half of them); smaller ones are searched over every sample at once. 128 gave the
 # shortest build at the same number of triangles (``scripts/greedy_sparse_search.py``).
 _SPARSE_SAMPLES = 128
-# Samples per side of the pieces meshed independently (in parallel) for an error bound.
-_PIECE = 224
+# Samples per side of the pieces meshed independently (in parallel) for an error bound;
+# a side of more than about 0.75 × _PIECE is still cut in two, so that two threads share
+# a small map. 448 against 224 (2026-12-06, throwaway probe, synthetic 1025²…4097² at
+# 1–10 m): 0.79–0.99× the time, 0.99–1.01× the triangles; each piece starts afresh with
+# its own large triangles and its own fixed costs, which weighed on sparse meshes.
+_PIECE = 448
 # a triangle budget that never stops the insertion
 _NO_BUDGET = np.iinfo(np.int64).max
 
@@ -1213,8 +1219,9 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
 
 def _piece_edges(n: int) -> np.ndarray:
     """Where the pieces along one axis of ``n`` samples start and end (shared lines): on
-    multiples of the error-bound tiles, so the pieces' tiles are the whole map's."""
-    count = max(1, round((n - 1) / _PIECE))
+    multiples of the error-bound tiles, so the pieces' tiles are the whole map's. About
+    ``_PIECE`` samples each, but two pieces from ``0.75 × _PIECE`` samples on."""
+    count = max(1, round((n - 1) / _PIECE), min(2, round(2 * (n - 1) / _PIECE)))
     edges = np.round(np.linspace(0, n - 1, count + 1) / _TILE).astype(np.int64) * _TILE
     edges[-1] = n - 1
     return edges
