@@ -31,8 +31,8 @@ from pathlib import Path
 #: Side of the maps the tasks run on: compile time does not depend on the size, and 33 is
 #: the smallest size every generator accepts (diamond-square needs 2**n + 1).
 WARM_UP_SIZE = 33
-#: Side of the greedy mesher's map: two pieces along each axis (a piece is about 224
-#: samples), so that the pieces' join compiles too.
+#: Side of the greedy mesher's map: two pieces along each axis (a side of more than about
+#: 336 samples is cut in two), so that the pieces' join compiles too.
 _GREEDY_SIZE = 400
 _TAG = "warm-up-task"  # marks the lines a worker reports its task times on
 _SKIP_TAG = "warm-up-skipped"  # ... and an optional command it could not run

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -101,10 +102,11 @@ def test_removing_redundant_vertices_keeps_the_bound_with_fewer_triangles(monkey
     for hm in (_terrain(257, seed=2, relief=150.0), Heightmap(quantised.astype(np.float32)),
                Heightmap(np.cumsum(rng.standard_normal((70, 101)), 1).astype(np.float32))):
         for max_error in (0.0, 1.0, 4.0):
+            # one greedy order: pieces dense enough are decimated from every sample instead
             monkeypatch.setattr(gt, "_REMOVAL_PASSES", 0)
-            inserted = gt.greedy_tin(hm, max_error=max_error)
+            inserted = gt.greedy_tin(hm, max_error=max_error, in_pieces=False)
             monkeypatch.setattr(gt, "_REMOVAL_PASSES", 8)
-            pruned = gt.greedy_tin(hm, max_error=max_error)
+            pruned = gt.greedy_tin(hm, max_error=max_error, in_pieces=False)
             assert conformity_report(pruned, hm.shape).ok
             assert max_vertical_error(hm, pruned) <= max_error + 1e-9
             # lossless (0 m): only vertices exactly on their neighbours' planes can go
@@ -308,8 +310,6 @@ def _side_keep(side, line_tol):
 def _line_keeps(h, tol, ys, xs):
     """Per row line and column line, the samples each piece's side keeps (as the pieces
     simplify them; the map's own borders stay empty)."""
-    from itertools import pairwise
-
     from terrascape.lod import greedy_tin as gt
 
     rows, cols = h.shape
@@ -485,5 +485,94 @@ def test_each_kernel_compiles_once_whatever_the_heights(monkeypatch):
     monkeypatch.undo()
     for name in ("_mesh_piece", "_refine", "_flush_all", "_insert_border_points", "_legalize",
                  "_split_on_edge", "_tiled_search", "_scan_rows", "_remove_vertices",
-                 "_remove_kernel", "_relax_edges"):
+                 "_remove_kernel", "_relax_edges", "_scan_lattice", "_grid_start",
+                 "_drop_unused", "_piece_result"):
         assert len(getattr(gt, name).signatures) <= 1, (name, getattr(gt, name).signatures)
+
+
+@pytest.mark.parametrize(("nx", "ny"), [(4, 4), (5, 9), (23, 17), (60, 41)])
+def test_grid_start_triangulates_the_piece_with_its_kept_side_samples(nx, ny):
+    """The decimation's start: every inner sample and the kept side samples are vertices,
+    the triangles cover the piece once (a conforming mesh), all wound like the insertion's,
+    each twin is the reverse halfedge, and the open halfedges are exactly the side
+    segments between kept samples."""
+    from terrascape.lod import greedy_tin as gt
+
+    rng = np.random.default_rng(nx * 100 + ny)
+    for density in (0.0, 0.3, 1.0):
+        keep = rng.random((4, max(nx, ny))) < density
+        keep[:2, [0, nx - 1]] = True
+        keep[2:, [0, ny - 1]] = True
+        coords, tris, half = gt._grid_start(nx, ny, keep)
+        tri = tris.reshape(-1, 3)
+        grid = (coords[:, 1] * nx + coords[:, 0])[tri].astype(np.uint32)
+        report = conformity_report(grid, (ny, nx))
+        assert report.ok, str(report)
+        p = coords[tri]
+        orient = ((p[:, 1, 0] - p[:, 2, 0]) * (p[:, 0, 1] - p[:, 2, 1])
+                  - (p[:, 1, 1] - p[:, 2, 1]) * (p[:, 0, 0] - p[:, 2, 0]))
+        assert np.all(orient > 0)
+        assert orient.sum() == 2 * (nx - 1) * (ny - 1)  # twice the area: covered once
+        inner = {(x, y) for y in range(1, ny - 1) for x in range(1, nx - 1)}
+        sides = ({(x, 0) for x in range(nx) if keep[0, x]}
+                 | {(x, ny - 1) for x in range(nx) if keep[1, x]}
+                 | {(0, y) for y in range(ny) if keep[2, y]}
+                 | {(nx - 1, y) for y in range(ny) if keep[3, y]})
+        assert {tuple(c) for c in coords.tolist()} == inner | sides
+        assert len(coords) == len(inner | sides)
+        assert [tuple(c) for c in coords[:4].tolist()] == [
+            (0, 0), (nx - 1, 0), (0, ny - 1), (nx - 1, ny - 1)]
+        nxt = np.arange(len(tris)) - np.arange(len(tris)) % 3 + (np.arange(len(tris)) + 1) % 3
+        a, b = tris, tris[nxt]
+        twinned = half >= 0
+        assert np.all(half[half[twinned]] == np.flatnonzero(twinned))
+        assert np.all(a[half[twinned]] == b[twinned]) and np.all(b[half[twinned]] == a[twinned])
+        # open halfedges: the sides between consecutive kept samples, nothing else
+        open_edges = {tuple(sorted((tuple(coords[u]), tuple(coords[v]))))
+                      for u, v in zip(a[~twinned], b[~twinned], strict=True)}
+        expected = set()
+        for line in ([(x, 0) for x in range(nx) if keep[0, x]],
+                     [(x, ny - 1) for x in range(nx) if keep[1, x]],
+                     [(0, y) for y in range(ny) if keep[2, y]],
+                     [(nx - 1, y) for y in range(ny) if keep[3, y]]):
+            expected |= {tuple(sorted(pair)) for pair in pairwise(line)}
+        assert open_edges == expected
+
+
+def test_dense_pieces_are_decimated_and_meet_the_sparse_ones(monkeypatch):
+    """A map rough on its left half (every sample nearly needed: those pieces start from
+    every sample and remove what the error allows) and smooth on its right (greedy
+    insertion): the bound on every sample, no crack where the two kinds of piece meet,
+    fewer triangles than one greedy order plus a little for the lines, and the same mesh
+    on one thread or two."""
+    import numba
+
+    from terrascape.lod import greedy_tin as gt
+
+    rng = np.random.default_rng(21)
+    rows, cols = 150, 180
+    h = np.cumsum(np.cumsum(rng.standard_normal((rows, cols)), 0), 1) * 0.02
+    h[:, :90] += rng.uniform(0.0, 6.0, (rows, 90))
+    hm = Heightmap(h.astype(np.float32))
+    monkeypatch.setattr(gt, "_PIECE", 60)
+    ys, xs = gt._piece_edges(rows), gt._piece_edges(cols)
+    assert len(xs) > 3 and len(ys) > 2
+    line_tol = gt._line_tolerance(gt._magnitude(hm.heights), 0.5)
+    kept = [_side_keep(hm.heights[0, xs[j]:xs[j + 1] + 1], line_tol).mean()
+            for j in range(len(xs) - 1)]
+    assert kept[0] > 0.8 and kept[-1] < 0.2  # both kinds of piece are there
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = gt.greedy_tin(hm, max_error=0.5)
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        two = gt.greedy_tin(hm, max_error=0.5)
+    finally:
+        numba.set_num_threads(before)
+    np.testing.assert_array_equal(one, two)
+    report = conformity_report(one, hm.shape)
+    assert report.ok, str(report)
+    err = max_vertical_error(hm, one)
+    assert 0.4 < err <= 0.5 + 1e-9
+    whole = gt.greedy_tin(hm, max_error=0.5, in_pieces=False)
+    assert len(one) <= 1.1 * len(whole) + 20

@@ -6,7 +6,7 @@ rasterising the triangle over every sample it covers. A large triangle is first 
 a sparser lattice (every 2nd, 4th, … row and column, so that it holds about 128–512 of its
 samples); when a lattice sample is beyond ``max_error``, the worst of them is the candidate:
 the triangle will be split anyway, and a point nearly as far from the plane as the farthest
-serves as well (the meshes have as many triangles, ``python scripts/greedy_sparse_search.py``).
+serves as well (the meshes have as many triangles, ``python scripts/greedy_tin_ab.py``).
 Only a triangle whose lattice is within the error is searched over every sample. A priority
 queue keeps the triangles by their candidate's error (those within ``max_error`` stay out of
 it: they can never be refined); the worst candidate is inserted (splitting its triangle in
@@ -24,6 +24,14 @@ corners when there is one), and the removal is kept when every sample of the new
 is within ``max_error`` (the same exact rasterisation); a vertex is tried again when a
 neighbour went. This takes a tenth to a fifth of the triangles away (``terrascape bench
 peers``, 2026-12-04), and the mesh is no longer exactly Delaunay.
+
+A dense mesh is built the other way round. When a piece's sides, simplified as lines,
+keep at least 40 % of their samples, most samples will be vertices, and inserting them one
+by one costs more than removing the few that can go: every inner sample of the piece is
+made a vertex, its sides only with their kept samples (joined to the inner samples by a
+band of triangles one sample wide, which covers no sample but the sides' own), and the same
+removal takes away what the error allows. (Pieces only: one greedy order, ``in_pieces=False``,
+always inserts.)
 
 For an error bound, the grid is cut into pieces of about 448×448 samples (a side of more
 than about 336 samples into at least two) that share the grid lines between them, and the
@@ -307,8 +315,14 @@ _BOX_SCAN = 64
 # A triangle beyond the error is first searched on a lattice of every 2nd, 4th, … row and
 # column holding about this many to four times as many samples of its box (the triangle
 # about half of them); smaller ones are searched over every sample at once. 128 gave the
-# shortest build at the same number of triangles (``scripts/greedy_sparse_search.py``).
+# shortest build at the same number of triangles (``scripts/greedy_tin_ab.py``).
 _SPARSE_SAMPLES = 128
+# A piece whose sides keep at least this share of their samples when simplified is meshed
+# by decimation: every sample a vertex first, then the removal of what the error allows.
+# The sides' kept share tracks the mesh's vertices per sample (0.4 ≈ 0.26–0.34 on the
+# bench's maps); in throwaway probes the decimation was the faster above it (the DEM at
+# 0.5–5 m) and the insertion below it (the synthetic map at 0.5 m, the DEM at 10 m).
+_DENSE_SIDES = 0.4
 # Samples per side of the pieces meshed independently (in parallel) for an error bound;
 # a side of more than about 0.75 × _PIECE is still cut in two, so that two threads share
 # a small map. 448 against 224 (2026-12-06, throwaway probe, synthetic 1025²…4097² at
@@ -1466,6 +1480,188 @@ def _grown(a, size, fill):
     return out
 
 
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+def _ring_param(x, y, x0, y0, x1, y1):
+    """Position of ``(x, y)`` on the rectangle ``[x0, x1] × [y0, y1]``'s boundary, walked
+    from ``(x0, y0)`` along the top, down the right side, back along the bottom and up the
+    left side: 0 … 4, each side one unit, so that two nested rectangles' corners match."""
+    if y == y0 and x < x1:
+        return (x - x0) / (x1 - x0)
+    if x == x1 and y < y1:
+        return 1.0 + (y - y0) / (y1 - y0)
+    if y == y1 and x > x0:
+        return 2.0 + (x1 - x) / (x1 - x0)
+    return 3.0 + (y1 - y) / (y1 - y0)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+def _put_triangle(tris, coords, t, a, b, c):
+    """Triangle ``t`` with corners ``a, b, c`` in the mesh's winding (swapped if needed)."""
+    if _orient(coords[a, 0], coords[a, 1], coords[b, 0], coords[b, 1], coords[c, 0],
+               coords[c, 1]) < 0:
+        b, c = c, b
+    tris[3 * t] = a
+    tris[3 * t + 1] = b
+    tris[3 * t + 2] = c
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
+def _grid_start(nx, ny, keep):
+    """A triangulation of an ``nx × ny`` piece (both ≥ 4) with every inner sample a vertex
+    and, on its four sides, only the samples ``keep`` marks (rows: top, bottom along x;
+    left, right along y; corners kept): the start of the decimation of dense pieces.
+
+    The inner samples (rows and columns 1 … n − 2) are two triangles a cell. Between their
+    outline and the piece's sides lies a band one sample wide; it is closed by walking both
+    outlines at once, by the same position along the sides (:func:`_ring_param`), always
+    joining the next vertex of the one that is behind: every triangle then has two corners
+    on one outline and one on the other, adjacent rows or columns, and covers no sample
+    but its corners and its edges' (the sides' samples between kept vertices are the
+    simplified lines', within their error). Returns the vertices ``(x, y)`` (the corners
+    first, as the insertion numbers them), the triangles and their halfedge twins."""
+    n_ring = 0
+    for side in range(4):
+        n = nx if side < 2 else ny
+        for i in range(n):
+            n_ring += keep[side, i]
+    n_ring -= 4  # corners are on two sides
+    n_inner = (nx - 2) * (ny - 2)
+    n_points = n_ring + n_inner
+    coords = np.empty((n_points, 2), np.int64)
+    outer = np.empty(n_ring, np.int64)
+    outer_p = np.empty(n_ring)
+    # corners first, numbered as the insertion does
+    coords[0, 0], coords[0, 1] = 0, 0
+    coords[1, 0], coords[1, 1] = nx - 1, 0
+    coords[2, 0], coords[2, 1] = 0, ny - 1
+    coords[3, 0], coords[3, 1] = nx - 1, ny - 1
+    # the kept side vertices in walking order: top (left to right), right (down), bottom
+    # (right to left), left (up)
+    n = 4
+    k = 0
+    for i in range(nx - 1):
+        if keep[0, i]:
+            v = 0 if i == 0 else n
+            if i > 0:
+                coords[n, 0], coords[n, 1] = i, 0
+                n += 1
+            outer[k] = v
+            k += 1
+    for i in range(ny - 1):
+        if keep[3, i]:
+            v = 1 if i == 0 else n
+            if i > 0:
+                coords[n, 0], coords[n, 1] = nx - 1, i
+                n += 1
+            outer[k] = v
+            k += 1
+    for i in range(nx - 1, 0, -1):
+        if keep[1, i]:
+            v = 3 if i == nx - 1 else n
+            if i < nx - 1:
+                coords[n, 0], coords[n, 1] = i, ny - 1
+                n += 1
+            outer[k] = v
+            k += 1
+    for i in range(ny - 1, 0, -1):
+        if keep[2, i]:
+            v = 2 if i == ny - 1 else n
+            if i < ny - 1:
+                coords[n, 0], coords[n, 1] = 0, i
+                n += 1
+            outer[k] = v
+            k += 1
+    for k in range(n_ring):
+        v = outer[k]
+        outer_p[k] = _ring_param(coords[v, 0], coords[v, 1], 0, 0, nx - 1, ny - 1)
+    base = n
+    for y in range(1, ny - 1):
+        for x in range(1, nx - 1):
+            coords[n, 0] = x
+            coords[n, 1] = y
+            n += 1
+    # the inner outline in walking order
+    n_loop = 2 * (nx - 3) + 2 * (ny - 3)
+    inner = np.empty(n_loop, np.int64)
+    inner_p = np.empty(n_loop)
+    k = 0
+    for x in range(1, nx - 2):
+        inner[k] = base + (x - 1)
+        k += 1
+    for y in range(1, ny - 2):
+        inner[k] = base + (y - 1) * (nx - 2) + (nx - 3)
+        k += 1
+    for x in range(nx - 2, 1, -1):
+        inner[k] = base + (ny - 3) * (nx - 2) + (x - 1)
+        k += 1
+    for y in range(ny - 2, 1, -1):
+        inner[k] = base + (y - 1) * (nx - 2)
+        k += 1
+    for k in range(n_loop):
+        v = inner[k]
+        inner_p[k] = _ring_param(coords[v, 0], coords[v, 1], 1, 1, nx - 2, ny - 2)
+    n_tris = 2 * (nx - 3) * (ny - 3) + n_ring + n_loop
+    tris = np.empty(3 * n_tris, np.int32)
+    t = 0
+    for y in range(1, ny - 2):
+        for x in range(1, nx - 2):
+            p00 = base + (y - 1) * (nx - 2) + (x - 1)
+            _put_triangle(tris, coords, t, p00 + nx - 1, p00, p00 + nx - 2)
+            _put_triangle(tris, coords, t + 1, p00, p00 + nx - 1, p00 + 1)
+            t += 2
+    i = 0
+    j = 0
+    while i < n_ring or j < n_loop:
+        next_o = outer_p[i + 1] if i + 1 < n_ring else 4.0
+        next_i = inner_p[j + 1] if j + 1 < n_loop else 4.0
+        o = outer[i % n_ring]
+        a = inner[j % n_loop]
+        if j < n_loop and (next_i <= next_o or i == n_ring):
+            _put_triangle(tris, coords, t, o, a, inner[(j + 1) % n_loop])
+            j += 1
+        else:
+            _put_triangle(tris, coords, t, o, outer[(i + 1) % n_ring], a)
+            i += 1
+        t += 1
+    # twins: inside the grid by the cells' layout; the band's and the grid outline's by
+    # each open halfedge's reverse among the open halfedges leaving its other end
+    half = np.full(3 * n_tris, -1, np.int32)
+    cw = nx - 3
+    for y in range(ny - 3):
+        for x in range(cw):
+            c = y * cw + x
+            half[6 * c] = 6 * c + 3
+            half[6 * c + 3] = 6 * c
+            if x > 0:
+                half[6 * c + 1] = 6 * (c - 1) + 4
+                half[6 * (c - 1) + 4] = 6 * c + 1
+            if y > 0:
+                half[6 * c + 5] = 6 * (c - cw) + 2
+                half[6 * (c - cw) + 2] = 6 * c + 5
+    count = np.zeros(n_points + 1, np.int64)
+    for e in range(3 * n_tris):
+        if half[e] < 0:
+            count[tris[e] + 1] += 1
+    for v in range(n_points):
+        count[v + 1] += count[v]
+    out = np.empty(count[n_points], np.int64)
+    at = count[:-1].copy()
+    for e in range(3 * n_tris):
+        if half[e] < 0:
+            out[at[tris[e]]] = e
+            at[tris[e]] += 1
+    for m0 in range(out.shape[0]):
+        e = out[m0]
+        a = tris[e]
+        b = tris[_next_edge(e)]
+        for m in range(count[b], count[b + 1]):
+            e2 = out[m]
+            if tris[_next_edge(e2)] == a:
+                half[e] = e2
+                break
+    return coords, tris, half
+
+
 def _piece_of(h: np.ndarray, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
     """The piece ``h[y0 : y1 + 1, x0 : x1 + 1]`` as its own array (a copy unless it is the
     whole map: its rows stay together in cache while it is meshed), read-only like the
@@ -1495,10 +1691,12 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, tplane
     y1 = y0 + ny - 1
     x1 = x0 + nx - 1
     forced = np.empty((2 * (nx + ny), 2), np.int64)
-    keep = np.empty(max(nx, ny), np.bool_)
+    keep = np.ones((4, max(nx, ny)), np.bool_)
     n_forced = 0
-    # the sides on shared lines: top, bottom (along x), left, right (along y), in local
-    # coordinates; corners come twice and are inserted once
+    n_kept = 0
+    # the sides: top, bottom (along x), left, right (along y), in local coordinates; those
+    # on shared lines are forced (corners come twice and are inserted once), the others are
+    # simplified too when the pieces are (they tell how dense the mesh will be)
     for side in range(4):
         along_x = side < 2
         if side == 0:
@@ -1509,20 +1707,21 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, tplane
             shared = x0 > 0
         else:
             shared = x1 < cols - 1
-        if not shared:
+        if not shared and line_tol == 0:
             continue
         fixed = (0 if side == 0 else ny - 1) if along_x else (0 if side == 2 else nx - 1)
         n = nx if along_x else ny
         line = np.ascontiguousarray(piece[fixed]) if along_x else np.ascontiguousarray(
             piece[:, fixed])
-        keep[:n] = True
         if line_tol > 0:
-            _simplify_line(line, line_tol, keep[:n])
+            _simplify_line(line, line_tol, keep[side, :n])
         for i in range(n):
-            if keep[i]:
-                forced[n_forced, 0] = i if along_x else fixed
-                forced[n_forced, 1] = fixed if along_x else i
-                n_forced += 1
+            if keep[side, i]:
+                n_kept += 1
+                if shared:
+                    forced[n_forced, 0] = i if along_x else fixed
+                    forced[n_forced, 1] = fixed if along_x else i
+                    n_forced += 1
     ty, tx = -(-ny // _TILE), -(-nx // _TILE)
     p_plane = np.empty((ty, tx, 3))
     p_res = np.empty((ty, tx, 4))
@@ -1530,6 +1729,17 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, tplane
     # scratch of the tiled search: one bound and one heap slot per tile
     bound = np.empty(ty * tx)
     order = np.empty(ty * tx, np.int64)
+    if (line_tol != 0 and passes > 0 and budget == _NO_BUDGET and nx >= 4 and ny >= 4
+            and n_kept >= _DENSE_SIDES * 2 * (nx + ny)):
+        # a dense mesh: start from every sample and remove what the error allows
+        coords, tris, half = _grid_start(nx, ny, keep)
+        n_points = coords.shape[0]
+        n_edges = tris.shape[0]
+        _remove_vertices(piece, p_plane, p_res, bound, order, coords, tris, half, n_points,
+                         n_edges, tol, passes, np.ones(n_points, np.bool_))
+        n_points = _drop_unused(coords, tris)
+        return _piece_result(piece, rows, cols, y0, x0, p_plane, p_res, tplane, tres, coords,
+                             tris, half, n_points, n_edges)
     capacity = max(1024, 4 * n_forced + 16)
     coords = np.zeros((capacity // 2 + 8, 2), np.int64)
     tris = np.zeros(3 * capacity, np.int32)
@@ -1575,11 +1785,44 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, tplane
         # the error bound is met: drop the vertices it no longer needs
         _remove_vertices(piece, p_plane, p_res, bound, order, coords, tris, half, n_points,
                          n_edges, tol, passes, np.ones(n_points, np.bool_))
+    return _piece_result(piece, rows, cols, y0, x0, p_plane, p_res, tplane, tres, coords, tris,
+                         half, n_points, n_edges)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
+def _drop_unused(coords, tris):
+    """Renumber the vertices the triangles still use in their order (the removed ones
+    dropped: a decimated piece keeps a fraction of its samples) and return how many."""
+    n_points = coords.shape[0]
+    new_id = np.full(n_points, -1, np.int64)
+    for e in range(tris.shape[0]):
+        if tris[e] >= 0:
+            new_id[tris[e]] = 0
+    n = 0
+    for v in range(n_points):
+        if new_id[v] == 0:
+            new_id[v] = n
+            coords[n, 0] = coords[v, 0]
+            coords[n, 1] = coords[v, 1]
+            n += 1
+    for e in range(tris.shape[0]):
+        if tris[e] >= 0:
+            tris[e] = new_id[tris[e]]
+    return n
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
+def _piece_result(piece, rows, cols, y0, x0, p_plane, p_res, tplane, tres, coords, tris, half,
+                  n_points, n_edges):
+    """:func:`_mesh_piece`'s end: the piece's tiles into the map's, its vertices in map
+    coordinates, its arrays cut to what is used."""
+    ny, nx = piece.shape
+    ty, tx = p_plane.shape[0], p_plane.shape[1]
     # the piece's tiles are the map's (pieces start on tile multiples); a piece's last
     # row or column of tiles holds only its shared line, the next piece's first tiles
     t_y, t_x = y0 // _TILE, x0 // _TILE
-    nty = ty - (1 if y1 < rows - 1 else 0)
-    ntx = tx - (1 if x1 < cols - 1 else 0)
+    nty = ty - (1 if y0 + ny < rows else 0)
+    ntx = tx - (1 if x0 + nx < cols else 0)
     tplane[t_y:t_y + nty, t_x:t_x + ntx] = p_plane[:nty, :ntx]
     tres[t_y:t_y + nty, t_x:t_x + ntx] = p_res[:nty, :ntx]
     coords = coords[:n_points]

@@ -1,6 +1,6 @@
 """The greedy TIN against another checkout's: time and triangles on the bench's maps.
 
-    python scripts/greedy_sparse_search.py OTHER_SRC [--one-order] [--large] [--rounds N]
+    python scripts/greedy_tin_ab.py OTHER_SRC [--one-order] [--large] [--rounds N]
 
 ``OTHER_SRC`` is another checkout's ``src`` folder (e.g. a ``git worktree`` of an earlier
 commit). Both meshers run in one process, interleaved round by round (odd rounds the other
@@ -9,7 +9,8 @@ Jacksboro DEM, at 1, 2, 5 and 10 m; with ``--large`` the synthetic 4097² at 2 m
 Printed per map and error: the median of the within-round time ratios (this ÷ other) with
 its spread, both meshes' triangles ÷ pydelatin's (when installed) and this one's measured
 error. ``--one-order`` meshes as one greedy order (``in_pieces=False``), else in pieces on
-numba's threads. Written to measure the sparse search of large triangles (2026-12-06).
+numba's threads. Written to measure the sparse search of large triangles and the
+decimation of dense pieces (2026-12-06).
 """
 
 from __future__ import annotations
