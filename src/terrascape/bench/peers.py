@@ -16,7 +16,8 @@ Rows:
   fixed random sample of points, since the full O(n³) walk at 4097² takes minutes.
 * static mesh at a true maximum error — :func:`terrascape.lod.greedy_tin.greedy_tin`
   (Garland–Heckbert greedy insertion, then the removal of the vertices the mesh no longer
-  needs, in pieces on all threads) against ``pydelatin`` (the greedy insertion alone, in
+  needs, in pieces on all threads; dense pieces decimated from every sample instead)
+  against ``pydelatin`` (the greedy insertion alone, in
   C++, one thread): triangles and build time, ours on all threads and on one, at 1, 2, 5
   and 10 m on a synthetic map and the real DEM that matplotlib ships
   (Jacksboro fault, 344×403, about 90 m spacing). The error is measured on every sample.

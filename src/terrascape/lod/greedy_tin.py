@@ -43,11 +43,12 @@ samples as the line did, so the bound holds there, no piece wants a vertex its n
 lacks, and the pieces meet without cracks. Joined into one mesh, the lines' vertices are
 offered to the removal, and the edges along the lines are flipped towards Delaunay
 (Lawson's flips) wherever both new triangles stay within the error. On two threads this
-takes about half of one greedy order's time (0.45–0.72× on the bench's maps, the most on
-the sparsest mesh) for 1.00× its triangles (0.996–1.005×); what stays of the lines as
-straight runs of edges shows in a wireframe (``python scripts/tin_pieces.py`` measures
-both, 2026-12-06). The pieces depend only on the grid's size, so the mesh is the same on
-any number of threads. A triangle budget
+takes 0.47–0.73× one greedy order's time on the bench's synthetic map (1.00× its
+triangles) and 0.18–0.53× on the Jacksboro DEM, whose dense pieces are decimated
+(1.01–1.05× its triangles at 1–5 m); what stays of the lines as straight runs of edges
+shows in a wireframe (``python scripts/tin_pieces.py`` measures both, 2026-12-06 17:33
+UTC). The pieces depend only on the grid's size, so the mesh is the same on any number of
+threads. A triangle budget
 (``max_triangles``), or ``in_pieces=False``, is one greedy order over the whole grid.
 
 Compared with the right-triangulated network of :mod:`terrascape.lod.rtin`, vertices go
@@ -1188,11 +1189,12 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         criterion reached wins. The redundant vertices are removed only when the error
         bound was reached.
     in_pieces
-        For an error bound alone: mesh pieces of the map in parallel (the default, in about
-        half the time on two threads), or with False one greedy order over the whole map.
-        Both meet the bound on every sample with about the same number of triangles; in a
-        wireframe, some of the lines the pieces share stay visible as straight runs of
-        edges.
+        For an error bound alone: mesh pieces of the map in parallel (the default; dense
+        pieces are decimated from every sample: a half to a fifth of the time on two
+        threads), or with False one greedy order over the whole map. Both meet the bound
+        on every sample with about the same number of triangles (up to 5 % more in dense
+        pieces); in a wireframe, some of the lines the pieces share stay visible as
+        straight runs of edges, and decimated pieces keep some rows of grid-aligned edges.
 
     Returns
     -------
