@@ -903,18 +903,43 @@ def _prev_edge(e):
     return e - e % 3 + (e + 2) % 3
 
 
+# _fill_hole's outcomes
+_FILLED, _NO_EAR, _OWN_SAMPLE = 0, 1, 2
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+def _holds_within(rx, ry, rz, i0, i1, i2, x, y, z, max_error):
+    """Whether the triangle of corners ``i0, i1, i2`` holds ``(x, y)``, and if so whether
+    its plane there is within ``max_error`` of ``z`` (True when it does not hold it)."""
+    x0, y0 = rx[i0], ry[i0]
+    x1, y1 = rx[i1], ry[i1]
+    x2, y2 = rx[i2], ry[i2]
+    w0 = _orient(x1, y1, x2, y2, x, y)
+    w1 = _orient(x2, y2, x0, y0, x, y)
+    w2 = _orient(x0, y0, x1, y1, x, y)
+    if w0 >= 0 and w1 >= 0 and w2 >= 0:
+        area = float(_orient(x0, y0, x1, y1, x2, y2))
+        zt = (rz[i0] * w0 + rz[i1] * w1 + rz[i2] * w2) / area
+        return True, abs(zt - z) <= max_error
+    return False, True
+
+
 @njit(cache=CACHE, fastmath=FASTMATH, _nrt=False)
-def _fill_hole(rx, ry, d, pprev, pnext, out):
+def _fill_hole(rx, ry, rz, d, pprev, pnext, out, vx, vy, vz, max_error):
     """Triangulate the polygon of corners ``(rx[i], ry[i])``, ``i < d`` (the link of a
     removed vertex, in the mesh's winding) by clipping ears, taking an ear whose circumcircle
     holds no other polygon corner when there is one; ``out[k]`` = corner numbers of triangle
-    k. False when no ear is left (a degenerate polygon)."""
+    k. Returns ``_FILLED``; ``_NO_EAR`` when no ear is left (a degenerate polygon); or
+    ``_OWN_SAMPLE`` as soon as the first triangle that holds the removed vertex's sample
+    ``(vx, vy)`` puts it farther than ``max_error`` from its height ``vz`` (corner heights
+    ``rz``): most removals fail there, and the rest of the fill is then not needed."""
     for i in range(d):
         pprev[i] = (i - 1 + d) % d
         pnext[i] = (i + 1) % d
     alive = d
     start = 0
     k = 0
+    placed = False  # the removed vertex's sample found in a triangle
     while alive > 3:
         chosen = -1
         fallback = -1
@@ -949,10 +974,15 @@ def _fill_hole(rx, ry, d, pprev, pnext, out):
         if chosen < 0:
             chosen = fallback
         if chosen < 0:
-            return False
+            return _NO_EAR
         out[k, 0] = pprev[chosen]
         out[k, 1] = chosen
         out[k, 2] = pnext[chosen]
+        if not placed:
+            placed, fits = _holds_within(rx, ry, rz, out[k, 0], chosen, out[k, 2], vx, vy, vz,
+                                         max_error)
+            if not fits:
+                return _OWN_SAMPLE
         k += 1
         pnext[pprev[chosen]] = pnext[chosen]
         pprev[pnext[chosen]] = pprev[chosen]
@@ -962,11 +992,15 @@ def _fill_hole(rx, ry, d, pprev, pnext, out):
     b = pnext[a]
     c = pnext[b]
     if _orient(rx[a], ry[a], rx[b], ry[b], rx[c], ry[c]) <= 0:
-        return False
+        return _NO_EAR
     out[k, 0] = a
     out[k, 1] = b
     out[k, 2] = c
-    return True
+    if not placed:
+        placed, fits = _holds_within(rx, ry, rz, a, b, c, vx, vy, vz, max_error)
+        if not fits:
+            return _OWN_SAMPLE
+    return _FILLED
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
@@ -1053,27 +1087,10 @@ def _remove_kernel(h, tplane, tres, bound, order, coords, tris, half, n_edges, m
                 hi = max(hi, rz[k])
             if hv > hi + max_error or hv < lo - max_error:
                 continue
-            if not _fill_hole(rx, ry, d, pprev, pnext, fill):
+            # the fill tests v's own sample against the new triangle over it first thing
+            if _fill_hole(rx, ry, rz, d, pprev, pnext, fill, x, y, hv, max_error) != _FILLED:
                 continue
-            # quick test next: v's own sample against the new triangle over it
             fits = True
-            for k in range(d - 2):
-                i0 = fill[k, 0]
-                i1 = fill[k, 1]
-                i2 = fill[k, 2]
-                x0, y0 = rx[i0], ry[i0]
-                x1, y1 = rx[i1], ry[i1]
-                x2, y2 = rx[i2], ry[i2]
-                w0 = _orient(x1, y1, x2, y2, x, y)
-                w1 = _orient(x2, y2, x0, y0, x, y)
-                w2 = _orient(x0, y0, x1, y1, x, y)
-                if w0 >= 0 and w1 >= 0 and w2 >= 0:
-                    area = float(_orient(x0, y0, x1, y1, x2, y2))
-                    z = (rz[i0] * w0 + rz[i1] * w1 + rz[i2] * w2) / area
-                    fits = abs(z - hv) <= max_error
-                    break
-            if not fits:
-                continue
             for k in range(d - 2):
                 for m in range(3):
                     stris[3 * k + m] = ring[fill[k, m]]
