@@ -486,7 +486,7 @@ def test_each_kernel_compiles_once_whatever_the_heights(monkeypatch):
     for name in ("_mesh_piece", "_refine", "_flush_all", "_insert_border_points", "_legalize",
                  "_split_on_edge", "_tiled_search", "_scan_rows", "_remove_vertices",
                  "_remove_kernel", "_relax_edges", "_scan_lattice", "_grid_start",
-                 "_drop_unused", "_piece_result"):
+                 "_drop_unused", "_insert_piece"):
         assert len(getattr(gt, name).signatures) <= 1, (name, getattr(gt, name).signatures)
 
 

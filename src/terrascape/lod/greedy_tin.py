@@ -907,7 +907,7 @@ def _prev_edge(e):
 _FILLED, _NO_EAR, _OWN_SAMPLE = 0, 1, 2
 
 
-@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+@njit(cache=CACHE, fastmath=FASTMATH)
 def _holds_within(rx, ry, rz, i0, i1, i2, x, y, z, max_error):
     """Whether the triangle of corners ``i0, i1, i2`` holds ``(x, y)``, and if so whether
     its plane there is within ``max_error`` of ``z`` (True when it does not hold it)."""
@@ -1499,7 +1499,7 @@ def _grown(a, size, fill):
     return out
 
 
-@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+@njit(cache=CACHE, fastmath=FASTMATH)
 def _ring_param(x, y, x0, y0, x1, y1):
     """Position of ``(x, y)`` on the rectangle ``[x0, x1] × [y0, y1]``'s boundary, walked
     from ``(x0, y0)`` along the top, down the right side, back along the bottom and up the
@@ -1513,7 +1513,7 @@ def _ring_param(x, y, x0, y0, x1, y1):
     return 3.0 + (y1 - y) / (y1 - y0)
 
 
-@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+@njit(cache=CACHE, fastmath=FASTMATH)
 def _put_triangle(tris, coords, t, a, b, c):
     """Triangle ``t`` with corners ``a, b, c`` in the mesh's winding (swapped if needed)."""
     if _orient(coords[a, 0], coords[a, 1], coords[b, 0], coords[b, 1], coords[c, 0],
@@ -1752,13 +1752,38 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, tplane
             and n_kept >= _DENSE_SIDES * 2 * (nx + ny)):
         # a dense mesh: start from every sample and remove what the error allows
         coords, tris, half = _grid_start(nx, ny, keep)
-        n_points = coords.shape[0]
         n_edges = tris.shape[0]
-        _remove_vertices(piece, p_plane, p_res, bound, order, coords, tris, half, n_points,
-                         n_edges, tol, passes, np.ones(n_points, np.bool_))
+        _remove_vertices(piece, p_plane, p_res, bound, order, coords, tris, half,
+                         coords.shape[0], n_edges, tol, passes,
+                         np.ones(coords.shape[0], np.bool_))
         n_points = _drop_unused(coords, tris)
-        return _piece_result(piece, rows, cols, y0, x0, p_plane, p_res, tplane, tres, coords,
-                             tris, half, n_points, n_edges)
+    else:
+        coords, tris, half, n_points, n_edges = _insert_piece(
+            piece, p_plane, p_res, bound, order, forced[:n_forced], tol, budget, passes)
+    # the piece's tiles are the map's (pieces start on tile multiples); a piece's last
+    # row or column of tiles holds only its shared line, the next piece's first tiles
+    t_y, t_x = y0 // _TILE, x0 // _TILE
+    nty = ty - (1 if y1 < rows - 1 else 0)
+    ntx = tx - (1 if x1 < cols - 1 else 0)
+    tplane[t_y:t_y + nty, t_x:t_x + ntx] = p_plane[:nty, :ntx]
+    tres[t_y:t_y + nty, t_x:t_x + ntx] = p_res[:nty, :ntx]
+    coords = coords[:n_points]
+    for v in range(n_points):
+        coords[v, 0] += x0
+        coords[v, 1] += y0
+    # the insertion keeps the winding of the two first triangles: counter-clockwise seen
+    # from above (+Y) with rows growing southward; removed triangles have vertex -1
+    return coords, tris[:n_edges], half[:n_edges]
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
+def _insert_piece(piece, p_plane, p_res, bound, order, forced, tol, budget, passes):
+    """:func:`_mesh_piece`'s greedy insertion from the piece's corners and its ``forced``
+    side vertices, then, when the error was reached, ``passes`` of the removal of
+    redundant vertices. Returns the vertices, triangles, twins and how many of the first
+    two and of the halfedges are used."""
+    ny, nx = piece.shape
+    n_forced = forced.shape[0]
     capacity = max(1024, 4 * n_forced + 16)
     coords = np.zeros((capacity // 2 + 8, 2), np.int64)
     tris = np.zeros(3 * capacity, np.int32)
@@ -1780,7 +1805,7 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, tplane
     t0 = _add_triangle(tris, half, qidx, pending, state, p3, p0, p2, -1, -1, -1, -1)
     _add_triangle(tris, half, qidx, pending, state, p0, p3, p1, t0, -1, -1, -1)
     if n_forced > 0:
-        _insert_border_points(forced[:n_forced], coords, tris, half, queue, qerr, qidx,
+        _insert_border_points(forced, coords, tris, half, queue, qerr, qidx,
                               pending, stack, state)
     _flush_all(piece, p_plane, p_res, bound, order, coords, tris, cand, cerr, queue, qerr,
                qidx, state, tol)
@@ -1804,8 +1829,7 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, tplane
         # the error bound is met: drop the vertices it no longer needs
         _remove_vertices(piece, p_plane, p_res, bound, order, coords, tris, half, n_points,
                          n_edges, tol, passes, np.ones(n_points, np.bool_))
-    return _piece_result(piece, rows, cols, y0, x0, p_plane, p_res, tplane, tres, coords, tris,
-                         half, n_points, n_edges)
+    return coords, tris, half, n_points, n_edges
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
@@ -1830,24 +1854,3 @@ def _drop_unused(coords, tris):
     return n
 
 
-@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
-def _piece_result(piece, rows, cols, y0, x0, p_plane, p_res, tplane, tres, coords, tris, half,
-                  n_points, n_edges):
-    """:func:`_mesh_piece`'s end: the piece's tiles into the map's, its vertices in map
-    coordinates, its arrays cut to what is used."""
-    ny, nx = piece.shape
-    ty, tx = p_plane.shape[0], p_plane.shape[1]
-    # the piece's tiles are the map's (pieces start on tile multiples); a piece's last
-    # row or column of tiles holds only its shared line, the next piece's first tiles
-    t_y, t_x = y0 // _TILE, x0 // _TILE
-    nty = ty - (1 if y0 + ny < rows else 0)
-    ntx = tx - (1 if x0 + nx < cols else 0)
-    tplane[t_y:t_y + nty, t_x:t_x + ntx] = p_plane[:nty, :ntx]
-    tres[t_y:t_y + nty, t_x:t_x + ntx] = p_res[:nty, :ntx]
-    coords = coords[:n_points]
-    for v in range(n_points):
-        coords[v, 0] += x0
-        coords[v, 1] += y0
-    # the insertion keeps the winding of the two first triangles: counter-clockwise seen
-    # from above (+Y) with rows growing southward; removed triangles have vertex -1
-    return coords, tris[:n_edges], half[:n_edges]
