@@ -391,6 +391,18 @@ def test_simplified_line_is_the_greedy_polyline():
     assert np.flatnonzero(keep[:50]).tolist() == [0, 49]
 
 
+def _on_threads(n, job):
+    """``job()`` on ``n`` of numba's threads (at most as many as it has)."""
+    import numba
+
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
+        return job()
+    finally:
+        numba.set_num_threads(before)
+
+
 def test_pieces_same_mesh_on_one_thread_or_two(monkeypatch):
     """Pieces meshed on one thread, on two (the threads' pool), and on two again (the pool
     kept for the next mesh): the same mesh."""
@@ -400,19 +412,13 @@ def test_pieces_same_mesh_on_one_thread_or_two(monkeypatch):
 
     hm = _terrain(129, seed=14, relief=80.0)
     monkeypatch.setattr(gt, "_PIECE", 50)
-    before = numba.get_num_threads()
-    try:
-        numba.set_num_threads(1)
-        one = gt.greedy_tin(hm, max_error=0.8)
-        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
-        two = gt.greedy_tin(hm, max_error=0.8)
-        pools = dict(gt._POOLS)
-        again = gt.greedy_tin(hm, max_error=0.8)
-        assert pools == gt._POOLS  # the same threads meshed it again
-        if numba.get_num_threads() == 2:
-            assert (os.getpid(), 2) in pools
-    finally:
-        numba.set_num_threads(before)
+    one = _on_threads(1, lambda: gt.greedy_tin(hm, max_error=0.8))
+    two = _on_threads(2, lambda: gt.greedy_tin(hm, max_error=0.8))
+    pools = dict(gt._POOLS)
+    again = _on_threads(2, lambda: gt.greedy_tin(hm, max_error=0.8))
+    assert pools == gt._POOLS  # the same threads meshed it again
+    if min(2, numba.config.NUMBA_NUM_THREADS) == 2:
+        assert (os.getpid(), 2) in pools
     np.testing.assert_array_equal(one, two)
     np.testing.assert_array_equal(one, again)
 
@@ -545,7 +551,6 @@ def test_dense_pieces_are_decimated_and_meet_the_sparse_ones(monkeypatch):
     insertion): the bound on every sample, no crack where the two kinds of piece meet,
     fewer triangles than one greedy order plus a little for the lines, and the same mesh
     on one thread or two."""
-    import numba
 
     from terrascape.lod import greedy_tin as gt
 
@@ -561,14 +566,8 @@ def test_dense_pieces_are_decimated_and_meet_the_sparse_ones(monkeypatch):
     kept = [_side_keep(hm.heights[0, xs[j]:xs[j + 1] + 1], line_tol).mean()
             for j in range(len(xs) - 1)]
     assert kept[0] > 0.8 and kept[-1] < 0.2  # both kinds of piece are there
-    before = numba.get_num_threads()
-    try:
-        numba.set_num_threads(1)
-        one = gt.greedy_tin(hm, max_error=0.5)
-        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
-        two = gt.greedy_tin(hm, max_error=0.5)
-    finally:
-        numba.set_num_threads(before)
+    one = _on_threads(1, lambda: gt.greedy_tin(hm, max_error=0.5))
+    two = _on_threads(2, lambda: gt.greedy_tin(hm, max_error=0.5))
     np.testing.assert_array_equal(one, two)
     report = conformity_report(one, hm.shape)
     assert report.ok, str(report)

@@ -1555,38 +1555,25 @@ def _grid_start(nx, ny, keep):
     coords[2, 0], coords[2, 1] = 0, ny - 1
     coords[3, 0], coords[3, 1] = nx - 1, ny - 1
     # the kept side vertices in walking order: top (left to right), right (down), bottom
-    # (right to left), left (up)
+    # (right to left), left (up); each side from its first corner, which is kept
+    starts = ((0, 0), (nx - 1, 0), (nx - 1, ny - 1), (0, ny - 1))
+    steps = ((1, 0), (0, 1), (-1, 0), (0, -1))
     n = 4
     k = 0
-    for i in range(nx - 1):
-        if keep[0, i]:
-            v = 0 if i == 0 else n
-            if i > 0:
-                coords[n, 0], coords[n, 1] = i, 0
-                n += 1
-            outer[k] = v
-            k += 1
-    for i in range(ny - 1):
-        if keep[3, i]:
-            v = 1 if i == 0 else n
-            if i > 0:
-                coords[n, 0], coords[n, 1] = nx - 1, i
-                n += 1
-            outer[k] = v
-            k += 1
-    for i in range(nx - 1, 0, -1):
-        if keep[1, i]:
-            v = 3 if i == nx - 1 else n
-            if i < nx - 1:
-                coords[n, 0], coords[n, 1] = i, ny - 1
-                n += 1
-            outer[k] = v
-            k += 1
-    for i in range(ny - 1, 0, -1):
-        if keep[2, i]:
-            v = 2 if i == ny - 1 else n
-            if i < ny - 1:
-                coords[n, 0], coords[n, 1] = 0, i
+    for side in range(4):
+        row = (0, 3, 1, 2)[side]  # its keep mask
+        corner = (0, 1, 3, 2)[side]
+        sx, sy = starts[side]
+        dx, dy = steps[side]
+        for step in range(nx - 1 if side % 2 == 0 else ny - 1):
+            x = sx + dx * step
+            y = sy + dy * step
+            if not keep[row, x if side % 2 == 0 else y]:
+                continue
+            v = corner
+            if step > 0:
+                coords[n, 0], coords[n, 1] = x, y
+                v = n
                 n += 1
             outer[k] = v
             k += 1
