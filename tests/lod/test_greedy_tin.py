@@ -575,3 +575,41 @@ def test_dense_pieces_are_decimated_and_meet_the_sparse_ones(monkeypatch):
     assert 0.4 < err <= 0.5 + 1e-9
     whole = gt.greedy_tin(hm, max_error=0.5, in_pieces=False)
     assert len(one) <= 1.1 * len(whole) + 20
+
+
+def test_piece_edges_increase_for_any_piece_size(monkeypatch):
+    """Pieces start on tile multiples; however small the pieces asked for, no piece is
+    empty or reaches past the map (they would have divided by zero)."""
+    from terrascape.lod import greedy_tin as gt
+
+    for piece in (4, 8, 12, 16, 20, 448):
+        monkeypatch.setattr(gt, "_PIECE", piece)
+        for n in range(2, 200):
+            edges = gt._piece_edges(n)
+            assert edges[0] == 0 and edges[-1] == n - 1
+            assert np.all(np.diff(edges) > 0), (piece, n, edges)
+
+
+@pytest.mark.parametrize("piece", [4, 12, 40])
+def test_random_maps_in_small_pieces_keep_the_bound(monkeypatch, piece):
+    """Rough, smooth and terraced maps of random sizes, in pieces small enough that many
+    are dense (decimated) and many are sparse (inserted), at errors from 0: every mesh
+    conforms and meets its bound."""
+    from terrascape.lod import greedy_tin as gt
+
+    monkeypatch.setattr(gt, "_PIECE", piece)
+    rng = np.random.default_rng(piece)
+    for case in range(12):
+        rows, cols = (int(v) for v in rng.integers(2, 70, 2))
+        if case % 3 == 0:
+            h = rng.uniform(0.0, 5.0, (rows, cols))
+        elif case % 3 == 1:
+            h = np.cumsum(np.cumsum(rng.standard_normal((rows, cols)), 0), 1) * 0.05
+        else:
+            h = np.round(rng.uniform(0.0, 3.0, (rows, cols)))
+        hm = Heightmap(h.astype(np.float32))
+        err = float(rng.choice([0.0, 0.1, 0.5, 2.0]))
+        tri = gt.greedy_tin(hm, max_error=err)
+        report = conformity_report(tri, hm.shape)
+        assert report.ok, (case, rows, cols, err, str(report))
+        assert max_vertical_error(hm, tri) <= err + 1e-6, (case, rows, cols, err)

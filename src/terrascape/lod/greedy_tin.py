@@ -1257,7 +1257,9 @@ def _piece_edges(n: int) -> np.ndarray:
     count = max(1, round((n - 1) / _PIECE), min(2, round(2 * (n - 1) / _PIECE)))
     edges = np.round(np.linspace(0, n - 1, count + 1) / _TILE).astype(np.int64) * _TILE
     edges[-1] = n - 1
-    return edges
+    # pieces narrower than a tile would round to nothing or past the end: merged with a
+    # neighbour
+    return np.unique(np.minimum(edges, n - 1))
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
