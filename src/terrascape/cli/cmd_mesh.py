@@ -103,8 +103,8 @@ def mesh_command(
         False, "--one-piece",
         help="With --mesher greedy and --max-error: one greedy order over the whole map "
              "instead of pieces meshed in parallel (no straight runs of edges where the "
-             "pieces meet; 1.4-5.6 times the time on two threads on the benchmark's maps, "
-             "the most on dense meshes, whose pieces are decimated from every sample)."),
+             "pieces meet; slower on two threads, the most on dense meshes, whose pieces "
+             "are decimated from every sample)."),
     fit: str = typer.Option(
         "none", "--fit",
         help="Non-(2**n+1) maps: none (static meshes take any size, view meshes refuse), "

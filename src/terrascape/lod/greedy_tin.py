@@ -315,8 +315,9 @@ _TILED_SEARCH = 8 * _TILE * _TILE
 _BOX_SCAN = 64
 # A triangle beyond the error is first searched on a lattice of every 2nd, 4th, … row and
 # column holding about this many to four times as many samples of its box (the triangle
-# about half of them); smaller ones are searched over every sample at once. 128 gave the
-# shortest build at the same number of triangles (``scripts/greedy_tin_ab.py``).
+# about half of them); smaller ones are searched over every sample at once. Throwaway
+# probes of 64, 128, 256 and 1024 (2026-12-06): 256 and 1024 built slower, 64 no faster
+# than 128 with up to 4 % more triangles on the synthetic map at 10 m.
 _SPARSE_SAMPLES = 128
 # A piece whose sides keep at least this share of their samples when simplified is meshed
 # by decimation: every sample a vertex first, then the removal of what the error allows.
@@ -903,10 +904,6 @@ def _prev_edge(e):
     return e - e % 3 + (e + 2) % 3
 
 
-# _fill_hole's outcomes
-_FILLED, _NO_EAR, _OWN_SAMPLE = 0, 1, 2
-
-
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _holds_within(rx, ry, rz, i0, i1, i2, x, y, z, max_error):
     """Whether the triangle of corners ``i0, i1, i2`` holds ``(x, y)``, and if so whether
@@ -929,10 +926,10 @@ def _fill_hole(rx, ry, rz, d, pprev, pnext, out, vx, vy, vz, max_error):
     """Triangulate the polygon of corners ``(rx[i], ry[i])``, ``i < d`` (the link of a
     removed vertex, in the mesh's winding) by clipping ears, taking an ear whose circumcircle
     holds no other polygon corner when there is one; ``out[k]`` = corner numbers of triangle
-    k. Returns ``_FILLED``; ``_NO_EAR`` when no ear is left (a degenerate polygon); or
-    ``_OWN_SAMPLE`` as soon as the first triangle that holds the removed vertex's sample
-    ``(vx, vy)`` puts it farther than ``max_error`` from its height ``vz`` (corner heights
-    ``rz``): most removals fail there, and the rest of the fill is then not needed."""
+    k. False when no ear is left (a degenerate polygon), or as soon as the first triangle
+    that holds the removed vertex's sample ``(vx, vy)`` puts it farther than ``max_error``
+    from its height ``vz`` (corner heights ``rz``): most removals fail there, and the rest
+    of the fill is then not needed."""
     for i in range(d):
         pprev[i] = (i - 1 + d) % d
         pnext[i] = (i + 1) % d
@@ -974,7 +971,7 @@ def _fill_hole(rx, ry, rz, d, pprev, pnext, out, vx, vy, vz, max_error):
         if chosen < 0:
             chosen = fallback
         if chosen < 0:
-            return _NO_EAR
+            return False
         out[k, 0] = pprev[chosen]
         out[k, 1] = chosen
         out[k, 2] = pnext[chosen]
@@ -982,7 +979,7 @@ def _fill_hole(rx, ry, rz, d, pprev, pnext, out, vx, vy, vz, max_error):
             placed, fits = _holds_within(rx, ry, rz, out[k, 0], chosen, out[k, 2], vx, vy, vz,
                                          max_error)
             if not fits:
-                return _OWN_SAMPLE
+                return False
         k += 1
         pnext[pprev[chosen]] = pnext[chosen]
         pprev[pnext[chosen]] = pprev[chosen]
@@ -992,15 +989,15 @@ def _fill_hole(rx, ry, rz, d, pprev, pnext, out, vx, vy, vz, max_error):
     b = pnext[a]
     c = pnext[b]
     if _orient(rx[a], ry[a], rx[b], ry[b], rx[c], ry[c]) <= 0:
-        return _NO_EAR
+        return False
     out[k, 0] = a
     out[k, 1] = b
     out[k, 2] = c
     if not placed:
         placed, fits = _holds_within(rx, ry, rz, a, b, c, vx, vy, vz, max_error)
         if not fits:
-            return _OWN_SAMPLE
-    return _FILLED
+            return False
+    return True
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
@@ -1088,7 +1085,7 @@ def _remove_kernel(h, tplane, tres, bound, order, coords, tris, half, n_edges, m
             if hv > hi + max_error or hv < lo - max_error:
                 continue
             # the fill tests v's own sample against the new triangle over it first thing
-            if _fill_hole(rx, ry, rz, d, pprev, pnext, fill, x, y, hv, max_error) != _FILLED:
+            if not _fill_hole(rx, ry, rz, d, pprev, pnext, fill, x, y, hv, max_error):
                 continue
             fits = True
             for k in range(d - 2):
@@ -1207,11 +1204,12 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         bound was reached.
     in_pieces
         For an error bound alone: mesh pieces of the map in parallel (the default; dense
-        pieces are decimated from every sample: a half to a fifth of the time on two
-        threads), or with False one greedy order over the whole map. Both meet the bound
-        on every sample with about the same number of triangles (up to 5 % more in dense
-        pieces); in a wireframe, some of the lines the pieces share stay visible as
-        straight runs of edges, and decimated pieces keep some rows of grid-aligned edges.
+        pieces are decimated from every sample; on two threads 0.18–0.73× one order's time
+        on the bench's maps, ``python scripts/tin_pieces.py``), or with False one greedy
+        order over the whole map. Both meet the bound on every sample with about the same
+        number of triangles (up to 5 % more in dense pieces); in a wireframe, some of the
+        lines the pieces share stay visible as straight runs of edges, and decimated pieces
+        keep some rows of grid-aligned edges.
 
     Returns
     -------
@@ -1245,7 +1243,7 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         passes = _REMOVAL_PASSES if max_error is not None else 0
         tiles = (-(-rows // _TILE), -(-cols // _TILE))
         coords, tris, _ = _mesh_piece(h, rows, cols, 0, 0, float(tol), 0.0, budget, passes,
-                                      np.empty((*tiles, 3)), np.empty((*tiles, 4)))
+                                      np.inf, np.empty((*tiles, 3)), np.empty((*tiles, 4)))
         return _grid_triangles(coords, tris, cols)
     return _mesh_in_pieces(h, tol, magnitude)
 
@@ -1350,7 +1348,8 @@ def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
     def run(job):
         y0, y1, x0, x1 = job
         return _mesh_piece(_piece_of(h, y0, y1, x0, x1), rows, cols, y0, x0, float(tol),
-                           float(line_tol), _NO_BUDGET, _REMOVAL_PASSES, tplane, tres)
+                           float(line_tol), _NO_BUDGET, _REMOVAL_PASSES, _DENSE_SIDES, tplane,
+                           tres)
 
     workers = min(len(jobs), numba.get_num_threads())
     if workers > 1:
@@ -1681,15 +1680,20 @@ def _piece_of(h: np.ndarray, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
-def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, tplane, tres):
+def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, dense_sides, tplane,
+                tres):
     """Greedy insertion over ``piece`` (:func:`_piece_of`: the samples from row ``y0`` and
     column ``x0`` of a ``rows × cols`` map), then, when the error was reached, ``passes``
     of the removal of redundant vertices. The insertion starts from the piece's corners and
     the vertices of its sides on lines shared with other pieces: each such side is
     simplified alone within ``line_tol`` first (its neighbour simplifies the same samples
-    the same way). The piece's tiles (:func:`_tile_ranges`) go into the map's ``tplane``
-    and ``tres``. Returns the vertices as map coordinates ``(x, y)``, the triangles as
-    indices into them (flat, vertex -1 for removed ones) and their halfedge twins.
+    the same way). When the error is to be reached (no budget, ``passes`` > 0) and the
+    four sides, each simplified so, keep at least a ``dense_sides`` share of their samples,
+    the piece is decimated instead: :func:`_grid_start`, then the removal (``inf``: never;
+    one greedy order over the whole map passes it). The piece's tiles
+    (:func:`_tile_ranges`) go into the map's ``tplane`` and ``tres``. Returns the vertices
+    as map coordinates ``(x, y)``, the triangles as indices into them (flat, vertex -1 for
+    removed ones) and their halfedge twins.
 
     One compiled call for the whole piece, growing its own arrays: pieces meshed on
     several threads hold the interpreter's lock only to enter. Indices are 32-bit to halve
@@ -1715,8 +1719,8 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, tplane
             shared = x0 > 0
         else:
             shared = x1 < cols - 1
-        if not shared and line_tol == 0:
-            continue
+        if not shared and dense_sides > 1:
+            continue  # never decimated: only the shared sides matter
         fixed = (0 if side == 0 else ny - 1) if along_x else (0 if side == 2 else nx - 1)
         n = nx if along_x else ny
         line = np.ascontiguousarray(piece[fixed]) if along_x else np.ascontiguousarray(
@@ -1737,8 +1741,8 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, tplane
     # scratch of the tiled search: one bound and one heap slot per tile
     bound = np.empty(ty * tx)
     order = np.empty(ty * tx, np.int64)
-    if (line_tol != 0 and passes > 0 and budget == _NO_BUDGET and nx >= 4 and ny >= 4
-            and n_kept >= _DENSE_SIDES * 2 * (nx + ny)):
+    if (passes > 0 and budget == _NO_BUDGET and nx >= 4 and ny >= 4
+            and n_kept >= dense_sides * 2 * (nx + ny)):
         # a dense mesh: start from every sample and remove what the error allows
         coords, tris, half = _grid_start(nx, ny, keep)
         n_edges = tris.shape[0]
