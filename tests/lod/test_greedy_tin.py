@@ -566,6 +566,19 @@ def test_dense_pieces_are_decimated_and_meet_the_sparse_ones(monkeypatch):
     kept = [_side_keep(hm.heights[0, xs[j]:xs[j + 1] + 1], line_tol).mean()
             for j in range(len(xs) - 1)]
     assert kept[0] > 0.8 and kept[-1] < 0.2  # both kinds of piece are there
+    # the rough corner piece is decimated (not what insertion alone gives), the smooth one
+    # inserted (the same as insertion alone)
+    tiles = (-(-rows // gt._TILE), -(-cols // gt._TILE))
+    for j, decimated in ((0, True), (len(xs) - 2, False)):
+        piece = gt._piece_of(gt.read_only(hm.heights), ys[0], ys[1], xs[j], xs[j + 1])
+
+        def mesh(dense_sides, piece=piece, x0=xs[j]):
+            return gt._mesh_piece(piece, rows, cols, 0, x0, 0.5, line_tol, gt._NO_BUDGET,
+                                  gt._REMOVAL_PASSES, dense_sides, np.empty((*tiles, 3)),
+                                  np.empty((*tiles, 4)))[1]
+
+        same = np.array_equal(mesh(gt._DENSE_SIDES), mesh(np.inf))
+        assert same != decimated, (j, decimated)
     one = _on_threads(1, lambda: gt.greedy_tin(hm, max_error=0.5))
     two = _on_threads(2, lambda: gt.greedy_tin(hm, max_error=0.5))
     np.testing.assert_array_equal(one, two)
