@@ -1,7 +1,8 @@
 """Every registry against its documentation: docs/architecture.md lists exactly the entries
-of each registry (generators, techniques, LOD schemes, exporters, mesh formats, benchmark
-cases, CLI commands), the README names every generator, LOD scheme and exporter, and the
-command table is exactly what the ``cli/cmd_*.py`` modules register."""
+of each registry (generators, techniques, LOD schemes, static meshers, exporters, mesh
+formats, benchmark cases, CLI commands), the README names every generator, LOD scheme,
+static mesher and exporter, and the command table is exactly what the ``cli/cmd_*.py``
+modules register."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from terrascape.export import destinations
 from terrascape.generate.registry import generator_names
 from terrascape.io.mesh import MESH_FORMATS
 from terrascape.lod.schemes import SCHEMES
+from terrascape.lod.static_meshers import STATIC_MESHERS
 from terrascape.render.techniques import technique_names
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -28,6 +30,7 @@ REGISTRIES = {
     "Generators": lambda: generator_names(),
     "Techniques": lambda: technique_names(),
     "LOD schemes": lambda: list(SCHEMES),
+    "Static meshers": lambda: list(STATIC_MESHERS),
     "Exporters": lambda: destinations(),
     "Mesh formats": lambda: list(MESH_FORMATS),
     "Benchmark cases": lambda: available_cases(),
@@ -65,7 +68,7 @@ def test_commands_are_listed_in_help_order() -> None:
     assert documented("CLI commands") == list(COMMANDS)
 
 
-@pytest.mark.parametrize("title", ["Generators", "LOD schemes", "Exporters"])
+@pytest.mark.parametrize("title", ["Generators", "LOD schemes", "Static meshers", "Exporters"])
 def test_readme_names_every_entry(title: str) -> None:
     flat = README.replace("_", " ")
     missing = [name for name in REGISTRIES[title]()

@@ -2,8 +2,9 @@
 
 Three modes:
 
-* ``--max-error METRES`` and/or ``--triangles N``: static RTIN mesh with a true maximum
-  vertical error / a hard triangle budget (:mod:`terrascape.lod.rtin`);
+* ``--max-error METRES`` and/or ``--triangles N``: a static mesh with a true maximum
+  vertical error / a hard triangle budget, by any mesher of
+  :data:`terrascape.lod.static_meshers.STATIC_MESHERS` (``--mesher``; RTIN by default);
 * ``--camera X,Y,Z --target X,Y,Z``: the view-dependent mesh a renderer would draw from that
   camera, by any scheme of :data:`terrascape.lod.schemes.SCHEMES` (``--lod``; geomipmapping
   by default), with ``--tolerance PIXELS`` and/or ``--triangles N`` as the scheme takes them.
@@ -24,11 +25,15 @@ from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
 from terrascape.lod.schemes import SCHEMES
+from terrascape.lod.static_meshers import STATIC_MESHERS
 
 _FITS = ("none", "pad", "resample")
 _DEFAULT_TOLERANCE = 2.0
 # update() keyword → the option that gives it
 _FLAGS = {"tolerance_px": "--tolerance", "max_triangles": "--triangles"}
+_DEFAULT_MESHER = next(iter(STATIC_MESHERS))
+# the static meshers --one-piece applies to (in_pieces=False)
+_ONE_PIECE_MESHERS = tuple(n for n, m in STATIC_MESHERS.items() if "in_pieces" in m.options)
 
 
 def _read(path: Path, spacing: str | None, vertical_scale: float | None):
@@ -95,13 +100,14 @@ def mesh_command(
         help="Deprecated alias of --triangles (kept so old scripts run).",
     ),
     mesher: str = typer.Option(
-        "rtin", "--mesher",
-        help="Static mesh: rtin (right triangles, crack-free tiles, fast) or greedy (Delaunay "
-             "greedy insertion: fewer triangles for the same error, any grid; its first "
-             "run compiles for a while, or ahead with `terrascape warm-up --only greedy`)."),
+        None, "--mesher", help="Static mesher: " + "; ".join(
+            f"{n} ({m.help})" for n, m in STATIC_MESHERS.items()) + ".",
+        show_default=_DEFAULT_MESHER,
+    ),
     one_piece: bool = typer.Option(
         False, "--one-piece",
-        help="With --mesher greedy and --max-error: one greedy order over the whole map "
+        help="With --mesher " + ", ".join(_ONE_PIECE_MESHERS) + " and --max-error: one "
+             "greedy order over the whole map "
              "instead of pieces meshed in parallel (no straight runs of edges where the "
              "pieces meet; slower on two threads, the most on dense meshes, whose pieces "
              "are decimated from every sample)."),
@@ -198,6 +204,17 @@ def mesh_command(
                 n for n, s in SCHEMES.items() if "patch_size" in s.options) + ")")
     if fit not in _FITS:
         raise InvalidParameterError(f"--fit must be one of {', '.join(_FITS)}, got {fit!r}")
+    if mesher is not None and mesher not in STATIC_MESHERS:
+        raise InvalidParameterError(
+            f"--mesher must be one of {', '.join(STATIC_MESHERS)}, got {mesher!r}")
+    if mesher is not None and view_mode:
+        raise InvalidParameterError(
+            f"--mesher {mesher} makes static meshes: use it with --max-error/--triangles, "
+            "not --camera/--target (view-dependent meshes take --lod)")
+    mesher = _DEFAULT_MESHER if mesher is None else mesher
+    if one_piece and mesher not in _ONE_PIECE_MESHERS:
+        raise InvalidParameterError(
+            f"--one-piece is for --mesher {' or '.join(_ONE_PIECE_MESHERS)}")
     if max_triangles_roam is not None and not (view_mode and lod == "roam"):
         raise InvalidParameterError(
             "--roam-max-triangles applies only to the view-dependent ROAM mesh: add --lod roam "
@@ -209,36 +226,11 @@ def mesh_command(
         if fit != "none":
             hm = hm.to_pow2_plus1(fit)
 
-    if mesher not in ("rtin", "greedy"):
-        raise InvalidParameterError(f"--mesher must be rtin or greedy, got {mesher!r}")
-    if one_piece and mesher != "greedy":
-        raise InvalidParameterError("--one-piece is for --mesher greedy")
-    if mesher == "greedy" and not static_mode:
-        raise InvalidParameterError("--mesher greedy makes static meshes: use it with "
-                                    "--max-error/--triangles, not --camera/--target")
-    if static_mode and mesher == "greedy":
-        from terrascape.lod.greedy_tin import greedy_tin
-
-        with timed("greedy mesh", quiet=quiet):
-            tri = greedy_tin(hm, max_error=max_error, max_triangles=triangles,
-                             in_pieces=not one_piece)
-        with timed("measure", quiet=quiet):
-            measured = max_vertical_error(hm, tri)
-        summary = f"max vertical error {measured:.6g} (world units, measured on every sample)"
-    elif static_mode:
-        from terrascape.export.meshing import rtin_rectangle
-        from terrascape.lod.rtin import Rtin
-
-        if triangles is None or not hm.is_pow2_plus1:
-            # one error: the fast path skips most exact triangle errors; any other size is
-            # padded internally and the triangles outside the data are dropped
-            with timed("rtin mesh", quiet=quiet):
-                tri = rtin_rectangle(hm, max_error=max_error, max_triangles=triangles)
-        else:
-            with timed("rtin errors", quiet=quiet):
-                rtin = Rtin(hm)
-            with timed("rtin mesh", quiet=quiet):
-                tri = rtin.mesh(max_error=max_error, max_triangles=triangles).triangles
+    if static_mode:
+        entry_mesher = STATIC_MESHERS[mesher]
+        options = {"in_pieces": False} if one_piece else {}
+        with timed(f"{entry_mesher.label} mesh", quiet=quiet):
+            tri = entry_mesher.mesh(hm, max_error=max_error, max_triangles=triangles, **options)
         with timed("measure", quiet=quiet):
             measured = max_vertical_error(hm, tri)
         summary = f"max vertical error {measured:.6g} (world units, measured on every sample)"
