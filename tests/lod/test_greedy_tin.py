@@ -8,6 +8,7 @@ from itertools import pairwise
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from terrascape.errors import InvalidParameterError
 from terrascape.generate import diamond_square
@@ -492,9 +493,41 @@ def test_each_kernel_compiles_once_whatever_the_heights(monkeypatch):
     for name in ("_mesh_piece", "_refine", "_flush_all", "_insert_border_points", "_legalize",
                  "_split_on_edge", "_tiled_search", "_scan_rows", "_remove_vertices",
                  "_remove_kernel", "_relax_edges", "_scan_lattice", "_grid_start",
-                 "_drop_unused", "_insert_piece"):
+                 "_drop_unused", "_insert_piece", "_compact_triangles"):
         assert len(getattr(gt, name).signatures) <= 1, (name, getattr(gt, name).signatures)
 
+
+
+def test_compacting_keeps_the_live_triangles_in_order_with_their_twins():
+    """A decimated piece's triangles moved to the front: the live ones in their order, the
+    twins pointing at the same (moved) halfedges, nothing else changed."""
+    from terrascape.lod import greedy_tin as gt
+
+    rng = np.random.default_rng(7)
+    piece = (ndimage.gaussian_filter(rng.standard_normal((48, 40)), 2) * 30).astype(np.float32)
+    ny, nx = piece.shape
+    keep = np.ones((4, max(nx, ny)), np.bool_)
+    coords, tris, half = gt._grid_start(nx, ny, keep)
+    tiles = (-(-ny // gt._TILE), -(-nx // gt._TILE))
+    plane, res = np.empty((*tiles, 3)), np.empty((*tiles, 4))
+    gt._tile_ranges(piece, plane, res)
+    removed = gt._remove_vertices(piece, plane, res, np.empty(tiles[0] * tiles[1]),
+                                  np.empty(tiles[0] * tiles[1], np.int64), coords, tris, half,
+                                  len(coords), len(tris), 1.0, 8, np.ones(len(coords), np.bool_))
+    assert removed > 100
+    live = tris.reshape(-1, 3)[:, 0] >= 0
+    assert 0 < live.sum() < len(live)
+    before = tris.reshape(-1, 3)[live].copy()
+    # each live halfedge's twin as (triangle's rank among the live ones, corner)
+    rank = np.cumsum(live) - 1
+    twin_before = np.where(half >= 0, 3 * rank[np.maximum(half, 0) // 3] + half % 3, -1)
+    twin_before = twin_before.reshape(-1, 3)[live].reshape(-1)
+    n = gt._compact_triangles(tris, half, len(tris))
+    assert n == 3 * live.sum()
+    np.testing.assert_array_equal(tris[:n].reshape(-1, 3), before)
+    np.testing.assert_array_equal(half[:n], twin_before)
+    twinned = half[:n] >= 0
+    assert np.all(half[half[:n][twinned]] == np.flatnonzero(twinned))
 
 @pytest.mark.parametrize(("nx", "ny"), [(4, 4), (5, 9), (23, 17), (60, 41)])
 def test_grid_start_triangulates_the_piece_with_its_kept_side_samples(nx, ny):

@@ -1692,8 +1692,8 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, dense_
     the piece is decimated instead: :func:`_grid_start`, then the removal (``inf``: never;
     one greedy order over the whole map passes it). The piece's tiles
     (:func:`_tile_ranges`) go into the map's ``tplane`` and ``tres``. Returns the vertices
-    as map coordinates ``(x, y)``, the triangles as indices into them (flat, vertex -1 for
-    removed ones) and their halfedge twins.
+    as map coordinates ``(x, y)``, the live triangles as indices into them (flat) and
+    their halfedge twins.
 
     One compiled call for the whole piece, growing its own arrays: pieces meshed on
     several threads hold the interpreter's lock only to enter. Indices are 32-bit to halve
@@ -1764,9 +1764,38 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, dense_
     for v in range(n_points):
         coords[v, 0] += x0
         coords[v, 1] += y0
+    # here, on the piece's own thread, rather than in the serial join: a decimated piece
+    # leaves most of its grid's triangle slots removed
+    n_edges = _compact_triangles(tris, half, n_edges)
     # the insertion keeps the winding of the two first triangles: counter-clockwise seen
-    # from above (+Y) with rows growing southward; removed triangles have vertex -1
+    # from above (+Y) with rows growing southward
     return coords, tris[:n_edges], half[:n_edges]
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
+def _compact_triangles(tris, half, n_edges):
+    """Move the live triangles of ``tris[:n_edges]`` (removed ones have vertex -1) to the
+    front in their order, their twins renumbered to match; returns the live halfedges'
+    count. The live triangles keep their relative order, so whatever walks them in order
+    (the join's removal, the output) does the same as before."""
+    n_tris = n_edges // 3
+    moved_to = np.empty(n_tris, np.int64)
+    live = 0
+    for t in range(n_tris):
+        if tris[3 * t] >= 0:
+            moved_to[t] = live
+            live += 1
+        else:
+            moved_to[t] = -1
+    for t in range(n_tris):
+        k = moved_to[t]
+        if k < 0:
+            continue
+        for m in range(3):
+            tris[3 * k + m] = tris[3 * t + m]
+            twin = half[3 * t + m]
+            half[3 * k + m] = -1 if twin < 0 else 3 * moved_to[twin // 3] + twin % 3
+    return 3 * live
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
