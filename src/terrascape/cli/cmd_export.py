@@ -18,6 +18,7 @@ from terrascape.cli.app import app, console, out, timed
 from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.cli.parsing import is_world_store
 from terrascape.export import destinations
+from terrascape.lod.static_meshers import STATIC_MESHERS
 
 #: Destinations that tile the globe: they take a map in degrees as it is.
 _GLOBE_DESTINATIONS = ("cesium", "terrain_rgb")
@@ -110,9 +111,13 @@ def export_command(
     max_zoom: int = typer.Option(None, "--max-zoom", min=0, max=24,
                                  help="Tile pyramids: last level.",
                                  show_default="as dense as the map"),
-    max_error: float = typer.Option(None, "--max-error", help="blender glb: mesh error; "
+    max_error: float = typer.Option(None, "--max-error", help="blender glb, web: mesh error; "
                                     "cesium: error floor per level (world units).",
-                                    show_default="0.5"),
+                                    show_default="blender 0.5, web relief/500, cesium 1"),
+    mesher: str = typer.Option(
+        None, "--mesher", help="blender glb, web: the static mesher — " + "; ".join(
+            f"{n} ({m.help})" for n, m in STATIC_MESHERS.items()) + ".",
+        show_default=next(iter(STATIC_MESHERS))),
     spacing: str = typer.Option(None, "--spacing", help="Sample spacing DX or DX,DZ in world "
                                 "units (overrides the file).", show_default="from file"),
     objects: str = typer.Option(
@@ -141,6 +146,17 @@ def export_command(
     from terrascape.io.geotiff import degree_warning
 
     module = get_destination(destination)
+    if mesher is not None:
+        from terrascape.errors import InvalidParameterError
+        from terrascape.lod.static_meshers import static_mesher
+
+        static_mesher(mesher)  # an unknown name: one line naming the choices
+        if not getattr(module, "TAKES_MESHER", False):
+            raise InvalidParameterError(
+                "--mesher goes with " + ", ".join(
+                    n for n in destinations() if getattr(get_destination(n), "TAKES_MESHER",
+                                                         False))
+                + f"; {destination} does not mesh the terrain with it")
     if is_world_store(heightmap):
         with _no_empty_folder(output):
             _export_world(destination, heightmap, output, name, lonlat, min_zoom, max_zoom,
@@ -186,7 +202,7 @@ def export_command(
     options = ExportOptions(name=name or heightmap.stem, fit=fit, tiles=tiles, flip=flip,
                             format=fmt, plugin=plugin, layers=layers, force=force, lonlat=ll,
                             min_zoom=min_zoom, max_zoom=max_zoom, max_error=max_error,
-                            objects=placed, compress=compress)
+                            mesher=mesher, objects=placed, compress=compress)
     with timed(f"export {destination}", quiet=quiet), _no_empty_folder(output):
         written = module.export(hm, output, options)
     for path in written:

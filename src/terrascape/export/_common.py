@@ -48,7 +48,12 @@ class ExportOptions:
     min_zoom, max_zoom
         Tile pyramids: levels written (default 0 … the level as dense as the map).
     max_error
-        Meshes (blender glb; cesium tiles at the finest level): vertical error, world units.
+        Meshes (blender glb, web; cesium tiles at the finest level): vertical error, world
+        units.
+    mesher
+        Meshes (blender glb, web): a static mesher of
+        :data:`terrascape.lod.static_meshers.STATIC_MESHERS` (``None``: ``rtin``); the
+        exporters that mesh with it say so with ``TAKES_MESHER = True``.
     workers
         Tile pyramids: worker processes.
     compress
@@ -72,6 +77,7 @@ class ExportOptions:
     min_zoom: int | None = None
     max_zoom: int | None = None
     max_error: float | None = None
+    mesher: str | None = None
     workers: int = 2
     objects: object = None
     compress: str | None = None

@@ -18,6 +18,8 @@ from terrascape.heightmap import Heightmap
 NAME = "blender"
 SUMMARY = "Blender: float32 TIFF displacement (Displace modifier) or a textured glb."
 FORMATS = ("tiff", "glb")
+#: the glb's terrain is meshed by ``ExportOptions.mesher``
+TAKES_MESHER = True
 #: Mesh compressions Blender's glTF importer reads: KHR_mesh_quantization since Blender 2.91
 #: (glTF-Blender-IO pull request 1172); not EXT_meshopt_compression (issue 1460, open).
 COMPRESSIONS = ("none", "quantize")
@@ -38,6 +40,8 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
             f"reads KHR_mesh_quantization, not meshopt), got {compress!r}")
     if compress != "none" and fmt != "glb":
         raise InvalidParameterError("--compress is for the glb: add --format glb")
+    if options.mesher is not None and fmt != "glb":
+        raise InvalidParameterError("--mesher is for the glb: add --format glb")
     hm = heightmap
     ex, ez = hm.extent
     if fmt == "tiff":
@@ -58,16 +62,20 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
         ]
     else:
         from terrascape.export.glb import write_terrain_glb
+        from terrascape.lod.mesh_checks import max_vertical_error
 
         max_error = 0.5 if options.max_error is None else options.max_error
+        mesher = options.mesher or "rtin"
         path, mesh = write_terrain_glb(hm, out / f"{name}.glb", max_error=max_error,
                                        force=options.force, objects=objects_for(options, hm),
-                                       quantize=compress == "quantize")
+                                       quantize=compress == "quantize", mesher=mesher)
+        measured = max_vertical_error(hm, mesh.grid_triangles())
         lines = [
             f"Blender glTF import for {name} (written by terrascape)",
             "",
             f"File > Import > glTF 2.0 (.glb) > {path.name}; defaults (+Y Up converted)",
-            f"{len(mesh.faces)} triangles, maximum vertical error {max_error:g} world units",
+            f"{len(mesh.faces)} triangles ({mesher} mesher), maximum vertical error "
+            f"{measured:.4g} world units (measured on every sample; asked {max_error:g})",
             *(["Quantized (KHR_mesh_quantization: 16-bit positions, 8-bit normals): "
                "Blender 2.91 or newer"] if compress == "quantize" else []),
             f"Size: {ex:.6g} × {ez:.6g}, heights {hm.min:.6g} … {hm.max:.6g} (metres)",

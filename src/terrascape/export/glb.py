@@ -40,9 +40,10 @@ import pygltflib
 from PIL import Image
 
 from terrascape.errors import InvalidParameterError
-from terrascape.export.meshing import TerrainMesh, rtin_rectangle, terrain_mesh, uint16_parts
+from terrascape.export.meshing import TerrainMesh, terrain_mesh, uint16_parts
 from terrascape.heightmap import Heightmap
 from terrascape.io.atomic import atomic_output
+from terrascape.lod.static_meshers import static_mesher
 
 __all__ = ["bake_texture", "build_glb", "compression_ordered", "glb_bytes", "glb_document",
            "write_terrain_glb"]
@@ -409,15 +410,18 @@ def write_terrain_glb(
     max_error: float | None = None,
     max_triangles: int | None = None,
     force: bool = False,
+    mesher: str = "rtin",
     **options,
 ) -> tuple[Path, TerrainMesh]:
-    """RTIN-mesh ``heightmap`` (any rectangular size) and write a textured GLB atomically.
+    """Mesh ``heightmap`` (any rectangular size) with the static mesher ``mesher``
+    (:data:`terrascape.lod.static_meshers.STATIC_MESHERS`: ``rtin`` or ``greedy``) and
+    write a textured GLB atomically.
 
     ``options`` are those of :func:`build_glb`. Returns the path and the mesh written.
     """
     if max_error is None and max_triangles is None:
         raise InvalidParameterError("give max_error (world units) and/or max_triangles")
-    tri = rtin_rectangle(heightmap, max_error=max_error, max_triangles=max_triangles)
+    tri = static_mesher(mesher).mesh(heightmap, max_error=max_error, max_triangles=max_triangles)
     data, mesh = build_glb(heightmap, tri, **options)
     with atomic_output(path, force=force) as tmp:
         Path(tmp).write_bytes(data)

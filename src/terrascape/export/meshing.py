@@ -179,6 +179,15 @@ class TerrainMesh:
     grid_index: np.ndarray
     skirt_vertices: int = 0
 
+    def grid_triangles(self) -> np.ndarray:
+        """The terrain's faces (the skirt's left out) as ``uint32 (M, 3)`` grid indices
+        ``row·cols + col`` of the heightmap, e.g. to measure the mesh's error."""
+        faces = np.asarray(self.faces, np.int64)
+        if self.skirt_vertices:
+            surface = len(self.grid_index) - self.skirt_vertices
+            faces = faces[(faces < surface).all(axis=1)]
+        return self.grid_index[faces].astype(np.uint32)
+
 
 def terrain_mesh(
     heightmap: Heightmap,

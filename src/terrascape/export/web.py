@@ -22,6 +22,8 @@ from terrascape.heightmap import Heightmap
 
 NAME = "web"
 SUMMARY = "Static web page (three.js, works from file://) with the textured glb embedded."
+#: the page's terrain is meshed by ``ExportOptions.mesher``
+TAKES_MESHER = True
 SKY = "#a9c8e8"
 
 _MODULES = {
@@ -64,16 +66,18 @@ def page_html(glb: bytes, *, title: str, sky: str = SKY) -> str:
 def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     from terrascape.export.glb import build_glb
     from terrascape.export.instances import objects_for
-    from terrascape.export.meshing import rtin_rectangle
+    from terrascape.lod.mesh_checks import max_vertical_error
+    from terrascape.lod.static_meshers import static_mesher
 
     out = check_out_dir(out_dir)
     relief = max(heightmap.max - heightmap.min, 1e-6)
     max_error = options.max_error if options.max_error is not None else relief / 500.0
-    tri = rtin_rectangle(heightmap, max_error=max_error)
+    tri = static_mesher(options.mesher or "rtin").mesh(heightmap, max_error=max_error)
     glb, mesh = build_glb(heightmap, tri, compress=True, texture_size=2048,
                           objects=objects_for(options, heightmap))
+    measured = max_vertical_error(heightmap, tri)
     title = (f"{options.name}: {heightmap.cols}×{heightmap.rows} samples, {len(mesh.faces):,} "
-             f"triangles (max error {max_error:.3g})")
+             f"triangles (max error {measured:.3g}, measured)")
     glb_path = write_bytes(out / f"{options.name}.glb", glb, force=options.force)
     page = write_text(out / "index.html", page_html(glb, title=title), force=options.force)
     lic = write_text(out / "THREE_LICENSE.txt", _asset("three/LICENSE"), force=options.force)
