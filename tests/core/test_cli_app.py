@@ -54,3 +54,23 @@ def test_plain_maps_need_no_world_extra(tmp_path, gl_ctx):
     picture = np.asarray(Image.open(tmp_path / "r.png").convert("RGB"), dtype=np.float32)
     assert picture.shape == (36, 64, 3) and picture.std() > 5.0
     assert any((tmp_path / "unity").glob("*.raw"))
+
+
+def test_a_slow_stage_says_why_while_it_runs(monkeypatch, capsys):
+    import importlib
+    import time
+
+    cli_app = importlib.import_module("terrascape.cli.app")  # the module, not its app
+
+    monkeypatch.setattr(cli_app, "SLOW_NOTE_AFTER", 0.05)
+    with cli_app.timed("meshing", slow_note="compiling once"):
+        time.sleep(0.6)
+    err = capsys.readouterr().err
+    assert "meshing: still working after 0.05 s — compiling once" in err
+    assert err.index("still working") < err.index("meshing… ")  # while it ran
+    with cli_app.timed("fast", slow_note="not shown: done in time"):
+        pass
+    with cli_app.timed("hushed", quiet=True, slow_note="not shown: quiet"):
+        time.sleep(0.3)
+    time.sleep(0.2)  # a timer that was not cancelled would print by now
+    assert "not shown" not in capsys.readouterr().err

@@ -68,6 +68,37 @@ def test_options_a_mesher_does_not_take_are_refused() -> None:
     assert static_mesher("greedy") is STATIC_MESHERS["greedy"]
 
 
+def test_each_mesher_names_the_warm_up_that_compiles_it() -> None:
+    from terrascape.warmup import WARM_UP_TASKS
+
+    for m in STATIC_MESHERS.values():
+        assert m.warm_up in WARM_UP_TASKS, m.name
+        assert "terrascape mesh" in WARM_UP_TASKS[m.warm_up].summary
+
+
+def test_a_slow_first_mesh_says_it_compiles(monkeypatch, tmp_path, capsys) -> None:
+    import importlib
+    import time
+
+    cli_app = importlib.import_module("terrascape.cli.app")  # the module, not its app
+    from terrascape.lod.static_meshers import StaticMesher
+
+    src = tmp_path / "hm.npy"
+    write_heightmap(_map(33, 33), src)
+    real = StaticMesher.mesh
+
+    def slow(self, *args, **kwargs):  # as a first run that compiles
+        time.sleep(0.5)
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(cli_app, "SLOW_NOTE_AFTER", 0.05)
+    monkeypatch.setattr(StaticMesher, "mesh", slow)
+    assert run_app(["mesh", str(src), "-o", str(tmp_path / "g.obj"), "--max-error", "1",
+                    "--mesher", "greedy"]) == 0
+    assert "compiles the mesher, once (`terrascape warm-up --only greedy`" in " ".join(
+        capsys.readouterr().err.split())
+
+
 def test_the_table_imports_no_mesher() -> None:
     """Reading the table (as ``--help`` does) loads neither numba nor a mesher's module."""
     code = ("import sys; import terrascape.lod.static_meshers as m; "

@@ -375,11 +375,31 @@ def run_app(argv: list[str] | None = None) -> int:
     return result if isinstance(result, int) and not isinstance(result, bool) else 0
 
 
+#: Seconds a stage with a ``slow_note`` runs before the note is printed.
+SLOW_NOTE_AFTER = 5.0
+
+
 @contextlib.contextmanager
-def timed(stage: str, *, quiet: bool = False) -> Iterator[None]:
-    """Print ``stage… 0.12 s`` to stderr after the block (hmm-style per-stage timing)."""
+def timed(stage: str, *, quiet: bool = False, slow_note: str | None = None) -> Iterator[None]:
+    """Print ``stage… 0.12 s`` to stderr after the block (hmm-style per-stage timing).
+
+    ``slow_note``: printed as ``stage: still working after 5 s — NOTE`` while the block
+    is still running after :data:`SLOW_NOTE_AFTER` seconds (a first run that compiles for
+    half a minute would otherwise look stuck)."""
     start = time.perf_counter()
-    yield
+    timer = None
+    if slow_note and not quiet:
+        import threading
+
+        timer = threading.Timer(SLOW_NOTE_AFTER, lambda: console.print(
+            f"[dim]{stage}: still working after {SLOW_NOTE_AFTER:g} s — {slow_note}[/]"))
+        timer.daemon = True
+        timer.start()
+    try:
+        yield
+    finally:
+        if timer is not None:
+            timer.cancel()
     if not quiet:
         console.print(f"[dim]{stage}… {time.perf_counter() - start:.2f} s[/]")
 

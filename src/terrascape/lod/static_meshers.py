@@ -36,7 +36,8 @@ class StaticMesher:
 
     ``target`` is ``"module:function"`` (imported by :meth:`load`); ``options`` the
     keywords the function takes besides ``max_error`` and ``max_triangles``, each with its
-    help; ``label`` the name in tables and timings.
+    help; ``label`` the name in tables and timings; ``warm_up`` the ``terrascape warm-up``
+    task that compiles it ahead of its first run.
     """
 
     name: str
@@ -44,6 +45,7 @@ class StaticMesher:
     label: str
     help: str
     options: dict[str, str]
+    warm_up: str
 
     def load(self) -> Callable[..., np.ndarray]:
         module, _, function = self.target.partition(":")
@@ -70,6 +72,7 @@ STATIC_MESHERS: dict[str, StaticMesher] = {
             "right triangles of a bintree: crack-free tiles, fast; any map size, padded "
             "internally",
             {},
+            "lod",
         ),
         StaticMesher(
             "greedy", "terrascape.lod.greedy_tin:greedy_tin", "greedy TIN",
@@ -78,6 +81,7 @@ STATIC_MESHERS: dict[str, StaticMesher] = {
             "`terrascape warm-up --only greedy`",
             {"in_pieces": "False: one greedy order over the whole map instead of pieces "
                           "meshed in parallel"},
+            "greedy",
         ),
     )
 }
