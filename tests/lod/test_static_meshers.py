@@ -17,7 +17,7 @@ from terrascape.generate import diamond_square
 from terrascape.heightmap import Heightmap
 from terrascape.io import write_heightmap
 from terrascape.lod.mesh_checks import conformity_report, max_vertical_error
-from terrascape.lod.static_meshers import STATIC_MESHERS, static_mesher
+from terrascape.lod.static_meshers import DEFAULT_STATIC_MESHER, STATIC_MESHERS, static_mesher
 
 NAMES = list(STATIC_MESHERS)
 
@@ -66,6 +66,7 @@ def test_options_a_mesher_does_not_take_are_refused() -> None:
     with pytest.raises(InvalidParameterError, match=r"unknown static mesher 'bogus'.*rtin"):
         static_mesher("bogus")
     assert static_mesher("greedy") is STATIC_MESHERS["greedy"]
+    assert static_mesher(None) is STATIC_MESHERS[DEFAULT_STATIC_MESHER] is STATIC_MESHERS["rtin"]
 
 
 def test_each_mesher_names_the_warm_up_that_compiles_it() -> None:

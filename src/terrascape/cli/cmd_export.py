@@ -18,7 +18,7 @@ from terrascape.cli.app import app, console, out, timed
 from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.cli.parsing import is_world_store
 from terrascape.export import destinations
-from terrascape.lod.static_meshers import STATIC_MESHERS
+from terrascape.lod.static_meshers import DEFAULT_STATIC_MESHER, STATIC_MESHERS
 
 #: Destinations that tile the globe: they take a map in degrees as it is.
 _GLOBE_DESTINATIONS = ("cesium", "terrain_rgb")
@@ -117,7 +117,7 @@ def export_command(
     mesher: str = typer.Option(
         None, "--mesher", help="blender glb, web: the static mesher — " + "; ".join(
             f"{n} ({m.help})" for n, m in STATIC_MESHERS.items()) + ".",
-        show_default=next(iter(STATIC_MESHERS))),
+        show_default=DEFAULT_STATIC_MESHER),
     spacing: str = typer.Option(None, "--spacing", help="Sample spacing DX or DX,DZ in world "
                                 "units (overrides the file).", show_default="from file"),
     objects: str = typer.Option(

@@ -25,13 +25,12 @@ from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
 from terrascape.lod.schemes import SCHEMES
-from terrascape.lod.static_meshers import STATIC_MESHERS
+from terrascape.lod.static_meshers import DEFAULT_STATIC_MESHER, STATIC_MESHERS
 
 _FITS = ("none", "pad", "resample")
 _DEFAULT_TOLERANCE = 2.0
 # update() keyword → the option that gives it
 _FLAGS = {"tolerance_px": "--tolerance", "max_triangles": "--triangles"}
-_DEFAULT_MESHER = next(iter(STATIC_MESHERS))
 # the static meshers --one-piece applies to (in_pieces=False)
 _ONE_PIECE_MESHERS = tuple(n for n, m in STATIC_MESHERS.items() if "in_pieces" in m.options)
 
@@ -102,7 +101,7 @@ def mesh_command(
     mesher: str = typer.Option(
         None, "--mesher", help="Static mesher: " + "; ".join(
             f"{n} ({m.help})" for n, m in STATIC_MESHERS.items()) + ".",
-        show_default=_DEFAULT_MESHER,
+        show_default=DEFAULT_STATIC_MESHER,
     ),
     one_piece: bool = typer.Option(
         False, "--one-piece",
@@ -211,7 +210,7 @@ def mesh_command(
         raise InvalidParameterError(
             f"--mesher {mesher} makes static meshes: use it with --max-error/--triangles, "
             "not --camera/--target (view-dependent meshes take --lod)")
-    mesher = _DEFAULT_MESHER if mesher is None else mesher
+    mesher = DEFAULT_STATIC_MESHER if mesher is None else mesher
     if one_piece and mesher not in _ONE_PIECE_MESHERS:
         raise InvalidParameterError(
             f"--one-piece is for --mesher {' or '.join(_ONE_PIECE_MESHERS)}")

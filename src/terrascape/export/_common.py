@@ -52,7 +52,7 @@ class ExportOptions:
         units.
     mesher
         Meshes (blender glb, web): a static mesher of
-        :data:`terrascape.lod.static_meshers.STATIC_MESHERS` (``None``: ``rtin``); the
+        :data:`terrascape.lod.static_meshers.STATIC_MESHERS` (``None``: the default); the
         exporters that mesh with it say so with ``TAKES_MESHER = True``.
     workers
         Tile pyramids: worker processes.

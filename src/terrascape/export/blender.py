@@ -63,9 +63,10 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     else:
         from terrascape.export.glb import write_terrain_glb
         from terrascape.lod.mesh_checks import max_vertical_error
+        from terrascape.lod.static_meshers import static_mesher
 
         max_error = 0.5 if options.max_error is None else options.max_error
-        mesher = options.mesher or "rtin"
+        mesher = static_mesher(options.mesher).name
         path, mesh = write_terrain_glb(hm, out / f"{name}.glb", max_error=max_error,
                                        force=options.force, objects=objects_for(options, hm),
                                        quantize=compress == "quantize", mesher=mesher)

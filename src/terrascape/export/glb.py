@@ -410,12 +410,12 @@ def write_terrain_glb(
     max_error: float | None = None,
     max_triangles: int | None = None,
     force: bool = False,
-    mesher: str = "rtin",
+    mesher: str | None = None,
     **options,
 ) -> tuple[Path, TerrainMesh]:
     """Mesh ``heightmap`` (any rectangular size) with the static mesher ``mesher``
-    (:data:`terrascape.lod.static_meshers.STATIC_MESHERS`: ``rtin`` or ``greedy``) and
-    write a textured GLB atomically.
+    (:data:`terrascape.lod.static_meshers.STATIC_MESHERS`; ``None``: the default, RTIN)
+    and write a textured GLB atomically.
 
     ``options`` are those of :func:`build_glb`. Returns the path and the mesh written.
     """

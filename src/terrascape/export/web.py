@@ -72,7 +72,7 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     out = check_out_dir(out_dir)
     relief = max(heightmap.max - heightmap.min, 1e-6)
     max_error = options.max_error if options.max_error is not None else relief / 500.0
-    tri = static_mesher(options.mesher or "rtin").mesh(heightmap, max_error=max_error)
+    tri = static_mesher(options.mesher).mesh(heightmap, max_error=max_error)
     glb, mesh = build_glb(heightmap, tri, compress=True, texture_size=2048,
                           objects=objects_for(options, heightmap))
     measured = max_vertical_error(heightmap, tri)
