@@ -1,13 +1,14 @@
-"""Level of detail: ROAM, Turner's ROAM, geomipmapping, quadtree culling, a
-static RTIN mesher and the mesh checks they all share.
+"""Level of detail: ROAM, Turner's ROAM, geomipmapping, quadtree culling, the static
+meshers (RTIN and the greedy TIN) and the mesh checks they all share.
 
 Triangle format shared by all LOD code: ``uint32 (M, 3)`` grid vertex indices
 ``row * cols + col``, counter-clockwise seen from above (+Y).
 
 The view-dependent schemes share one interface (:class:`~terrascape.lod.schemes.LodScheme`)
-and are listed in :data:`~terrascape.lod.schemes.SCHEMES`. Names are imported on first use
-(PEP 562), so ``terrascape.lod.schemes`` — read by the CLI's ``--help`` — loads no numba
-kernels.
+and are listed in :data:`~terrascape.lod.schemes.SCHEMES`; the static meshers in
+:data:`~terrascape.lod.static_meshers.STATIC_MESHERS`. Names are imported on first use
+(PEP 562), so ``terrascape.lod.schemes`` and ``terrascape.lod.static_meshers`` — read by
+the CLI's ``--help`` — load no numba kernels.
 
 References
 ----------
@@ -26,11 +27,14 @@ _EXPORTS = {
     "terrascape.lod.mesh_checks": ("ConformityReport", "conformity_report", "is_conforming",
                                    "max_screen_error", "max_vertical_error", "sample_errors",
                                    "screen_errors"),
+    "terrascape.lod.greedy_tin": ("greedy_tin",),
     "terrascape.lod.quadtree": ("PatchQuadtree", "patch_grid"),
     "terrascape.lod.roam": ("Roam", "RoamStats", "roam_mesh"),
     "terrascape.lod.rtin": ("Rtin", "RtinMesh", "rtin_mesh"),
     "terrascape.lod.schemes": ("SCHEMES", "LodParameter", "LodScheme", "LodStats", "Scheme",
                                "scheme"),
+    "terrascape.lod.static_meshers": ("DEFAULT_STATIC_MESHER", "STATIC_MESHERS", "StaticMesher",
+                                      "static_mesher"),
     "terrascape.lod.turner_roam": ("TurnerRoam", "TurnerStats", "turner_variance"),
 }
 _WHERE = {name: module for module, names in _EXPORTS.items() for name in names}
@@ -42,6 +46,7 @@ if TYPE_CHECKING:
         full_resolution_triangles,
         patch_templates,
     )
+    from terrascape.lod.greedy_tin import greedy_tin
     from terrascape.lod.mesh_checks import (
         ConformityReport,
         conformity_report,
@@ -55,6 +60,12 @@ if TYPE_CHECKING:
     from terrascape.lod.roam import Roam, RoamStats, roam_mesh
     from terrascape.lod.rtin import Rtin, RtinMesh, rtin_mesh
     from terrascape.lod.schemes import SCHEMES, LodParameter, LodScheme, LodStats, Scheme, scheme
+    from terrascape.lod.static_meshers import (
+        DEFAULT_STATIC_MESHER,
+        STATIC_MESHERS,
+        StaticMesher,
+        static_mesher,
+    )
     from terrascape.lod.turner_roam import TurnerRoam, TurnerStats, turner_variance
 
 
@@ -72,7 +83,9 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
+    "DEFAULT_STATIC_MESHER",
     "SCHEMES",
+    "STATIC_MESHERS",
     "ConformityReport",
     "Geomipmap",
     "GeomipmapStats",
@@ -85,10 +98,12 @@ __all__ = [
     "Rtin",
     "RtinMesh",
     "Scheme",
+    "StaticMesher",
     "TurnerRoam",
     "TurnerStats",
     "conformity_report",
     "full_resolution_triangles",
+    "greedy_tin",
     "is_conforming",
     "max_screen_error",
     "max_vertical_error",
@@ -99,5 +114,6 @@ __all__ = [
     "sample_errors",
     "scheme",
     "screen_errors",
+    "static_mesher",
     "turner_variance",
 ]
