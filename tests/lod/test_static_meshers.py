@@ -161,10 +161,8 @@ def test_mesh_command_refuses_a_mesher_for_a_view_mesh(tmp_path) -> None:
     assert not (tmp_path / "b.obj").exists()
 
 
-def test_the_package_offers_the_table_and_the_greedy_mesher() -> None:
+def test_the_package_offers_the_table() -> None:
     import terrascape.lod as lod
-    from terrascape.lod.greedy_tin import greedy_tin
 
     assert lod.STATIC_MESHERS is STATIC_MESHERS and lod.static_mesher is static_mesher
-    assert lod.greedy_tin is greedy_tin
     assert set(lod.__all__) == set(lod._WHERE)  # every lazy name listed, and only those

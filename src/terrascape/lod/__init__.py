@@ -8,7 +8,9 @@ The view-dependent schemes share one interface (:class:`~terrascape.lod.schemes.
 and are listed in :data:`~terrascape.lod.schemes.SCHEMES`; the static meshers in
 :data:`~terrascape.lod.static_meshers.STATIC_MESHERS`. Names are imported on first use
 (PEP 562), so ``terrascape.lod.schemes`` and ``terrascape.lod.static_meshers`` — read by
-the CLI's ``--help`` — load no numba kernels.
+the CLI's ``--help`` — load no numba kernels. The greedy TIN's function is
+``terrascape.lod.greedy_tin.greedy_tin`` (its module has the same name, so the package
+cannot also offer the function under it).
 
 References
 ----------
@@ -27,7 +29,6 @@ _EXPORTS = {
     "terrascape.lod.mesh_checks": ("ConformityReport", "conformity_report", "is_conforming",
                                    "max_screen_error", "max_vertical_error", "sample_errors",
                                    "screen_errors"),
-    "terrascape.lod.greedy_tin": ("greedy_tin",),
     "terrascape.lod.quadtree": ("PatchQuadtree", "patch_grid"),
     "terrascape.lod.roam": ("Roam", "RoamStats", "roam_mesh"),
     "terrascape.lod.rtin": ("Rtin", "RtinMesh", "rtin_mesh"),
@@ -46,7 +47,6 @@ if TYPE_CHECKING:
         full_resolution_triangles,
         patch_templates,
     )
-    from terrascape.lod.greedy_tin import greedy_tin
     from terrascape.lod.mesh_checks import (
         ConformityReport,
         conformity_report,
@@ -103,7 +103,6 @@ __all__ = [
     "TurnerStats",
     "conformity_report",
     "full_resolution_triangles",
-    "greedy_tin",
     "is_conforming",
     "max_screen_error",
     "max_vertical_error",
