@@ -1,4 +1,5 @@
-"""Benchmark: geomipmapping, quadtree culling and static RTIN meshes (``terrascape bench lod``).
+"""Benchmark: geomipmapping, quadtree culling, static RTIN meshes and every static mesher
+side by side (``terrascape bench lod``).
 
 * geomipmapping (Filipović 2008 §4.2): setup, per-frame level selection + index ranges (median,
   p95) and the full ``triangles()`` gather on a seeded camera flight, 257…4097 (quick:
@@ -8,7 +9,11 @@
 * static RTIN meshes at TRUE maximum errors of 1, 5, 20 m on fBm terrains in metres (1025²,
   2049²; quick 257², 513²), with pymartini / pydelatin when installed — their errors are
   MEASURED on every sample, never taken from their parameters;
-* RTIN hard budget mode 16k / 64k / 256k triangles → achieved error.
+* RTIN hard budget mode 16k / 64k / 256k triangles → achieved error;
+* every static mesher of :data:`terrascape.lod.static_meshers.STATIC_MESHERS` side by side
+  (what ``terrascape mesh --mesher`` offers) on an fBm map (1025²; quick 257²) and a real
+  DEM of another size (the Jacksboro fault), at 1, 5 and 20 m: triangles, build time and
+  the error measured on every sample.
 """
 
 from __future__ import annotations
@@ -294,12 +299,60 @@ def _rtin_tables(quick: bool) -> list[BenchTable]:
     return [rtin_t, cmp_t, budget_t]
 
 
+STATIC_ERRORS = (1.0, 5.0, 20.0)
+
+
+def static_mesher_table(quick: bool) -> BenchTable:
+    """Every static mesher of the table at the same true maximum errors, on a synthetic map
+    and a real DEM: triangles and build time, each also as a ratio to the first (default)
+    mesher's, and the error measured on every sample."""
+    from terrascape.bench.peers import real_dem
+    from terrascape.lod import max_vertical_error
+    from terrascape.lod.static_meshers import STATIC_MESHERS
+
+    side = 257 if quick else 1025
+    maps = ((f"fBm {side}² (±800 m, 10 m grid)", _terrain(side)),
+            ("Jacksboro DEM 344×403", real_dem()))
+    names = list(STATIC_MESHERS)
+    table = BenchTable(
+        title="Static meshers side by side at a true maximum vertical error "
+              "(terrascape mesh --mesher)",
+        columns=["map", "max error m", "mesher", "triangles", f"÷ {names[0]}'s", "build s",
+                 f"÷ {names[0]}'s time", "measured error m"],
+    )
+    small = _terrain(33)
+    for name in names:  # compile (or load the compiled code) outside the timing
+        STATIC_MESHERS[name].mesh(small, max_error=1.0)
+    for label, hm in maps:
+        for error in STATIC_ERRORS:
+            first = None
+            for name in names:
+                mesher = STATIC_MESHERS[name]
+                tri = mesher.mesh(hm, max_error=error)
+                build = best_of(lambda m=mesher, e=error, hm=hm: m.mesh(hm, max_error=e),
+                                repeat=3, warmup=0)
+                measured = max_vertical_error(hm, tri)
+                first = first or (len(tri), build)
+                table.rows.append([label, error, name, len(tri), len(tri) / first[0], build,
+                                   build / first[1], measured])
+    table.check_target("every mesher's measured error ÷ the error asked for",
+                       max(row[7] / row[1] for row in table.rows), at_most=1.0, unit="×")
+    table.notes += [
+        "the meshers are the rows of STATIC_MESHERS, each with its default options; build s: "
+        "best of 3 after a warm-up, on numba's threads",
+        "measured error: the largest |mesh − height| over every sample of the map",
+    ]
+    return table
+
+
 def run(quick: bool = False) -> list[BenchTable]:
-    """Geomipmapping flight, quadtree culling, RTIN true-error and budget tables."""
+    """Geomipmapping flight, quadtree culling, RTIN true-error and budget tables, and the
+    static meshers side by side."""
     import numba
 
     gm_table, kept = _geomipmap_table(quick)
-    tables = [gm_table, _culling_table(quick, kept), *_rtin_tables(quick)]
+    tables = [gm_table, _culling_table(quick, kept), *_rtin_tables(quick),
+              static_mesher_table(quick)]
     tables[0].notes.append(
         f"numba threads: {numba.get_num_threads()}, CPUs: {os.cpu_count()}, "
         f"load average: {os.getloadavg()[0]:.2f} (shared machine)"
