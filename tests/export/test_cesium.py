@@ -101,9 +101,11 @@ def terrain() -> Heightmap:
     return Heightmap(h.astype(np.float32), (30.0, 30.0))
 
 
-def test_pyramid_tiles_decode_within_the_level_error(terrain, tmp_path):
+@pytest.mark.parametrize("mesher", [None, "greedy"])
+def test_pyramid_tiles_decode_within_the_level_error(terrain, tmp_path, mesher):
     files = get_destination("cesium").export(
-        terrain, tmp_path, ExportOptions(name="c", lonlat=(15.97, 45.81), workers=1))
+        terrain, tmp_path, ExportOptions(name="c", lonlat=(15.97, 45.81), workers=1,
+                                         mesher=mesher))
     layer = json.loads((tmp_path / "layer.json").read_text())
     assert layer["format"] == "quantized-mesh-1.0" and layer["scheme"] == "tms"
     assert layer["extensions"] == ["octvertexnormals", "watermask"]
@@ -208,11 +210,39 @@ def test_normals_are_those_quantized_mesh_encoder_computes(terrain):
         assert np.mean(ours == theirs) > 0.95
 
 
-def test_parallel_pyramid_is_bit_identical_to_serial(terrain):
+@pytest.mark.parametrize("mesher", [None, "greedy"])
+def test_parallel_pyramid_is_bit_identical_to_serial(terrain, mesher):
     grid = geo_grid(terrain, (15.97, 45.81))
     jobs, _ = tile_jobs(grid, 10, 14, 1.0)
-    serial = list(encode_pyramid(grid, jobs, workers=1))
-    parallel = list(encode_pyramid(grid, jobs, workers=2, min_parallel_jobs=1))
+    serial = list(encode_pyramid(grid, jobs, workers=1, mesher=mesher))
+    parallel = list(encode_pyramid(grid, jobs, workers=2, min_parallel_jobs=1, mesher=mesher))
     assert len(serial) == len(jobs) >= 20
     assert [t[0] for t in serial] == [j[:3] for j in jobs]
     assert serial == parallel
+
+
+def test_the_greedy_mesher_gives_the_pyramid_fewer_triangles_and_bytes(terrain, tmp_path):
+    """The same tiles and levels; each tile within its level's error either way (the test
+    above), the greedy TIN's with fewer triangles on every tile that has more than two."""
+    grid = geo_grid(terrain, (15.97, 45.81))
+    jobs, _ = tile_jobs(grid, 11, 14, 1.0)
+    rtin = list(encode_pyramid(grid, jobs, workers=1))
+    greedy = list(encode_pyramid(grid, jobs, workers=1, mesher="greedy"))
+    assert [t[0] for t in rtin] == [t[0] for t in greedy]
+    pairs = [(a[2], b[2]) for a, b in zip(rtin, greedy, strict=True) if a[2] > 2]
+    assert len(pairs) >= 10 and all(g < r for r, g in pairs)
+    assert sum(g for _, g in pairs) < 0.8 * sum(r for r, _ in pairs)
+    assert sum(len(t[1]) for t in greedy) < sum(len(t[1]) for t in rtin)
+    # through the command as well, and refused for a destination that does not mesh
+    np.save(tmp_path / "t.npy", terrain.heights)
+    assert run_app(["export", "cesium", str(tmp_path / "t.npy"), "-o", str(tmp_path / "c"),
+                    "--spacing", "30", "--lonlat", "15.97,45.81", "--mesher", "greedy",
+                    "--min-zoom", "14", "-q"]) == 0
+    written = {p.relative_to(tmp_path / "c").as_posix(): p.read_bytes()
+               for p in (tmp_path / "c").rglob("*.terrain")}
+    expected = dict((f"{z}/{x}/{y}.terrain", data) for (z, x, y), data, _ in greedy if z == 14)
+    assert written == expected
+    assert "by the greedy TIN mesher" in (tmp_path / "c" / "t_import.txt").read_text()
+    assert run_app(["export", "terrain_rgb", str(tmp_path / "t.npy"), "-o",
+                    str(tmp_path / "r"), "--lonlat", "15.97,45.81", "--mesher", "greedy",
+                    "-q"]) == 2

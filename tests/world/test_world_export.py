@@ -285,3 +285,33 @@ def test_export_command_takes_a_world(world, tmp_path):
     assert _files(tmp_path / "c") == _files(tmp_path / "q")
     res = runner.invoke(app, ["export", "unity", str(world), "-o", str(tmp_path / "u")])
     assert res.exit_code != 0
+
+
+def test_quantized_mesh_of_a_world_takes_the_static_mesher(world, tmp_path):
+    """``--mesher greedy`` for a world: the finest tiles byte for byte those of the map
+    loaded whole with the same mesher, fewer triangles than RTIN's, and the command's
+    tiles the same."""
+    from typer.testing import CliRunner
+
+    from terrascape.cli import app
+
+    greedy = export_quantized_mesh(world, tmp_path / "g", lonlat=LONLAT, min_zoom=17,
+                                   name="w", mesher="greedy")
+    export_quantized_mesh(world, tmp_path / "r", lonlat=LONLAT, min_zoom=17, name="w")
+    whole = tmp_path / "whole"
+    get_destination("cesium").export(Heightmap(_heights(world), (2.0, 2.0)), whole,
+                                     ExportOptions(name="w", lonlat=LONLAT, workers=1,
+                                                   min_zoom=17, mesher="greedy"))
+    ours, rtin = _files(tmp_path / "g"), _files(tmp_path / "r")
+    assert ours == _files(whole) and len(greedy) == len(ours)
+    tiles = [k for k in ours if k.endswith(".terrain")]
+    assert tiles and ours.keys() == rtin.keys()
+    assert sum(len(ours[k]) for k in tiles) < sum(len(rtin[k]) for k in tiles)
+    res = CliRunner().invoke(app, ["export", "cesium", str(world), "-o", str(tmp_path / "c"),
+                                   "--lonlat", "15,45", "--min-zoom", "17", "--mesher",
+                                   "greedy"])
+    assert res.exit_code == 0, res.output
+    assert _files(tmp_path / "c") == ours
+    with pytest.raises(InvalidParameterError, match="unknown static mesher"):
+        export_quantized_mesh(world, tmp_path / "b", lonlat=LONLAT, mesher="bogus")
+    assert not (tmp_path / "b").exists()

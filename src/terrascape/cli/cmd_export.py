@@ -50,7 +50,7 @@ def _destinations_help() -> str:
 
 
 def _export_world(destination, store, output, name, lonlat, min_zoom, max_zoom, fmt, force,
-                  quiet, max_error=None) -> None:
+                  quiet, max_error=None, mesher=None) -> None:
     """A world store: tiles made in parallel on a local dask cluster, read window by window
     (:mod:`terrascape.world.export`)."""
     from terrascape.cli.parsing import parse_floats
@@ -71,7 +71,7 @@ def _export_world(destination, store, output, name, lonlat, min_zoom, max_zoom, 
             written = export_quantized_mesh(
                 store, output, lonlat=ll, min_zoom=min_zoom, max_zoom=max_zoom,
                 max_error=1.0 if max_error is None else max_error, name=name or store.stem,
-                client=client, force=force)
+                client=client, force=force, mesher=mesher)
         out.print(f"{output}: {len(written)} files")
         return
     with timed("export terrain_rgb (world, 2 workers)", quiet=quiet), \
@@ -115,7 +115,7 @@ def export_command(
                                     "cesium: error floor per level (world units).",
                                     show_default="blender 0.5, web relief/500, cesium 1"),
     mesher: str = typer.Option(
-        None, "--mesher", help="blender glb, web: the static mesher — " + "; ".join(
+        None, "--mesher", help="blender glb, web, cesium: the static mesher — " + "; ".join(
             f"{n} ({m.help})" for n, m in STATIC_MESHERS.items()) + ".",
         show_default=DEFAULT_STATIC_MESHER),
     spacing: str = typer.Option(None, "--spacing", help="Sample spacing DX or DX,DZ in world "
@@ -160,7 +160,7 @@ def export_command(
     if is_world_store(heightmap):
         with _no_empty_folder(output):
             _export_world(destination, heightmap, output, name, lonlat, min_zoom, max_zoom,
-                          fmt, force, quiet, max_error)
+                          fmt, force, quiet, max_error, mesher)
         return
     with timed("read", quiet=quiet), warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -51,7 +51,7 @@ class ExportOptions:
         Meshes (blender glb, web; cesium tiles at the finest level): vertical error, world
         units.
     mesher
-        Meshes (blender glb, web): a static mesher of
+        Meshes (blender glb, web, cesium tiles): a static mesher of
         :data:`terrascape.lod.static_meshers.STATIC_MESHERS` (``None``: the default); the
         exporters that mesh with it say so with ``TAKES_MESHER = True``.
     workers

@@ -2,8 +2,9 @@
 
 Tiles follow Cesium's geographic TMS scheme (EPSG:4326, 2 × 1 tiles at level 0, ``y`` from
 the south). Each tile samples the map bilinearly on a 65 × 65 lon/lat grid (its edges shared
-with the neighbours), is meshed by the static RTIN mesher (:func:`terrascape.lod.rtin.rtin_mesh`)
-at the level's error, and is encoded by ``quantized-mesh-encoder`` with the edge-index lists
+with the neighbours), is meshed at the level's error by a static mesher of
+:data:`terrascape.lod.static_meshers.STATIC_MESHERS` (RTIN by default; ``--mesher greedy``
+for fewer triangles), and is encoded by ``quantized-mesh-encoder`` with the edge-index lists
 Cesium uses to stitch skirts, the ``octvertexnormals`` and ``watermask`` extensions, and gzip
 (serve with ``Content-Encoding: gzip``). Outside the data the tiles are at height 0 and marked
 water.
@@ -12,7 +13,7 @@ The level error is ``max_error · 2**(finest − level)`` (default 1 m at the fi
 halves from level to level as Cesium's own ``levelMaximumGeometricError`` does (its tiles
 double their sample density per level), and never exceeds that Cesium value,
 ``2π·a/4 / (65·2) / 2**level`` (``a`` the WGS84 equatorial radius). The mesh of a tile is
-within that error of the tile's samples (a true bound, measured on every sample by RTIN);
+within that error of the tile's samples (a true bound on every sample, by either mesher);
 quantized-mesh then stores heights in 15 bits over the tile's height range, truncating (a
 further ``(max − min) / 32767`` at most).
 
@@ -46,7 +47,10 @@ from terrascape.export._geo import GeoGrid, geo_grid, tms_geographic_bounds, tms
 from terrascape.heightmap import Heightmap
 
 NAME = "cesium"
-SUMMARY = "Cesium quantized-mesh 1.0 pyramid (RTIN tiles, normals, water mask, layer.json)."
+SUMMARY = ("Cesium quantized-mesh 1.0 pyramid (RTIN or greedy TIN tiles, normals, water mask, "
+           "layer.json).")
+#: the tiles are meshed by ``ExportOptions.mesher``
+TAKES_MESHER = True
 TILE_SAMPLES = 65
 _WGS84_A = 6378137.0
 # gzip level 1: tiles a tenth larger than at level 6, compressed 2.3 times faster (measured on
@@ -187,23 +191,26 @@ def _oct_vertex_normals(lon, lat, height, triangles, a, e2):
     return out
 
 
-def encode_tile(grid: GeoGrid, z: int, x: int, y: int, error: float) -> tuple[bytes, int]:
+def encode_tile(grid: GeoGrid, z: int, x: int, y: int, error: float,
+                mesher: str | None = None) -> tuple[bytes, int]:
     """The gzip-compressed quantized-mesh bytes of tile ``z/x/y`` meshed within ``error``
-    metres, and its triangle count."""
-    return encode_samples(*tile_samples(grid, z, x, y), error)
+    metres by the static mesher ``mesher`` (``None``: the default), and its triangle
+    count."""
+    return encode_samples(*tile_samples(grid, z, x, y), error, mesher)
 
 
 def encode_samples(lon: np.ndarray, lat: np.ndarray, heights: np.ndarray, inside: np.ndarray,
-                   bounds, error: float) -> tuple[bytes, int]:
+                   bounds, error: float, mesher: str | None = None) -> tuple[bytes, int]:
     """The gzip-compressed quantized-mesh bytes of a tile from its 65 × 65 samples (as
-    :func:`tile_samples` gives them) meshed within ``error`` metres, and its triangle count."""
+    :func:`tile_samples` gives them) meshed within ``error`` metres by the static mesher
+    ``mesher`` (``None``: the default), and its triangle count."""
     from quantized_mesh_encoder import WaterMaskExtension, encode
     from quantized_mesh_encoder.constants import WGS84
 
-    from terrascape.lod.rtin import rtin_mesh
+    from terrascape.lod.static_meshers import static_mesher
 
     tile = Heightmap(heights.astype(np.float32))
-    tri = rtin_mesh(tile, max_error=error)
+    tri = static_mesher(mesher).mesh(tile, max_error=error)
     used, numbered = _first_use_numbering(tri.reshape(-1).astype(np.int64), tile.heights.size)
     positions = np.stack([lon.reshape(-1)[used], lat.reshape(-1)[used],
                           tile.heights.reshape(-1)[used].astype(np.float64)], axis=1)
@@ -239,19 +246,21 @@ def encode_samples(lon: np.ndarray, lat: np.ndarray, heights: np.ndarray, inside
 
 
 _WORKER_GRID: GeoGrid | None = None
+_WORKER_MESHER: str | None = None
 
 
-def _init_worker(grid: GeoGrid) -> None:
+def _init_worker(grid: GeoGrid, mesher: str | None = None) -> None:
     import numba
 
-    global _WORKER_GRID
+    global _WORKER_GRID, _WORKER_MESHER
     numba.set_num_threads(1)
     _WORKER_GRID = grid
+    _WORKER_MESHER = mesher
 
 
 def _encode_job(job: tuple[int, int, int, float]) -> tuple[tuple[int, int, int], bytes, int]:
     z, x, y, error = job
-    data, n = encode_tile(_WORKER_GRID, z, x, y, error)  # type: ignore[arg-type]
+    data, n = encode_tile(_WORKER_GRID, z, x, y, error, _WORKER_MESHER)  # type: ignore[arg-type]
     return (z, x, y), data, n
 
 
@@ -270,10 +279,12 @@ def tile_jobs(grid: GeoGrid, bottom: int, top: int, max_error: float
     return jobs, available
 
 
-def encode_pyramid(grid: GeoGrid, jobs, *, workers: int = 2, min_parallel_jobs: int = 400):
-    """Yield ``((z, x, y), gzip bytes, triangles)`` for ``jobs`` in their order, in ``workers``
-    processes when there are at least ``min_parallel_jobs`` (starting the workers costs
-    seconds). A tile's bytes depend on its job alone, so they are the same either way."""
+def encode_pyramid(grid: GeoGrid, jobs, *, workers: int = 2, min_parallel_jobs: int = 400,
+                   mesher: str | None = None):
+    """Yield ``((z, x, y), gzip bytes, triangles)`` for ``jobs`` in their order, meshed by
+    the static mesher ``mesher`` (``None``: the default), in ``workers`` processes when
+    there are at least ``min_parallel_jobs`` (starting the workers costs seconds). A tile's
+    bytes depend on its job alone, so they are the same either way."""
     if workers <= 1 or len(jobs) < min_parallel_jobs:
         import numba
 
@@ -281,7 +292,7 @@ def encode_pyramid(grid: GeoGrid, jobs, *, workers: int = 2, min_parallel_jobs: 
         numba.set_num_threads(1)
         try:
             for z, x, y, error in jobs:
-                data, n = encode_tile(grid, z, x, y, error)
+                data, n = encode_tile(grid, z, x, y, error, mesher)
                 yield (z, x, y), data, n
         finally:
             numba.set_num_threads(previous)
@@ -291,7 +302,7 @@ def encode_pyramid(grid: GeoGrid, jobs, *, workers: int = 2, min_parallel_jobs: 
 
     context = multiprocessing.get_context("spawn")  # no forked numba thread pools
     with ProcessPoolExecutor(workers, mp_context=context, initializer=_init_worker,
-                             initargs=(grid,)) as pool:
+                             initargs=(grid, mesher)) as pool:
         yield from pool.map(_encode_job, jobs, chunksize=16)
 
 
@@ -306,20 +317,25 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     written: list[Path] = []
     jobs, available = tile_jobs(grid, bottom, top, max_error)
     batch: list[tuple[Path, bytes]] = []
-    for (z, x, y), data, _ in encode_pyramid(grid, jobs, workers=options.workers):
+    for (z, x, y), data, _ in encode_pyramid(grid, jobs, workers=options.workers,
+                                             mesher=options.mesher):
         batch.append((out / str(z) / str(x) / f"{y}.terrain", data))
         if len(batch) == WRITE_BATCH:
             written += write_many(batch, force=options.force)
             batch = []
     written += write_many(batch, force=options.force)
     written += write_metadata(out, options.name, bottom, top, available, max_error,
-                              grid.bounds, force=options.force)
+                              grid.bounds, force=options.force, mesher=options.mesher)
     return written
 
 
 def write_metadata(out: Path, name: str, bottom: int, top: int, available: list,
-                   max_error: float, data_bounds, *, force: bool = False) -> list[Path]:
-    """``layer.json`` (what CesiumJS reads) and ``NAME_import.txt`` of a pyramid."""
+                   max_error: float, data_bounds, *, force: bool = False,
+                   mesher: str | None = None) -> list[Path]:
+    """``layer.json`` (what CesiumJS reads) and ``NAME_import.txt`` of a pyramid whose tiles
+    the static mesher ``mesher`` (``None``: the default) meshed."""
+    from terrascape.lod.static_meshers import static_mesher
+
     layer = {
         "tilejson": "2.1.0",
         "name": name,
@@ -347,6 +363,8 @@ def write_metadata(out: Path, name: str, bottom: int, top: int, available: list,
         "'http://HOST/PATH/', {requestVertexNormals: true, requestWaterMask: true});",
         "Per-level error (m): " + ", ".join(f"{z}:{level_error(z, top, max_error):.3g}"
                                             for z in range(bottom, top + 1)),
+        f"Tiles meshed within it by the {static_mesher(mesher).label} mesher "
+        f"(terrascape mesh --mesher {static_mesher(mesher).name})",
     ]
     written.append(write_text(out / f"{name}_import.txt", "\n".join(note) + "\n",
                               force=force))

@@ -293,17 +293,17 @@ def _world_grid(recipe, lonlat):
 QM_TILES_PER_TASK = 64
 
 
-def _quantized_mesh_tiles(path: str, lonlat, jobs: list, out_dir: str, force: bool
-                          ) -> list[tuple[str, int]]:
-    """Make and write the tiles ``jobs`` (``(z, x, y, error)`` each) as one unit; returns
-    each tile's path and triangle count."""
+def _quantized_mesh_tiles(path: str, lonlat, jobs: list, out_dir: str, force: bool,
+                          mesher: str | None = None) -> list[tuple[str, int]]:
+    """Make and write the tiles ``jobs`` (``(z, x, y, error)`` each), meshed by the static
+    mesher ``mesher``, as one unit; returns each tile's path and triangle count."""
     import numba
 
     from terrascape.export._common import write_many
 
     numba.set_num_threads(1)  # one task = one core, as in a build
     group, recipe = open_world(path)
-    made = [_quantized_mesh_tile(group, recipe, lonlat, *job) for job in jobs]
+    made = [_quantized_mesh_tile(group, recipe, lonlat, *job, mesher) for job in jobs]
     out = Path(out_dir)
     paths = write_many([(out / str(z) / str(x) / f"{y}.terrain", data)
                         for (z, x, y, _), (data, _) in zip(jobs, made, strict=True)],
@@ -311,8 +311,8 @@ def _quantized_mesh_tiles(path: str, lonlat, jobs: list, out_dir: str, force: bo
     return [(str(p), n) for p, (_, n) in zip(paths, made, strict=True)]
 
 
-def _quantized_mesh_tile(group, recipe, lonlat, z: int, x: int, y: int, error: float
-                         ) -> tuple[bytes, int]:
+def _quantized_mesh_tile(group, recipe, lonlat, z: int, x: int, y: int, error: float,
+                         mesher: str | None = None) -> tuple[bytes, int]:
     """Sample, mesh and encode tile ``z/x/y``; returns its bytes and triangle count.
 
     The tile's 65 × 65 samples are bilinear in the pyramid level whose samples are no
@@ -334,20 +334,23 @@ def _quantized_mesh_tile(group, recipe, lonlat, z: int, x: int, y: int, error: f
     size = len(lon_1d)
     lon = np.broadcast_to(lon_1d, (size, size))
     lat = np.broadcast_to(lat_1d[:, None], (size, size))
-    return encode_samples(lon, lat, h, inside, bounds, error)
+    return encode_samples(lon, lat, h, inside, bounds, error, mesher)
 
 
 def export_quantized_mesh(path, out_dir, *, lonlat: tuple[float, float],
                           min_zoom: int | None = None, max_zoom: int | None = None,
                           max_error: float = 1.0, name: str = "world", client=None,
-                          force: bool = False) -> list[Path]:
+                          force: bool = False, mesher: str | None = None) -> list[Path]:
     """The Cesium quantized-mesh 1.0 pyramid of the world (``layer.json`` and one
     ``z/x/y.terrain`` per tile, one task each), as ``terrascape export cesium`` writes it
-    for a map: the same tiles, levels and per-level errors; zooms ``min_zoom`` (0) to
-    ``max_zoom`` (the first as dense as the world)."""
+    for a map: the same tiles, levels and per-level errors, meshed by the same static
+    mesher (``mesher``; ``None``: the default); zooms ``min_zoom`` (0) to ``max_zoom``
+    (the first as dense as the world)."""
     from terrascape.export._common import check_out_dir
     from terrascape.export.cesium import finest_level, tile_jobs, write_metadata
+    from terrascape.lod.static_meshers import static_mesher
 
+    mesher = static_mesher(mesher).name  # an unknown name fails here, not in a task
     _, recipe = _finished_world(path)
     if not (isinstance(max_error, int | float) and math.isfinite(max_error) and max_error > 0):
         raise InvalidParameterError(f"--max-error must be a positive number, got {max_error!r}")
@@ -361,11 +364,11 @@ def export_quantized_mesh(path, out_dir, *, lonlat: tuple[float, float],
     ll = tuple(float(v) for v in lonlat)
     n = QM_TILES_PER_TASK
     results = _run(client, _quantized_mesh_tiles,
-                   [(str(path), ll, jobs[k:k + n], str(out), force)
+                   [(str(path), ll, jobs[k:k + n], str(out), force, mesher)
                     for k in range(0, len(jobs), n)])
     written = [Path(p) for batch in results for p, _ in batch]
     written += write_metadata(out, name, bottom, top, available, max_error, grid.bounds,
-                              force=force)
+                              force=force, mesher=mesher)
     return written
 
 
