@@ -497,10 +497,9 @@ def test_each_kernel_compiles_once_whatever_the_heights(monkeypatch):
         assert len(getattr(gt, name).signatures) <= 1, (name, getattr(gt, name).signatures)
 
 
-
 def test_compacting_keeps_the_live_triangles_in_order_with_their_twins():
     """A decimated piece's triangles moved to the front: the live ones in their order, the
-    twins pointing at the same (moved) halfedges, nothing else changed."""
+    twins pointing at the same (moved) halfedges."""
     from terrascape.lod import greedy_tin as gt
 
     rng = np.random.default_rng(7)
@@ -528,6 +527,7 @@ def test_compacting_keeps_the_live_triangles_in_order_with_their_twins():
     np.testing.assert_array_equal(half[:n], twin_before)
     twinned = half[:n] >= 0
     assert np.all(half[half[:n][twinned]] == np.flatnonzero(twinned))
+
 
 @pytest.mark.parametrize(("nx", "ny"), [(4, 4), (5, 9), (23, 17), (60, 41)])
 def test_grid_start_triangulates_the_piece_with_its_kept_side_samples(nx, ny):

@@ -203,9 +203,7 @@ def export_command(
                             format=fmt, plugin=plugin, layers=layers, force=force, lonlat=ll,
                             min_zoom=min_zoom, max_zoom=max_zoom, max_error=max_error,
                             mesher=mesher, objects=placed, compress=compress)
-    compiles = None if mesher is None else (
-        "a first run on a new installation compiles the mesher, once (`terrascape warm-up "
-        f"--only {STATIC_MESHERS[mesher].warm_up}` does it ahead)")
+    compiles = None if mesher is None else STATIC_MESHERS[mesher].first_run_note
     with timed(f"export {destination}", quiet=quiet, slow_note=compiles), \
             _no_empty_folder(output):
         written = module.export(hm, output, options)

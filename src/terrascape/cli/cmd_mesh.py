@@ -228,9 +228,8 @@ def mesh_command(
     if static_mode:
         entry_mesher = STATIC_MESHERS[mesher]
         options = {"in_pieces": False} if one_piece else {}
-        with timed(f"{entry_mesher.label} mesh", quiet=quiet, slow_note=(
-                "a first run on a new installation compiles the mesher, once "
-                f"(`terrascape warm-up --only {entry_mesher.warm_up}` does it ahead)")):
+        with timed(f"{entry_mesher.label} mesh", quiet=quiet,
+                   slow_note=entry_mesher.first_run_note):
             tri = entry_mesher.mesh(hm, max_error=max_error, max_triangles=triangles, **options)
         with timed("measure", quiet=quiet):
             measured = max_vertical_error(hm, tri)

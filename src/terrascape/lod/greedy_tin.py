@@ -1446,13 +1446,12 @@ def _stitch(coords, tris, half, v_start, e_start, is_row_line, is_col_line, n_ro
     for p in range(e_start.shape[0] - 1):
         v0 = v_start[p]
         e0 = e_start[p]
-        for e in range(e0, e_start[p + 1]):
-            if tris[e] >= 0:
-                tris[e] = ids[v0 + tris[e]]
+        for e in range(e0, e_start[p + 1]):  # the pieces hold live triangles only
+            tris[e] = ids[v0 + tris[e]]
             if half[e] >= 0:
                 half[e] += e0
     for e in range(tris.shape[0]):
-        if half[e] >= 0 or tris[e] < 0:
+        if half[e] >= 0:
             continue
         a = tris[e]
         b = tris[e - e % 3 + (e + 1) % 3]

@@ -47,6 +47,12 @@ class StaticMesher:
     options: dict[str, str]
     warm_up: str
 
+    @property
+    def first_run_note(self) -> str:
+        """What a command says while this mesher's first run is still compiling."""
+        return ("a first run on a new installation compiles the mesher, once "
+                f"(`terrascape warm-up --only {self.warm_up}` does it ahead)")
+
     def load(self) -> Callable[..., np.ndarray]:
         module, _, function = self.target.partition(":")
         return getattr(importlib.import_module(module), function)
