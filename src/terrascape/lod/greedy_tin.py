@@ -318,21 +318,28 @@ _TILED_SEARCH = 8 * _TILE * _TILE
 _BOX_SCAN = 16
 # A triangle beyond the error is first searched on a lattice of every 2nd, 4th, … row and
 # column holding about this many to four times as many samples of its box (the triangle
-# about half of them); smaller ones are searched over every sample at once. Throwaway
-# probes of 64, 128, 256 and 1024 (2026-12-06): 256 and 1024 built slower, 64 no faster
-# than 128 with up to 4 % more triangles on the synthetic map at 10 m.
+# about half of them); smaller ones are searched over every sample at once. Against 64 and
+# 256 (`python scripts/greedy_tin_ab.py` on a worktree with the other value, 21 rounds,
+# 2026-12-06 22:07 UTC), the time with 128 ÷ theirs 0.96–1.04 and 0.93–1.02, within the
+# shared cores' noise; 64 gave up to 4 % more triangles (the synthetic map at 10 m: 0.800
+# against 0.767× pydelatin's).
 _SPARSE_SAMPLES = 128
 # A piece whose sides keep at least this share of their samples when simplified is meshed
 # by decimation: every sample a vertex first, then the removal of what the error allows.
 # The sides' kept share tracks the mesh's vertices per sample (0.4 ≈ 0.26–0.34 on the
-# bench's maps); in throwaway probes the decimation was the faster above it (the DEM at
-# 0.5–5 m) and the insertion below it (the synthetic map at 0.5 m, the DEM at 10 m).
+# bench's maps). Against 0.3 and 0.5 (`python scripts/greedy_tin_ab.py`, 21 rounds,
+# 2026-12-06 22:08 UTC; the time with 0.4 ÷ with the other), only the maps whose pieces
+# change sides move: 0.3 decimates the DEM at 10 m too (0.725, and 0.851 against 0.824×
+# pydelatin's triangles); 0.5 inserts the DEM at 5 m (0.796, but 0.835 against 0.859× the
+# triangles); the other rows 0.94–1.02.
 _DENSE_SIDES = 0.4
-# Samples per side of the pieces meshed independently (in parallel) for an error bound;
-# a side of more than about 0.75 × _PIECE is still cut in two, so that two threads share
-# a small map. 448 against 224 (2026-12-06, throwaway probe, synthetic 1025²…4097² at
-# 1–10 m): 0.79–0.99× the time, 0.99–1.01× the triangles; each piece starts afresh with
-# its own large triangles and its own fixed costs, which weighed on sparse meshes.
+# Samples per side of the pieces meshed independently (in parallel) for an error bound; a
+# side of more than about 0.75 × _PIECE is still cut in two, so that two threads share a
+# small map. Against 224 (`python scripts/greedy_tin_ab.py`, 21 rounds, and with `--large`
+# 7, 2026-12-06 22:07 UTC), the time with 448 ÷ with 224: 0.83–0.85 on the synthetic 1025²
+# map at 5 and 10 m, 0.97 at 4097², 0.98–1.07 on the other rows, with 0.99–1.01× the
+# triangles; each piece starts afresh with its own large triangles and its own fixed
+# costs, which weigh on sparse meshes.
 _PIECE = 448
 # a triangle budget that never stops the insertion
 _NO_BUDGET = np.iinfo(np.int64).max
