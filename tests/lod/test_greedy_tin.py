@@ -490,7 +490,7 @@ def test_each_kernel_compiles_once_whatever_the_heights(monkeypatch):
     assert {name for name, *_ in seen} == {"_mesh_piece", "_remove_vertices", "_relax_edges"}
     assert {tuple(rest) for _, *rest in seen} == {(np.dtype(np.float32), False, True)}
     monkeypatch.undo()
-    for name in ("_mesh_piece", "_refine", "_flush_all", "_insert_border_points", "_legalize",
+    for name in ("_mesh_piece", "_refine", "_insert_border_points", "_legalize",
                  "_split_on_edge", "_tiled_search", "_scan_rows", "_remove_vertices",
                  "_remove_kernel", "_relax_edges", "_scan_lattice", "_grid_start",
                  "_drop_unused", "_insert_piece", "_compact_triangles"):

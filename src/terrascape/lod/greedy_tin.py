@@ -750,16 +750,6 @@ def _flush(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr,
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True, _nrt=False)
-def _flush_all(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx,
-               state, max_error):
-    """Rasterise every triangle and queue those beyond the error (the start of a piece)."""
-    for t in range(state[_N_EDGES] // 3):
-        _queue(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx,
-               state, max_error, t)
-    state[_N_PENDING] = 0
-
-
-@njit(cache=CACHE, fastmath=FASTMATH, nogil=True, _nrt=False)
 def _insert_border_points(points, coords, tris, half, queue, qerr, qidx, pending, stack,
                           state):
     """Insert the ``points`` (on the grid's border; corners are skipped) into the
@@ -847,7 +837,12 @@ def _refine(h, tplane, tres, bound, order, max_error, max_tris, coords, tris, ha
     """Insert worst candidates until the error is met, the budget is reached, or the arrays
     are full (then return ``_FULL`` so the caller grows them and calls again)."""
     cap_tris = tris.shape[0] // 3
-    while state[_Q_LEN] > 0 and qerr[0] > max_error:
+    while True:
+        # the triangles that changed (at the start: all) rasterised and queued
+        _flush(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx,
+               pending, state, max_error)
+        if state[_Q_LEN] == 0 or not qerr[0] > max_error:
+            break
         n_tris = state[_N_EDGES] // 3
         if n_tris + 2 > max_tris:
             break
@@ -892,8 +887,6 @@ def _refine(h, tplane, tres, bound, order, max_error, max_tris, coords, tris, ha
             top = 3
         # one legalisation, new edges in order (each with all it flips before the next)
         _legalize(tris, half, coords, queue, qerr, qidx, pending, state, stack, top)
-        _flush(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx, pending,
-               state, max_error)
     state[_STATUS] = _DONE
 
 
@@ -1503,9 +1496,18 @@ def _grid_triangles(coords, tris, cols):
 
 @njit(cache=CACHE, nogil=True)
 def _grown(a, size, fill):
-    """``a`` in a new array of ``size`` rows, the new rows set to ``fill``."""
-    out = np.full((size, *a.shape[1:]), fill, a.dtype)
-    out[:a.shape[0]] = a
+    """``a`` (C-contiguous) in a new array of ``size`` rows, the new rows set to ``fill``.
+
+    Element by element through flat views: a slice assignment would bring numba's
+    shape-mismatch error message, whose formatting code took longer to compile than the
+    copy (this is compiled once per array type of the insertion)."""
+    out = np.empty((size, *a.shape[1:]), a.dtype)
+    flat = out.reshape(out.size)
+    old = a.reshape(a.size)
+    for k in range(old.size):
+        flat[k] = old[k]
+    for k in range(old.size, flat.size):
+        flat[k] = fill
     return out
 
 
@@ -1767,8 +1769,13 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, dense_
     t_y, t_x = y0 // _TILE, x0 // _TILE
     nty = ty - (1 if y1 < rows - 1 else 0)
     ntx = tx - (1 if x1 < cols - 1 else 0)
-    tplane[t_y:t_y + nty, t_x:t_x + ntx] = p_plane[:nty, :ntx]
-    tres[t_y:t_y + nty, t_x:t_x + ntx] = p_res[:nty, :ntx]
+    # element by element: a slice assignment compiles numba's shape-mismatch message too
+    for i in range(nty):
+        for j in range(ntx):
+            for m in range(3):
+                tplane[t_y + i, t_x + j, m] = p_plane[i, j, m]
+            for m in range(4):
+                tres[t_y + i, t_x + j, m] = p_res[i, j, m]
     coords = coords[:n_points]
     for v in range(n_points):
         coords[v, 0] += x0
@@ -1838,8 +1845,12 @@ def _insert_piece(piece, p_plane, p_res, bound, order, forced, tol, budget, pass
     if n_forced > 0:
         _insert_border_points(forced, coords, tris, half, queue, qerr, qidx,
                               pending, stack, state)
-    _flush_all(piece, p_plane, p_res, bound, order, coords, tris, cand, cerr, queue, qerr,
-               qidx, state, tol)
+    # every triangle so far waits to be rasterised, in their order (the first thing
+    # _refine does; not a kernel of its own: one copy less of the rasterisation to compile)
+    n_tris = state[_N_EDGES] // 3
+    for t in range(n_tris):
+        pending[t] = t
+    state[_N_PENDING] = n_tris
     while True:
         _refine(piece, p_plane, p_res, bound, order, tol, budget, coords, tris, half, cand,
                 cerr, queue, qerr, qidx, pending, stack, state)
