@@ -195,6 +195,22 @@ PEAK_BYTES_PER_SAMPLE: dict[str, float] = {
     # (float TIFF, --highpass 64) at 4097², 2026-12-02.
     "heightfromimage": 27.0,
     "render": 200.0,
+    # `mesh`: the heights and the meshers' per-sample work, before the mesh's own size (a
+    # 4097² map meshed at a 50 m error: 14.6 B .ply, 14.5 B .obj); a .glb's baked texture
+    # (167–170 B), 2026-12-06
+    "mesh": 18.0,
+    "mesh glb": 205.0,
+}
+
+#: Peak bytes per triangle of ``terrascape mesh`` by output format: a 4097² fBm map meshed
+#: at error 0 (33.5 million triangles) against the same at a 50 m error (.ply 159–173 B,
+#: .obj 214–231 B, RTIN and greedy TIN), or for .glb, whose texture is baked in another
+#: phase, against a 65² map (166–186 B); rounded up by about 20 % (``docs/benchmarks.md``,
+#: "Peak memory of a mesh", 2026-12-06).
+PEAK_BYTES_PER_TRIANGLE: dict[str, float] = {
+    ".obj": 280.0,
+    ".ply": 210.0,
+    ".glb": 225.0,
 }
 
 
@@ -223,6 +239,7 @@ __all__ = [
     "DEFAULT_SHARE",
     "ENV_VAR",
     "PEAK_BYTES_PER_SAMPLE",
+    "PEAK_BYTES_PER_TRIANGLE",
     "available_bytes",
     "check_grid",
     "check_memory",

@@ -123,3 +123,52 @@ def test_a_memory_error_that_still_happens_is_one_line(tmp_path, capsys, monkeyp
     line = _one_error_line(capsys.readouterr().err)
     assert code == 1 and line.startswith("error: out of memory") and "nothing was written" in line
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture
+def rough_map(tmp_path):
+    """129² of noise: at error 0 every sample is a vertex (2·128² = 32,768 triangles)."""
+    path = tmp_path / "rough.npy"
+    heights = np.random.default_rng(3).random((129, 129)).astype(np.float32) * 50
+    write_heightmap(Heightmap(heights), path)
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".obj", ".glb"])
+@pytest.mark.parametrize("mesher", ["rtin", "greedy"])
+def test_mesh_too_big_to_write_is_refused_once_its_size_is_known(tmp_path, rough_map, capsys,
+                                                                  suffix, mesher):
+    """The same map and limit: the full-grid mesh is refused (its triangles × the format's
+    bytes per triangle exceed the limit), a coarse one is written."""
+    from terrascape.memory import PEAK_BYTES_PER_TRIANGLE
+
+    limit = 4 * 1024**2
+    assert 32_768 * PEAK_BYTES_PER_TRIANGLE[suffix] > limit  # the premise of the refusal
+    out = tmp_path / f"mesh{suffix}"
+    before = sorted(tmp_path.iterdir())
+    code = run_app(["mesh", str(rough_map), "-o", str(out), "--max-error", "0", "--mesher",
+                    mesher, "--max-memory", str(limit)])
+    line = _one_error_line(capsys.readouterr().err)
+    assert code == 1
+    assert "a mesh of 32,768 triangles" in line and "--max-error" in line
+    assert "estimate" in line and "limit of 4 MiB" in line
+    assert sorted(tmp_path.iterdir()) == before
+    code = run_app(["mesh", str(rough_map), "-o", str(out), "--max-error", "1000", "--mesher",
+                    mesher, "--max-memory", str(limit), "-q"])
+    assert code == 0 and out.stat().st_size > 0
+
+
+def test_mesh_triangle_budget_is_checked_before_meshing(tmp_path, rough_map, capsys,
+                                                        monkeypatch):
+    from terrascape.lod import static_meshers
+
+    def never(*_args, **_kwargs):
+        raise AssertionError("meshed although the budget alone is over the limit")
+
+    monkeypatch.setattr(static_meshers.StaticMesher, "mesh", never)
+    before = sorted(tmp_path.iterdir())
+    code = run_app(["mesh", str(rough_map), "-o", str(tmp_path / "m.ply"), "--triangles",
+                    "100000000", "--max-memory", "1G"])
+    line = _one_error_line(capsys.readouterr().err)
+    assert code == 1 and "up to 100,000,000 triangles" in line and "limit of 1 GiB" in line
+    assert sorted(tmp_path.iterdir()) == before

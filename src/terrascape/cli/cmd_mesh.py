@@ -20,12 +20,13 @@ from pathlib import Path
 import typer
 
 from terrascape.camera import Camera
-from terrascape.cli.app import app, out, timed
+from terrascape.cli.app import app, out, timed, use_max_memory
 from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
 from terrascape.lod.schemes import SCHEMES
 from terrascape.lod.static_meshers import DEFAULT_STATIC_MESHER, STATIC_MESHERS
+from terrascape.memory import PEAK_BYTES_PER_TRIANGLE, check_grid, check_memory
 
 _FITS = ("none", "pad", "resample")
 _DEFAULT_TOLERANCE = 2.0
@@ -158,6 +159,13 @@ def mesh_command(
     no_reproject: bool = NO_REPROJECT,
     force: bool = typer.Option(False, "--force", help="Overwrite the output file if it exists."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines."),
+    max_memory: str = typer.Option(
+        None, "--max-memory", metavar="SIZE",
+        help="Refuse the map before meshing, or the mesh as soon as it is built (before it is "
+             "measured and written), when the estimated peak memory exceeds SIZE (4G, 512M, "
+             "50%); default 80% of the memory available now (or $TERRASCAPE_MAX_MEMORY).",
+        show_default=False,
+    ),
 ) -> None:
     """Export a terrain mesh and print its triangle count and MEASURED maximum error."""
     from terrascape.io.atomic import check_output_path
@@ -220,10 +228,16 @@ def mesh_command(
             "with --camera/--target, or drop it (static meshes take --triangles N)"
         )
 
+    use_max_memory(max_memory)
     with timed("read", quiet=quiet):
         hm = metric_map(_read(heightmap, spacing, vertical_scale), no_reproject=no_reproject)
         if fit != "none":
             hm = hm.to_pow2_plus1(fit)
+    suffix = output.suffix.lower()
+    check_grid("mesh glb" if suffix == ".glb" and texture else "mesh", hm.rows, hm.cols,
+               hint="use a smaller map (or raise --max-memory)")
+    if triangles is not None:
+        _check_mesh_memory(triangles, suffix, budget=True)
 
     if static_mode:
         entry_mesher = STATIC_MESHERS[mesher]
@@ -231,6 +245,7 @@ def mesh_command(
         with timed(f"{entry_mesher.label} mesh", quiet=quiet,
                    slow_note=entry_mesher.first_run_note):
             tri = entry_mesher.mesh(hm, max_error=max_error, max_triangles=triangles, **options)
+        _check_mesh_memory(len(tri), suffix)
         with timed("measure", quiet=quiet):
             measured = max_vertical_error(hm, tri)
         summary = f"max vertical error {measured:.6g} (world units, measured on every sample)"
@@ -252,6 +267,7 @@ def mesh_command(
         with timed(f"{lod} update", quiet=quiet):
             lod_mesh.update(cam, (width, height), **kwargs)
             tri = lod_mesh.triangles()
+        _check_mesh_memory(len(tri), suffix)
         with timed("measure", quiet=quiet):
             per_sample = screen_errors(hm, tri, cam, (width, height))
             in_view = frustum_mask(hm, cam)
@@ -265,7 +281,7 @@ def mesh_command(
         )
 
     with timed("write", quiet=quiet):
-        if output.suffix.lower() == ".glb":
+        if suffix == ".glb":
             from terrascape.export.glb import build_glb
             from terrascape.io.atomic import atomic_output
 
@@ -281,3 +297,16 @@ def mesh_command(
             write_mesh(output, vertices, faces, force=force)
             n_faces, n_vertices = len(faces), len(vertices)
     out.print(f"{output}: {n_faces} triangles, {n_vertices} vertices; {summary}")
+
+
+def _check_mesh_memory(triangles: int, suffix: str, *, budget: bool = False) -> None:
+    """Refuse a mesh whose measuring and writing would not fit in memory: before meshing
+    for a triangle budget (the mesh has at most that many), after meshing otherwise (a
+    mesh's size for an error is known only once it is built; the heights and triangles
+    are in memory by then, the vertex arrays, the error measure and the file's buffers are
+    not)."""
+    what = (f"a mesh of up to {triangles:,} triangles (--triangles)" if budget
+            else f"measuring and writing a mesh of {triangles:,} triangles")
+    check_memory(triangles * PEAK_BYTES_PER_TRIANGLE[suffix], what,
+                 hint="nothing was written; give a larger --max-error or a --triangles "
+                      "budget (or raise --max-memory)")
