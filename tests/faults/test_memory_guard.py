@@ -172,3 +172,21 @@ def test_mesh_triangle_budget_is_checked_before_meshing(tmp_path, rough_map, cap
     line = _one_error_line(capsys.readouterr().err)
     assert code == 1 and "up to 100,000,000 triangles" in line and "limit of 1 GiB" in line
     assert sorted(tmp_path.iterdir()) == before
+
+
+@pytest.mark.parametrize("argv", [["web"], ["blender", "--format", "glb"]])
+def test_export_mesh_too_big_is_refused_once_built(tmp_path, rough_map, capsys, argv):
+    """The exports that mesh the whole map: the full-grid mesh refused before anything is
+    written (no output folder left), the same map's coarse mesh exported under the same
+    limit."""
+    out = tmp_path / "out"
+    code = run_app(["export", argv[0], str(rough_map), "-o", str(out), *argv[1:],
+                    "--max-error", "0", "--max-memory", "4M"])
+    line = _one_error_line(capsys.readouterr().err)
+    assert code == 1
+    assert "a mesh of 32,768 triangles" in line and "--max-error" in line
+    assert "limit of 4 MiB" in line and "nothing was written" in line
+    assert not out.exists()
+    code = run_app(["export", argv[0], str(rough_map), "-o", str(out), *argv[1:],
+                    "--max-error", "1000", "--max-memory", "4M", "-q"])
+    assert code == 0 and any(p.suffix == ".glb" for p in out.iterdir())

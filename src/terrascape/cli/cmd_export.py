@@ -14,7 +14,7 @@ from pathlib import Path
 
 import typer
 
-from terrascape.cli.app import app, console, out, timed
+from terrascape.cli.app import app, console, out, timed, use_max_memory
 from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.cli.parsing import is_world_store
 from terrascape.export import destinations
@@ -138,6 +138,13 @@ def export_command(
     no_reproject: bool = NO_REPROJECT,
     force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines."),
+    max_memory: str = typer.Option(
+        None, "--max-memory", metavar="SIZE",
+        help="web, blender glb: refuse the mesh as soon as it is built, before anything is "
+             "written, when its estimated peak memory exceeds SIZE (4G, 512M, 50%); default "
+             "80% of the memory available now (or $TERRASCAPE_MAX_MEMORY).",
+        show_default=False,
+    ),
 ) -> None:
     """Write the destination's files and a NAME_import.txt with the import settings."""
     from terrascape.cli.cmd_files import _parse_spacing
@@ -146,6 +153,7 @@ def export_command(
     from terrascape.io.geotiff import degree_warning
 
     module = get_destination(destination)
+    use_max_memory(max_memory)
     if mesher is not None:
         from terrascape.errors import InvalidParameterError
         from terrascape.lod.static_meshers import static_mesher
