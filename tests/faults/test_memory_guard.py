@@ -190,3 +190,21 @@ def test_export_mesh_too_big_is_refused_once_built(tmp_path, rough_map, capsys, 
     code = run_app(["export", argv[0], str(rough_map), "-o", str(out), *argv[1:],
                     "--max-error", "1000", "--max-memory", "4M", "-q"])
     assert code == 0 and any(p.suffix == ".glb" for p in out.iterdir())
+
+
+def test_greedy_tin_refuses_a_join_that_cannot_fit():
+    """Meshed in pieces, the greedy TIN knows its size before it joins them: a join over the
+    limit is refused there (the API raises), a coarse mesh of the same map is joined."""
+    from terrascape.lod.greedy_tin import greedy_tin
+    from terrascape.memory import PEAK_BYTES_PER_TRIANGLE
+
+    hm = Heightmap(np.random.default_rng(4).random((400, 400)).astype(np.float32) * 50)
+    full = 2 * 399 * 399  # every sample a vertex: 2 × 2 pieces, joined
+    set_limit("10M")
+    try:
+        assert full * PEAK_BYTES_PER_TRIANGLE["greedy join"] > 10 * 1024**2
+        with pytest.raises(MemoryLimitError, match=f"greedy TIN of {full:,} triangles"):
+            greedy_tin(hm, max_error=0.0)
+        assert len(greedy_tin(hm, max_error=1000.0)) < 100
+    finally:
+        set_limit(None)
