@@ -256,13 +256,18 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     console.print(f"[yellow]warning:[/] {escape(str(message))}")
 
 
+def max_memory_option(refused: str):
+    """``--max-memory``, its help starting with what is ``refused`` and when."""
+    return typer.Option(
+        None, "--max-memory", metavar="SIZE",
+        help=f"{refused} when the estimated peak memory exceeds SIZE (4G, 512M, 50%); "
+             "default 80% of the memory available now (or $TERRASCAPE_MAX_MEMORY).",
+        show_default=False,
+    )
+
+
 #: ``--max-memory`` for commands that estimate their peak memory before allocating.
-MAX_MEMORY = typer.Option(
-    None, "--max-memory", metavar="SIZE",
-    help="Refuse to start when the estimated peak memory exceeds SIZE (4G, 512M, 50%); "
-         "default 80% of the memory available now (or $TERRASCAPE_MAX_MEMORY).",
-    show_default=False,
-)
+MAX_MEMORY = max_memory_option("Refuse to start")
 
 
 def use_max_memory(value: str | None) -> None:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import typer
 
-from terrascape.cli.app import app, console, out, timed, use_max_memory
+from terrascape.cli.app import app, console, max_memory_option, out, timed, use_max_memory
 from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.cli.parsing import is_world_store
 from terrascape.export import destinations
@@ -138,13 +138,9 @@ def export_command(
     no_reproject: bool = NO_REPROJECT,
     force: bool = typer.Option(False, "--force", help="Overwrite existing files."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines."),
-    max_memory: str = typer.Option(
-        None, "--max-memory", metavar="SIZE",
-        help="web, blender glb: refuse the mesh as soon as it is built, before anything is "
-             "written, when its estimated peak memory exceeds SIZE (4G, 512M, 50%); default "
-             "80% of the memory available now (or $TERRASCAPE_MAX_MEMORY).",
-        show_default=False,
-    ),
+    max_memory: str = max_memory_option(
+        "web, blender glb: refuse the mesh as soon as it is built, before anything is "
+        "written,"),
 ) -> None:
     """Write the destination's files and a NAME_import.txt with the import settings."""
     from terrascape.cli.cmd_files import _parse_spacing

@@ -20,7 +20,7 @@ from pathlib import Path
 import typer
 
 from terrascape.camera import Camera
-from terrascape.cli.app import app, out, timed, use_max_memory
+from terrascape.cli.app import app, max_memory_option, out, timed, use_max_memory
 from terrascape.cli.geo_options import NO_REPROJECT, metric_map
 from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
@@ -159,13 +159,9 @@ def mesh_command(
     no_reproject: bool = NO_REPROJECT,
     force: bool = typer.Option(False, "--force", help="Overwrite the output file if it exists."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No timing lines."),
-    max_memory: str = typer.Option(
-        None, "--max-memory", metavar="SIZE",
-        help="Refuse the map before meshing, or the mesh as soon as it is built (before it is "
-             "measured and written), when the estimated peak memory exceeds SIZE (4G, 512M, "
-             "50%); default 80% of the memory available now (or $TERRASCAPE_MAX_MEMORY).",
-        show_default=False,
-    ),
+    max_memory: str = max_memory_option(
+        "Refuse the map before meshing, or the mesh as soon as it is built (before it is "
+        "measured and written),"),
 ) -> None:
     """Export a terrain mesh and print its triangle count and MEASURED maximum error."""
     from terrascape.io.atomic import check_output_path
