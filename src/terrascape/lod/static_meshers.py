@@ -49,9 +49,10 @@ class StaticMesher:
 
     @property
     def first_run_note(self) -> str:
-        """What a command says while this mesher's first run is still compiling."""
-        return ("a first run on a new installation compiles the mesher, once "
-                f"(`terrascape warm-up --only {self.warm_up}` does it ahead)")
+        """What a command says while this mesher is still at work after a few seconds: a big
+        map, or a first run that compiles it (which one, the command cannot tell)."""
+        return ("a big map takes a while, and a first run on a new installation also compiles "
+                f"the mesher, once (`terrascape warm-up --only {self.warm_up}` does it ahead)")
 
     def load(self) -> Callable[..., np.ndarray]:
         module, _, function = self.target.partition(":")
