@@ -161,6 +161,15 @@ def check_memory(estimate: float, what: str, *, hint: str = "", limit: int | Non
     )
 
 
+def check_triangles(count: int, model: str, what: str, *, hint: str = "") -> float:
+    """:func:`check_memory` for a mesh of ``count`` triangles, by the bytes per triangle of
+    ``PEAK_BYTES_PER_TRIANGLE[model]``; the message reads ``{what} {count} triangles``.
+    Returns the estimate (bytes)."""
+    estimate = float(count) * PEAK_BYTES_PER_TRIANGLE[model]
+    check_memory(estimate, f"{what} {count:,} triangles", hint=hint or MESH_TOO_BIG_HINT)
+    return estimate
+
+
 def grid_bytes(rows: int, cols: int, *, per_sample: float) -> float:
     """Peak estimate of a grid operation: ``rows × cols × per_sample`` bytes (as a float, so
     absurd sizes do not overflow)."""
@@ -256,6 +265,7 @@ __all__ = [
     "available_bytes",
     "check_grid",
     "check_memory",
+    "check_triangles",
     "estimate_peak",
     "format_bytes",
     "gaussian_kernel_bytes",

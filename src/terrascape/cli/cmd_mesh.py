@@ -26,7 +26,7 @@ from terrascape.cli.parsing import parse_floats, parse_size
 from terrascape.errors import FileFormatError, InvalidParameterError, TerrascapeError
 from terrascape.lod.schemes import SCHEMES
 from terrascape.lod.static_meshers import DEFAULT_STATIC_MESHER, STATIC_MESHERS
-from terrascape.memory import PEAK_BYTES_PER_TRIANGLE, check_grid, check_memory
+from terrascape.memory import check_grid, check_triangles
 
 _FITS = ("none", "pad", "resample")
 _DEFAULT_TOLERANCE = 2.0
@@ -301,8 +301,8 @@ def _check_mesh_memory(triangles: int, suffix: str, *, budget: bool = False) -> 
     mesh's size for an error is known only once it is built; the heights and triangles
     are in memory by then, the vertex arrays, the error measure and the file's buffers are
     not)."""
-    what = (f"a mesh of up to {triangles:,} triangles (--triangles)" if budget
-            else f"measuring and writing a mesh of {triangles:,} triangles")
-    check_memory(triangles * PEAK_BYTES_PER_TRIANGLE[suffix], what,
-                 hint="nothing was written; give a larger --max-error or a --triangles "
-                      "budget (or raise --max-memory)")
+    check_triangles(triangles, suffix,
+                    "a --triangles budget of up to" if budget
+                    else "measuring and writing a mesh of",
+                    hint="nothing was written; give a larger --max-error or a --triangles "
+                         "budget (or raise --max-memory)")

@@ -44,7 +44,7 @@ from terrascape.export.meshing import TerrainMesh, terrain_mesh, uint16_parts
 from terrascape.heightmap import Heightmap
 from terrascape.io.atomic import atomic_output
 from terrascape.lod.static_meshers import static_mesher
-from terrascape.memory import MESH_TOO_BIG_HINT, PEAK_BYTES_PER_TRIANGLE, check_memory
+from terrascape.memory import check_triangles
 
 __all__ = ["bake_texture", "build_glb", "compression_ordered", "glb_bytes", "glb_document",
            "write_terrain_glb"]
@@ -424,8 +424,7 @@ def write_terrain_glb(
         raise InvalidParameterError("give max_error (world units) and/or max_triangles")
     tri = static_mesher(mesher).mesh(heightmap, max_error=max_error, max_triangles=max_triangles)
     # the mesh's size is known only now: refused before the glb is built
-    check_memory(len(tri) * PEAK_BYTES_PER_TRIANGLE[".glb"],
-                 f"a glb of a mesh of {len(tri):,} triangles", hint=MESH_TOO_BIG_HINT)
+    check_triangles(len(tri), ".glb", "a glb of a mesh of")
     data, mesh = build_glb(heightmap, tri, **options)
     with atomic_output(path, force=force) as tmp:
         Path(tmp).write_bytes(data)

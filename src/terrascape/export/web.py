@@ -68,15 +68,14 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     from terrascape.export.instances import objects_for
     from terrascape.lod.mesh_checks import max_vertical_error
     from terrascape.lod.static_meshers import static_mesher
-    from terrascape.memory import MESH_TOO_BIG_HINT, PEAK_BYTES_PER_TRIANGLE, check_memory
+    from terrascape.memory import check_triangles
 
     out = check_out_dir(out_dir)
     relief = max(heightmap.max - heightmap.min, 1e-6)
     max_error = options.max_error if options.max_error is not None else relief / 500.0
     tri = static_mesher(options.mesher).mesh(heightmap, max_error=max_error)
     # the mesh's size is known only now: refused before its glb and page are built
-    check_memory(len(tri) * PEAK_BYTES_PER_TRIANGLE["web"],
-                 f"the web page of a mesh of {len(tri):,} triangles", hint=MESH_TOO_BIG_HINT)
+    check_triangles(len(tri), "web", "the web page of a mesh of")
     glb, mesh = build_glb(heightmap, tri, compress=True, texture_size=2048,
                           objects=objects_for(options, heightmap))
     measured = max_vertical_error(heightmap, tri)

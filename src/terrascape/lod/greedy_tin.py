@@ -85,7 +85,7 @@ from terrascape._numba import CACHE, FASTMATH, njit, read_only
 from terrascape._validate import check_int, check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
-from terrascape.memory import MESH_TOO_BIG_HINT, PEAK_BYTES_PER_TRIANGLE, check_memory
+from terrascape.memory import check_triangles
 
 __all__ = ["greedy_tin"]
 
@@ -1365,8 +1365,7 @@ def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
         return _grid_triangles(coords, tris, cols)
     # the mesh's size is known only now: a join that cannot fit is refused before it starts
     n_tris = sum(len(t) for _, t, _ in parts) // 3
-    check_memory(n_tris * PEAK_BYTES_PER_TRIANGLE["greedy join"],
-                 f"joining a greedy TIN of {n_tris:,} triangles", hint=MESH_TOO_BIG_HINT)
+    check_triangles(n_tris, "greedy join", "joining a greedy TIN of")
     return _join_pieces(h, tol, parts, tplane, tres, ys, xs)
 
 
