@@ -30,7 +30,10 @@ from terrascape.lod.mesh_checks import max_vertical_error
 
 def _other_mesher(src: str):
     """``greedy_tin`` of the checkout at ``src``, imported under its own module name (numba's
-    cache then keeps its kernels apart from this checkout's)."""
+    cache then keeps its kernels apart from this checkout's). Its cache entries, in that
+    checkout's ``__pycache__``, name this module: run from that checkout itself, its greedy
+    TIN fails to load them (``No module named 'terrascape.lod._other_greedy_tin'``) until
+    ``src/terrascape/lod/__pycache__/greedy_tin.*.nb[ic]`` there are deleted."""
     path = Path(src).resolve() / "terrascape" / "lod" / "greedy_tin.py"
     name = "terrascape.lod._other_greedy_tin"
     spec = importlib.util.spec_from_file_location(name, path)

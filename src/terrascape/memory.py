@@ -117,11 +117,11 @@ def memory_limit() -> int:
     return int(available_bytes() * DEFAULT_SHARE)
 
 
-def format_bytes(n: float) -> str:
-    """``1536 * 1024**2`` → ``"1.5 GiB"``."""
+def format_bytes(n: float, digits: int = 3) -> str:
+    """``1536 * 1024**2`` → ``"1.5 GiB"`` (``digits`` significant digits)."""
     for unit, size in (("TiB", 1024**4), ("GiB", 1024**3), ("MiB", 1024**2), ("KiB", 1024)):
         if abs(n) >= size:
-            return f"{n / size:.3g} {unit}"
+            return f"{n / size:.{digits}g} {unit}"
     return f"{int(n)} B"
 
 
@@ -153,10 +153,16 @@ def check_memory(estimate: float, what: str, *, hint: str = "", limit: int | Non
     source = ("--max-memory" if _limit_override is not None or limit is not None
               else ENV_VAR if os.environ.get(ENV_VAR)
               else f"{DEFAULT_SHARE:.0%} of available; --max-memory raises it")
-    need = "an impossible amount" if math.isinf(estimate) else f"about {format_bytes(estimate)}"
+    # just over the limit (a mesh refused as soon as its pieces pass it), three digits
+    # would print the same figure twice
+    digits = 3
+    while digits < 7 and format_bytes(estimate, digits) == format_bytes(cap, digits):
+        digits += 1
+    need = ("an impossible amount" if math.isinf(estimate)
+            else f"about {format_bytes(estimate, digits)}")
     raise MemoryLimitError(
         f"{what} needs {need} of memory at its peak (estimate), over the limit of "
-        f"{format_bytes(cap)} ({source}; {format_bytes(avail)} available now)"
+        f"{format_bytes(cap, digits)} ({source}; {format_bytes(avail)} available now)"
         + (f"; {hint}" if hint else "")
     )
 
@@ -224,8 +230,8 @@ PEAK_BYTES_PER_TRIANGLE: dict[str, float] = {
     # a 50 m error (`export blender --format glb` builds the .glb above: 165–168 B against
     # a 65² map), 2026-12-06
     "web": 185.0,
-    # the greedy TIN's join of its pieces and its output, checked before the join (the
-    # pieces' own arrays are already there): `python scripts/greedy_tin_peak_memory.py`,
+    # the greedy TIN's join of its pieces and its output, checked as the pieces are meshed
+    # (their own arrays are part of it) and before the join: `python scripts/greedy_tin_peak_memory.py`,
     # 80.9–81.9 B at error 0 on 2049² and 4097² fBm, 2026-12-06
     "greedy join": 100.0,
 }

@@ -12,11 +12,15 @@ from terrascape import Heightmap
 from terrascape.cli.app import run_app
 from terrascape.io import write_heightmap
 
+# stage timings ("read… 0.00 s") and the note a stage still running after 5 s prints (a
+# first run compiling, or a loaded machine): not error lines
+_NOT_ERRORS = r"… \d+\.\d+ s$|: still working after \d"
+
 
 def _error_line(err: str) -> str:
     assert "Traceback" not in err and "╭" not in err, err  # no traceback, no boxed panel
     lines = [line for line in err.splitlines()
-             if line.strip() and not re.search(r"… \d+\.\d+ s$", line)]
+             if line.strip() and not re.search(_NOT_ERRORS, line)]
     assert len(lines) == 1, err
     return lines[0]
 

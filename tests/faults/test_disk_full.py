@@ -24,10 +24,15 @@ from terrascape.io import read_heightmap, write_heightmap
 SRC = str(pathlib.Path(__file__).resolve().parents[2] / "src")
 
 
+# stage timings ("read… 0.00 s") and the note a stage still running after 5 s prints (a
+# first run compiling, or a loaded machine): not error lines
+_NOT_ERRORS = r"… \d+\.\d+ s$|: still working after \d"
+
+
 def _error_lines(err: str) -> list[str]:
     assert "Traceback" not in err, err
     return [line for line in err.splitlines()
-            if line.strip() and not re.search(r"… \d+\.\d+ s$", line)]
+            if line.strip() and not re.search(_NOT_ERRORS, line)]
 
 
 def _listing(folder) -> dict[str, bytes]:

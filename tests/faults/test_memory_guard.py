@@ -14,11 +14,15 @@ from terrascape.errors import MemoryLimitError
 from terrascape.io import write_heightmap
 from terrascape.memory import check_memory, estimate_peak, memory_limit, set_limit
 
+# stage timings ("read… 0.00 s") and the note a stage still running after 5 s prints (a
+# first run compiling, or a loaded machine): not error lines
+_NOT_ERRORS = r"… \d+\.\d+ s$|: still working after \d"
+
 
 def _one_error_line(err: str) -> str:
     """The one error line (timing lines like ``read… 0.00 s`` aside)."""
     lines = [line for line in err.splitlines()
-             if line.strip() and not re.search(r"… \d+\.\d+ s$", line)]
+             if line.strip() and not re.search(_NOT_ERRORS, line)]
     assert len(lines) == 1, err
     assert "Traceback" not in err
     return lines[0]
@@ -46,6 +50,13 @@ def test_refusal_names_estimate_limit_and_available(monkeypatch):
                                                r"available now\); use less"):
         check_memory(3 * 1024**3, "thing", hint="use less")
     check_memory(1024**3, "thing")  # under the limit: nothing happens
+    # just over the limit: enough digits that the two figures differ
+    set_limit("1G")
+    try:
+        with pytest.raises(MemoryLimitError, match=r"about 1\.0002 GiB .* limit of 1 GiB "):
+            check_memory(1.0002 * 1024**3, "thing")
+    finally:
+        set_limit(None)
 
 
 @pytest.mark.parametrize("argv", [
@@ -208,3 +219,44 @@ def test_greedy_tin_refuses_a_join_that_cannot_fit():
         assert len(greedy_tin(hm, max_error=1000.0)) < 100
     finally:
         set_limit(None)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_greedy_tin_stops_meshing_pieces_once_the_join_cannot_fit(monkeypatch, threads):
+    """A big map's pieces are not all meshed before the refusal: once the pieces so far are
+    over the limit, those not started are dropped (36 pieces here, refused after 13 of
+    them), and the message says the mesh has at least that many triangles."""
+    import time
+
+    import terrascape.lod.greedy_tin as gt
+    from terrascape.memory import PEAK_BYTES_PER_TRIANGLE
+
+    meshed = []
+    mesh_piece = gt._mesh_piece
+
+    def counted(*args):
+        meshed.append(args[3:5])
+        if threads > 1:
+            # a piece this small takes about a millisecond: slowed down, the pieces cannot
+            # all be done before the main thread has read the first ones' sizes
+            time.sleep(0.02)
+        return mesh_piece(*args)
+
+    monkeypatch.setattr(gt, "_PIECE", 64)
+    monkeypatch.setattr(gt, "_mesh_piece", counted)
+    monkeypatch.setattr(gt.numba, "get_num_threads", lambda: threads)
+    hm = Heightmap(np.random.default_rng(5).random((400, 400)).astype(np.float32) * 50)
+    set_limit("10M")
+    try:
+        with pytest.raises(MemoryLimitError, match="greedy TIN of at least") as refused:
+            gt.greedy_tin(hm, max_error=0.0)
+    finally:
+        set_limit(None)
+    at_least = int(re.search(r"at least ([\d,]+)", str(refused.value))[1].replace(",", ""))
+    assert at_least * PEAK_BYTES_PER_TRIANGLE["greedy join"] > 10 * 1024**2
+    assert (len(gt._piece_edges(400)) - 1) ** 2 == 36
+    # each piece about 8,000 triangles (0.8 MB by the join's model): 13 are over 10 MiB
+    if threads == 1:
+        assert len(meshed) == 13
+    else:  # the pieces another thread had started meanwhile are meshed too
+        assert 13 <= len(meshed) < 36
