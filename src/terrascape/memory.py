@@ -231,8 +231,9 @@ PEAK_BYTES_PER_TRIANGLE: dict[str, float] = {
     # a 65² map), 2026-12-06
     "web": 185.0,
     # the greedy TIN's join of its pieces and its output, checked as the pieces are meshed
-    # (their own arrays are part of it) and before the join: `python scripts/greedy_tin_peak_memory.py`,
-    # 80.9–81.9 B at error 0 on 2049² and 4097² fBm, 2026-12-06
+    # (their own arrays are part of it) and before the join: `python
+    # scripts/greedy_tin_peak_memory.py`, 80.9–81.9 B at error 0 on 2049² and 4097² fBm,
+    # 2026-12-06
     "greedy join": 100.0,
 }
 

@@ -39,3 +39,16 @@ def test_a_missing_peer_is_a_skipped_row(monkeypatch) -> None:
     peers._mesh_rows(33, 1, mesh)
     assert hill.rows[0][2] == "-" and "not installed" in hill.notes[0]
     assert mesh.rows[0][2] == "-" and "not installed" in mesh.notes[0]
+
+
+def test_a_missing_noise_peer_says_how_to_install_it(monkeypatch) -> None:
+    """pyfastnoisesimd is in no extra (its source package builds only without build
+    isolation): its skipped row says how to install it."""
+    import sys
+
+    from terrascape.bench import generate
+
+    monkeypatch.setitem(sys.modules, "pyfastnoisesimd", None)  # import raises ImportError
+    fill, about = generate._fastnoise(1)
+    assert fill is None
+    assert "not installed" in about and "pip install --no-build-isolation pyfastnoisesimd" in about

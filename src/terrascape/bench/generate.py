@@ -30,7 +30,8 @@ def _fastnoise(threads: int):
     try:
         import pyfastnoisesimd as fns
     except ImportError:
-        return None, "pyfastnoisesimd is not installed"
+        return None, ("pyfastnoisesimd is not installed (pip install numpy wheel setuptools, "
+                      "then pip install --no-build-isolation pyfastnoisesimd)")
     from concurrent.futures import ThreadPoolExecutor
 
     noise = fns.Noise(seed=1, numWorkers=1)

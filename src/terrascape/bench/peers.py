@@ -5,7 +5,9 @@ jobs back to back (the order reversed every other round) and the ratio of that r
 taken; the table gives the median of those ratios and their spread (min–max). The two cores
 of a shared host drift by up to 2× within hours, so ratios of neighbouring runs are the only
 stable figures. A peer that is not installed is a skipped row, not a failure (install the
-``bench`` extra, or ``pip install insolation``).
+``peers`` extra, ``pip install 'terrascape[peers]'``, or one peer such as ``pip install
+insolation``; pyfastnoisesimd builds only with ``pip install --no-build-isolation
+pyfastnoisesimd``, numpy, wheel and setuptools installed first).
 
 Rows:
 
