@@ -1369,8 +1369,8 @@ def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
         done = (run(job) for job in jobs)
     # the mesh's size is known piece by piece: once the pieces so far already make a join
     # that cannot fit, those not yet started are dropped. Only with more than two pieces
-    # per thread (with fewer, all have started by the time the first is done), and the
-    # limit read once (about 0.1 ms a read: a few per cent of a small map's mesh).
+    # per thread (with fewer, at most one is still waiting when the first is done), and
+    # the limit read once (about 0.1 ms a read: a few per cent of a small map's mesh).
     early = len(jobs) > 2 * workers
     cap = memory_limit() if early else 0
     per_triangle = PEAK_BYTES_PER_TRIANGLE["greedy join"]
