@@ -149,10 +149,24 @@ def check_memory(estimate: float, what: str, *, hint: str = "", limit: int | Non
     cap = memory_limit() if limit is None else int(limit)
     if estimate <= cap:
         return
+    raise memory_refusal(estimate, what, hint=hint, cap=cap,
+                         source="--max-memory" if limit is not None else None)
+
+
+def memory_refusal(estimate: float, what: str, *, hint: str = "", cap: int | None = None,
+                   source: str | None = None) -> MemoryLimitError:
+    """The error :func:`check_memory` raises, for an operation already known to need more
+    than the limit ``cap`` (default :func:`memory_limit`; e.g. a limit read before a long
+    computation that stopped on reaching it). ``source`` names where the limit came from
+    (default: ``--max-memory``, the environment variable or the share of available)."""
+    if not math.isfinite(estimate):
+        estimate = float("inf")
+    cap = memory_limit() if cap is None else int(cap)
     avail = available_bytes()
-    source = ("--max-memory" if _limit_override is not None or limit is not None
-              else ENV_VAR if os.environ.get(ENV_VAR)
-              else f"{DEFAULT_SHARE:.0%} of available; --max-memory raises it")
+    if source is None:
+        source = ("--max-memory" if _limit_override is not None
+                  else ENV_VAR if os.environ.get(ENV_VAR)
+                  else f"{DEFAULT_SHARE:.0%} of available; --max-memory raises it")
     # just over the limit (a mesh refused as soon as its pieces pass it), three digits
     # would print the same figure twice
     digits = 3
@@ -160,7 +174,7 @@ def check_memory(estimate: float, what: str, *, hint: str = "", limit: int | Non
         digits += 1
     need = ("an impossible amount" if math.isinf(estimate)
             else f"about {format_bytes(estimate, digits)}")
-    raise MemoryLimitError(
+    return MemoryLimitError(
         f"{what} needs {need} of memory at its peak (estimate), over the limit of "
         f"{format_bytes(cap, digits)} ({source}; {format_bytes(avail)} available now)"
         + (f"; {hint}" if hint else "")
@@ -235,6 +249,12 @@ PEAK_BYTES_PER_TRIANGLE: dict[str, float] = {
     # scripts/greedy_tin_peak_memory.py`, 80.9–81.9 B at error 0 on 2049² and 4097² fBm,
     # 2026-12-06
     "greedy join": 100.0,
+    # the greedy TIN as one order (a triangle budget, or `--one-piece`), per slot of its
+    # insertion's arrays (64 B: vertices, triangles, twins, candidates, queue; doubled when
+    # full), checked before each doubling: `python scripts/greedy_tin_peak_memory.py SIZE 0
+    # --one-order`, 73.1 B at 1100² (4,194,304 slots) and 70.8 B at 1500² (8,388,608),
+    # 2026-12-07
+    "greedy one order": 85.0,
 }
 
 #: What to change when a mesh, once built, is refused for its size.

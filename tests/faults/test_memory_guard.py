@@ -260,3 +260,40 @@ def test_greedy_tin_stops_meshing_pieces_once_the_join_cannot_fit(monkeypatch, t
         assert len(meshed) == 13
     else:  # the pieces another thread had started meanwhile are meshed too
         assert 13 <= len(meshed) < 36
+
+
+def test_greedy_tin_in_one_order_stops_before_its_arrays_pass_the_limit(tmp_path, capsys):
+    """One greedy order (``--one-piece``, or the API's ``in_pieces=False``) grows its arrays
+    as it inserts: it stops before a doubling would pass the limit, with one line and no
+    file; the same map's coarse mesh is written under the same limit."""
+    from terrascape.lod.greedy_tin import greedy_tin
+    from terrascape.memory import PEAK_BYTES_PER_TRIANGLE
+
+    heights = np.random.default_rng(6).random((400, 400)).astype(np.float32) * 50
+    hm = Heightmap(heights)
+    per_slot = PEAK_BYTES_PER_TRIANGLE["greedy one order"]
+    limit = 10 * 1024**2
+    # 2·399² triangles at error 0; the arrays stop at 65,536 slots: the next doubling's
+    # 131,072 slots pass the limit
+    assert 65_536 * per_slot <= limit < 131_072 * per_slot < 2 * 399**2 * per_slot
+    set_limit(limit)
+    try:
+        with pytest.raises(MemoryLimitError, match=r"greedy TIN in one order of more than "
+                                                   r"65,536 triangles needs about 10\.6 MiB"):
+            greedy_tin(hm, max_error=0.0, in_pieces=False)
+        assert len(greedy_tin(hm, max_error=1000.0, in_pieces=False)) < 100
+    finally:
+        set_limit(None)
+
+    path = tmp_path / "rough.npy"
+    write_heightmap(hm, path)
+    out = tmp_path / "mesh.ply"
+    code = run_app(["mesh", str(path), "-o", str(out), "--mesher", "greedy", "--one-piece",
+                    "--max-error", "0", "--max-memory", "10M"])
+    line = _one_error_line(capsys.readouterr().err)
+    assert code == 1 and not out.exists()
+    assert "more than 65,536 triangles" in line and "limit of 10 MiB" in line
+    assert "nothing was written" in line
+    code = run_app(["mesh", str(path), "-o", str(out), "--mesher", "greedy", "--one-piece",
+                    "--max-error", "40", "--max-memory", "10M", "-q"])
+    assert code == 0 and out.exists()

@@ -608,7 +608,7 @@ def test_dense_pieces_are_decimated_and_meet_the_sparse_ones(monkeypatch):
         def mesh(dense_sides, piece=piece, x0=xs[j]):
             return gt._mesh_piece(piece, rows, cols, 0, x0, 0.5, line_tol, gt._NO_BUDGET,
                                   gt._REMOVAL_PASSES, dense_sides, np.empty((*tiles, 3)),
-                                  np.empty((*tiles, 4)))[1]
+                                  np.empty((*tiles, 4)), gt._NO_SLOT_LIMIT)[1]
 
         same = np.array_equal(mesh(gt._DENSE_SIDES), mesh(np.inf))
         assert same != decimated, (j, decimated)

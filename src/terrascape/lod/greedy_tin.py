@@ -85,7 +85,13 @@ from terrascape._numba import CACHE, FASTMATH, njit, read_only
 from terrascape._validate import check_int, check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
-from terrascape.memory import PEAK_BYTES_PER_TRIANGLE, check_triangles, memory_limit
+from terrascape.memory import (
+    MESH_TOO_BIG_HINT,
+    PEAK_BYTES_PER_TRIANGLE,
+    check_triangles,
+    memory_limit,
+    memory_refusal,
+)
 
 __all__ = ["greedy_tin"]
 
@@ -344,6 +350,10 @@ _DENSE_SIDES = 0.4
 _PIECE = 448
 # a triangle budget that never stops the insertion
 _NO_BUDGET = np.iinfo(np.int64).max
+# triangle slots the insertion's arrays start with (doubled whenever full), and no limit on
+# how far they grow
+_START_SLOTS = 1024
+_NO_SLOT_LIMIT = np.iinfo(np.int64).max
 
 
 @njit(cache=CACHE, fastmath=_RASTER_MATH, _nrt=False)
@@ -1221,6 +1231,13 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         ``uint32 (M, 3)`` grid vertex indices (``row·cols + col``), counter-clockwise seen
         from above, like :func:`terrascape.lod.rtin_mesh`.
 
+    Raises
+    ------
+    MemoryLimitError
+        When the mesh cannot fit the memory limit (:mod:`terrascape.memory`): in pieces, as
+        soon as the pieces meshed so far make a join over it; as one order, before its
+        arrays would grow past it.
+
     References
     ----------
     Garland & Heckbert (1995), see the module docstring.
@@ -1246,8 +1263,20 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         # a triangle budget is one greedy order over the whole map
         passes = _REMOVAL_PASSES if max_error is not None else 0
         tiles = (-(-rows // _TILE), -(-cols // _TILE))
+        # its arrays grow as it inserts: they stop before they would pass the memory limit
+        # (read once: a mesh within it never reads it again)
+        cap = memory_limit()
+        per_slot = PEAK_BYTES_PER_TRIANGLE["greedy one order"]
         coords, tris, _ = _mesh_piece(h, rows, cols, 0, 0, float(tol), 0.0, budget, passes,
-                                      np.inf, np.empty((*tiles, 3)), np.empty((*tiles, 4)))
+                                      np.inf, np.empty((*tiles, 3)), np.empty((*tiles, 4)),
+                                      int(cap // per_slot))
+        if len(tris) == 0:
+            slots = _START_SLOTS  # the insertion's arrays, doubled until the next would pass
+            while 2 * slots <= cap // per_slot:
+                slots *= 2
+            raise memory_refusal(2 * slots * per_slot,
+                                 f"a greedy TIN in one order of more than {slots:,} triangles",
+                                 hint=MESH_TOO_BIG_HINT, cap=cap)
         return _grid_triangles(coords, tris, cols)
     return _mesh_in_pieces(h, tol, magnitude)
 
@@ -1351,9 +1380,10 @@ def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
 
     def run(job):
         y0, y1, x0, x1 = job
+        # a piece's arrays are bounded by its samples; the pieces together are checked below
         return _mesh_piece(_piece_of(h, y0, y1, x0, x1), rows, cols, y0, x0, float(tol),
                            float(line_tol), _NO_BUDGET, _REMOVAL_PASSES, _DENSE_SIDES, tplane,
-                           tres)
+                           tres, _NO_SLOT_LIMIT)
 
     workers = min(len(jobs), numba.get_num_threads())
     if len(jobs) == 1:
@@ -1715,7 +1745,7 @@ def _piece_of(h: np.ndarray, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
 def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, dense_sides, tplane,
-                tres):
+                tres, max_slots):
     """Greedy insertion over ``piece`` (:func:`_piece_of`: the samples from row ``y0`` and
     column ``x0`` of a ``rows × cols`` map), then, when the error was reached, ``passes``
     of the removal of redundant vertices. The insertion starts from the piece's corners and
@@ -1786,7 +1816,10 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, dense_
         n_points = _drop_unused(coords, tris)
     else:
         coords, tris, half, n_points, n_edges = _insert_piece(
-            piece, p_plane, p_res, bound, order, forced[:n_forced], tol, budget, passes)
+            piece, p_plane, p_res, bound, order, forced[:n_forced], tol, budget, passes,
+            max_slots)
+        if n_edges < 0:  # stopped before growing past max_slots: no triangles
+            return coords[:0], tris[:0], half[:0]
     # the piece's tiles are the map's (pieces start on tile multiples); a piece's last
     # row or column of tiles holds only its shared line, the next piece's first tiles
     t_y, t_x = y0 // _TILE, x0 // _TILE
@@ -1838,14 +1871,16 @@ def _compact_triangles(tris, half, n_edges):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
-def _insert_piece(piece, p_plane, p_res, bound, order, forced, tol, budget, passes):
+def _insert_piece(piece, p_plane, p_res, bound, order, forced, tol, budget, passes,
+                  max_slots):
     """:func:`_mesh_piece`'s greedy insertion from the piece's corners and its ``forced``
     side vertices, then, when the error was reached, ``passes`` of the removal of
     redundant vertices. Returns the vertices, triangles, twins and how many of the first
-    two and of the halfedges are used."""
+    two and of the halfedges are used; the halfedges' count is -1 when the arrays would
+    have to grow to more than ``max_slots`` triangles (the memory limit's share)."""
     ny, nx = piece.shape
     n_forced = forced.shape[0]
-    capacity = max(1024, 4 * n_forced + 16)
+    capacity = max(_START_SLOTS, 4 * n_forced + 16)
     coords = np.zeros((capacity // 2 + 8, 2), np.int64)
     tris = np.zeros(3 * capacity, np.int32)
     half = np.full(3 * capacity, -1, np.int32)
@@ -1879,6 +1914,8 @@ def _insert_piece(piece, p_plane, p_res, bound, order, forced, tol, budget, pass
                 cerr, queue, qerr, qidx, pending, stack, state)
         if state[_STATUS] != _FULL:
             break
+        if 2 * capacity > max_slots:
+            return coords, tris, half, state[_N_POINTS], -1
         capacity *= 2
         coords = _grown(coords, capacity // 2 + 8, 0)
         tris = _grown(tris, 3 * capacity, 0)
