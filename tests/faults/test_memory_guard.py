@@ -239,7 +239,7 @@ def test_greedy_tin_stops_meshing_pieces_once_the_join_cannot_fit(monkeypatch, t
         if threads > 1:
             # a piece this small takes about a millisecond: slowed down, the pieces cannot
             # all be done before the main thread has read the first ones' sizes
-            time.sleep(0.02)
+            time.sleep(0.05)
         return mesh_piece(*args)
 
     monkeypatch.setattr(gt, "_PIECE", 64)
@@ -252,6 +252,9 @@ def test_greedy_tin_stops_meshing_pieces_once_the_join_cannot_fit(monkeypatch, t
             gt.greedy_tin(hm, max_error=0.0)
     finally:
         set_limit(None)
+    if threads > 1:
+        # whatever the pool still had queued has started once a job queued after it runs
+        gt._thread_pool(threads).submit(lambda: None).result()
     at_least = int(re.search(r"at least ([\d,]+)", str(refused.value))[1].replace(",", ""))
     assert at_least * PEAK_BYTES_PER_TRIANGLE["greedy join"] > 10 * 1024**2
     assert (len(gt._piece_edges(400)) - 1) ** 2 == 36
