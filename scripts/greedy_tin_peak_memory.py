@@ -9,10 +9,10 @@ triangles, and the difference per triangle. The model of ``terrascape.memory``
 (``PEAK_BYTES_PER_TRIANGLE["greedy join"]``) is this figure rounded up.
 
 With ``--one-order``, one greedy order over the whole map (``in_pieces=False``): the
-difference is also given per slot of the insertion's arrays (1,024 doubled until they held
-the mesh; at error 0 every sample is a vertex and no vertex is removed, so the mesh's
-triangles are the most the insertion held), for ``PEAK_BYTES_PER_TRIANGLE["greedy one
-order"]``.
+difference is also given per slot of the insertion's arrays (``_START_SLOTS`` doubled until
+they held the mesh; at error 0 every sample is a vertex and almost none is removed
+afterwards, so the mesh's triangles are about the most the insertion held), for
+``PEAK_BYTES_PER_TRIANGLE["greedy one order"]``.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import sys
 _CHILD = """
 import resource, sys
 from terrascape.generate.registry import generate
-from terrascape.lod.greedy_tin import greedy_tin
+from terrascape.lod.greedy_tin import _START_SLOTS, greedy_tin
 size, error, pieces = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3] == "pieces"
 hm = generate("fbm", size, seed=2)
 greedy_tin(generate("fbm", 65, seed=2), max_error=error, in_pieces=pieces)  # compiled first
@@ -35,7 +35,7 @@ line = (f"{size}² at error {error:g}{'' if pieces else ', one order'}: {len(tri
         f"triangles; peak {before / 1024:.0f} MiB before, {after / 1024:.0f} MiB after: "
         f"{grown / len(tris):.1f} B per triangle")
 if not pieces:
-    slots = 1024
+    slots = _START_SLOTS
     while slots < len(tris):
         slots *= 2
     line += f", {grown / slots:.1f} B per slot of {slots:,}"
