@@ -167,11 +167,13 @@ def run(quick: bool = False) -> list[BenchTable]:
             t = times.get((tech, label))
             if t is None:
                 continue
-            # ratio per camera and round (paired frames), then the median
+            # ratio per camera and round (paired frames), then the median; three significant
+            # digits, not two decimals: a `before` frame stalled on a loaded host made a
+            # ratio under 0.005, which two decimals printed as 0
             ratio = statistics.median(a / b for a, b in zip(t, ref, strict=True))
             diff = np.abs(last[(tech, label)] - last[(tech, "before")])
             table.rows.append([f"{tech}: {label}", round(1000 * statistics.median(t), 1),
-                               round(1.0 / statistics.median(t), 1), round(ratio, 2),
+                               round(1.0 / statistics.median(t), 1), float(f"{ratio:.3g}"),
                                round(float(diff.mean()), 2), int(diff.max())])
     table.notes += [
         f"headless EGL, GL_RENDERER {renderer}; every frame: LOD update + sky + terrain, "
