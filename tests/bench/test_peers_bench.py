@@ -13,15 +13,17 @@ from terrascape.lighting import shadow_mask_reference
 
 
 def test_paired_ratio_of_known_costs():
+    """Sleeps of 40 and 20 ms, 5 rounds: long enough that a loaded host's wake-up latency
+    (a few ms) does not move the ratio out of its bounds, as it did with 4 and 2 ms."""
     import time
 
     def slow():
-        time.sleep(0.004)
+        time.sleep(0.04)
 
     def fast():
-        time.sleep(0.002)
+        time.sleep(0.02)
 
-    median, lo, hi, t_slow, t_fast = paired_ratio(slow, fast, rounds=3)
+    median, lo, hi, t_slow, t_fast = paired_ratio(slow, fast, rounds=5)
     assert lo <= median <= hi
     assert 1.3 < median < 3.0
     assert t_slow > t_fast
