@@ -46,3 +46,21 @@ def test_relief_cli_default_is_exact_on_8_bit_fences(tmp_path, gl_ctx, capsys):
     assert "minmax" in capsys.readouterr().err  # auto chose the exact tracer
     img = np.asarray(Image.open(out))
     assert img.shape == (48, 64, 4) and img[..., :3].std() > 3
+
+
+@pytest.mark.gl
+def test_relief_cli_leaves_the_callers_context_current(tmp_path, gl_ctx):
+    """Run in-process (a notebook, a test), the command's own context must not stay current
+    after it: the caller's objects, made before, would then be looked up in a released
+    context."""
+    from terrascape.render.context import current
+
+    texels = bytes(range(64))
+    with current(gl_ctx):
+        tex = gl_ctx.texture((4, 4), 4, texels)
+        try:
+            assert run_app(["relief", str(tmp_path / "r.png"), "--texture-size", "32",
+                            "--size", "32x24", "--technique", "minmax", "-q"]) == 0
+            assert tex.read() == texels
+        finally:
+            tex.release()

@@ -395,6 +395,32 @@ def test_minmax_finds_one_texel_fences_that_linear_search_misses(gl_ctx):
         r.release()
 
 
+def test_a_context_made_and_released_elsewhere_does_not_change_the_frame(gl_ctx):
+    """Another context created and released in the process (a command run in-process, the
+    user's own) leaves none of ours current; the renderer must still draw with its own
+    context — with the program compiled before, not another context's object of that name."""
+    from terrascape.relief.fields import fence_field
+    from terrascape.render.context import create_headless_context, current
+    from terrascape.render.relief_quad import ReliefQuadRenderer, ReliefSettings
+
+    fences = fence_field(N, seed=3, fences=10)
+    cam = _camera(75, azimuth=25)
+    fixed = ReliefSettings(march="fixed", linear_steps=16, binary_steps=8)
+    with current(gl_ctx):  # gives the test's own context back at the end
+        first = ReliefQuadRenderer(gl_ctx, fences, size=(FB, FB))
+        before = first.render(TILED, cam, "relief", settings=fixed).copy()  # compiles
+        first.release()
+        other = create_headless_context()
+        other.release()
+        second = ReliefQuadRenderer(gl_ctx, fences, size=(FB, FB))
+        try:
+            after = second.render(TILED, cam, "relief", settings=fixed)
+        finally:
+            second.release()
+    assert np.abs(before[..., 2]).max() > 0.5  # hits at depth, not an empty frame
+    np.testing.assert_array_equal(after, before)
+
+
 def test_auto_draws_the_exact_tracer_on_square_textures(gl_ctx, city):
     from terrascape.render.relief_quad import ReliefQuadRenderer, choose_technique
 

@@ -19,6 +19,7 @@ compare with the thesis's FPS tables.
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 import numpy as np
@@ -508,9 +509,11 @@ def precision_table(ctx, *, tex=256, fb=384, depth=0.1, angles=PRECISION_ANGLES,
 
 
 def run(quick: bool = False) -> list[BenchTable]:
-    from terrascape.render.context import create_headless_context
+    from terrascape.render.context import headless_context
 
-    ctx = create_headless_context()
+    # headless_context: releasing it makes a caller's own GL context current again
+    gl = contextlib.ExitStack()
+    ctx = gl.enter_context(headless_context())
     t0 = time.perf_counter()
     try:
         if quick:
@@ -524,7 +527,7 @@ def run(quick: bool = False) -> list[BenchTable]:
             tables.append(prewarp_table())
             tables += seed_table(ctx)
     finally:
-        ctx.release()
+        gl.close()
     tables[-1].notes.append(f"benchmark wall time {time.perf_counter() - t0:.1f} s")
     return tables
 

@@ -58,11 +58,10 @@ def machine_description() -> list[tuple[str, str]]:
         except importlib.metadata.PackageNotFoundError:
             rows.append((lib, "not installed"))
     try:
-        from terrascape.render.context import create_headless_context, describe_context
+        from terrascape.render.context import describe_context, headless_context
 
-        ctx = create_headless_context()
-        info = describe_context(ctx)
-        ctx.release()
+        with headless_context() as ctx:
+            info = describe_context(ctx)
         rows.append(("GL renderer", str(info.get("renderer", "?"))))
         rows.append(("GL version", str(info.get("version", "?"))))
     except Exception as exc:  # the report still describes the CPU side without GL

@@ -9,6 +9,7 @@ viewer frame (sky + terrain + HUD, read back), at the same fixed camera.
 
 from __future__ import annotations
 
+import contextlib
 import statistics
 import time
 
@@ -33,14 +34,16 @@ def _frames(session, fbo, n: int, step_deg: float) -> list[float]:
 
 def run(quick: bool = False) -> list[BenchTable]:
     from terrascape.generate.registry import VIEW_SPACING, generate
-    from terrascape.render.context import create_headless_context
+    from terrascape.render.context import headless_context
     from terrascape.viewer.session import ViewerSession
 
     n = 513 if quick else 1025
     size = (640, 360) if quick else (1280, 720)
     frames = 8 if quick else 20
     hm = generate("diamond-square", n, seed=1, spacing=VIEW_SPACING)
-    ctx = create_headless_context()
+    # headless_context: releasing it makes a caller's own GL context current again
+    gl = contextlib.ExitStack()
+    ctx = gl.enter_context(headless_context())
     fbo = ctx.simple_framebuffer(size)
     sessions = {
         "exact every frame": ViewerSession(ctx, hm, size=size, technique="material",
@@ -64,7 +67,7 @@ def run(quick: bool = False) -> list[BenchTable]:
         for s in sessions.values():
             s.release()
         fbo.release()
-        ctx.release()
+        gl.close()
     table = BenchTable(
         f"Viewer frames with the sun moving 1° a frame, {size[0]}×{size[1]}, material, "
         f"diamond-square {n}×{n} (interleaved)",

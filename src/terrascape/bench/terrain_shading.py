@@ -22,6 +22,7 @@ Each row also gives the mean and largest difference of its last frame from ``bef
 
 from __future__ import annotations
 
+import contextlib
 import os
 import statistics
 import sys
@@ -115,13 +116,15 @@ def _detail_normals(session, *, two_channels: bool):
 
 def run(quick: bool = False) -> list[BenchTable]:
     from terrascape.bench.viewer import flight
-    from terrascape.render.context import create_headless_context
+    from terrascape.render.context import headless_context
 
     n = QUICK_SIDE if quick else FULL_SIDE
     frames = QUICK_FRAMES if quick else 6
     rounds = QUICK_ROUNDS if quick else 3
     techniques = ("material", "plain")
-    ctx = create_headless_context()
+    # headless_context: releasing it makes a caller's own GL context current again
+    gl = contextlib.ExitStack()
+    ctx = gl.enter_context(headless_context())
     fbo = ctx.simple_framebuffer(SIZE)
     renderer = ctx.info.get("GL_RENDERER", "?")
     hm, session = _session(ctx, n)
@@ -153,7 +156,7 @@ def run(quick: bool = False) -> list[BenchTable]:
     finally:
         session.release()
         fbo.release()
-        ctx.release()
+        gl.close()
     table = BenchTable(
         f"Terrain shading cuts, viewer frames at {SIZE[0]}×{SIZE[1]}, ROAM "
         f"{ROAM_TRIANGLES // 1000}k, diamond-square {n}×{n} ({frames} cameras × {rounds} "

@@ -36,6 +36,7 @@ the speed buys. Nothing is written to disk.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import statistics
 import time
@@ -294,15 +295,16 @@ def _measure(ctx=None, *, size: int = 65, viewport=(160, 90), frames: int = 2,
              kind: str = "seed") -> list[MethodResult]:
     """Measure every method of one terrain: the three quad methods (texture mapping first),
     full-resolution polygons, the geomipmap rows, then the diagonal-floor row."""
-    from terrascape.render.context import create_headless_context, current
+    from terrascape.render.context import current, headless_context
     from terrascape.render.offscreen import OffscreenRenderer, default_camera
     from terrascape.render.relief_quad import ReliefQuadRenderer
     from terrascape.render.techniques import build_region_texture, get_technique
 
     viewport = tuple(viewport)
-    own = ctx is None
-    if own:
-        ctx = create_headless_context()
+    # headless_context: releasing it makes a caller's own GL context current again
+    gl = contextlib.ExitStack()
+    if ctx is None:
+        ctx = gl.enter_context(headless_context())
     quads = polys = None
     try:
         with current(ctx):
@@ -327,8 +329,7 @@ def _measure(ctx=None, *, size: int = 65, viewport=(160, 90), frames: int = 2,
             if r is not None:
                 with current(ctx):
                     r.release()
-        if own:
-            ctx.release()
+        gl.close()
     return [m.result for m in methods]
 
 

@@ -25,6 +25,7 @@ References
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import statistics
@@ -103,9 +104,11 @@ class _Surface:
                           f"{os.environ.get('DISPLAY', '?')}, framebuffer "
                           f"{self.fbo.size[0]}×{self.fbo.size[1]}")
         else:
-            from terrascape.render.context import create_headless_context
+            from terrascape.render.context import headless_context
 
-            self.ctx = create_headless_context()
+            # released through headless_context: a caller's own GL context is current again
+            self._gl = contextlib.ExitStack()
+            self.ctx = self._gl.enter_context(headless_context())
             self.fbo = self.ctx.simple_framebuffer(size)
             self.note += "no display: headless EGL context, off-screen framebuffer"
         self.renderer = self.ctx.info.get("GL_RENDERER", "?")
@@ -122,7 +125,7 @@ class _Surface:
             self.window.destroy()
         else:
             self.fbo.release()
-            self.ctx.release()
+            self._gl.close()
 
 
 _PROBE_CODE = """

@@ -110,15 +110,14 @@ def relief_command(
         rgba = np.concatenate([np.nan_to_num(img, nan=0.0),
                                np.isfinite(img[..., :1]).astype(float)], axis=-1)
     else:
-        from terrascape.render.context import create_headless_context
+        from terrascape.render.context import headless_context
         from terrascape.render.relief_quad import ReliefQuadRenderer, ReliefSettings
 
         quad = ReliefQuad((-2, 0, -2), (4, 0, 0), (0, 0, 4), depth, (4.0, 4.0))
         march = {"march": "angle"} if adaptive else {}  # --fixed: the default march
         settings = ReliefSettings(linear_steps=linear_steps, binary_steps=binary_steps,
                                   step_texels=1.0, shadows=shadows, **march)
-        ctx = create_headless_context()
-        try:
+        with headless_context() as ctx:
             r = ReliefQuadRenderer(ctx, heights, size=(w, h), depth_hint=depth, bits=bits)
             wanted = r.auto_technique if quad_name == "auto" else quad_name
             with timed(f"render {wanted}", quiet=quiet):
@@ -128,8 +127,6 @@ def relief_command(
                 console.print(f"[yellow]fell back to {r.drawn_technique}[/]")
             technique = r.drawn_technique
             r.release()
-        finally:
-            ctx.release()
     image = (np.clip(rgba[::-1], 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
     with atomic_output(output, force=force) as tmp:
         Image.fromarray(image, "RGBA").save(tmp, format="PNG")

@@ -8,6 +8,7 @@ be made instead of failing the generation/texturing stages.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -194,11 +195,13 @@ def showcase_stage(out: Path, result: DemoResult, hm: Heightmap, masks: dict[str
     houses, and the terrain at dusk under the sky of that moment — high quality (2×2
     samples)."""
     from terrascape.lighting.sky_time import resolve_place, sky_for
-    from terrascape.render.context import create_headless_context
+    from terrascape.render.context import headless_context
     from terrascape.render.offscreen import OffscreenRenderer
 
+    # headless_context: releasing it makes a caller's own GL context current again
+    gl = contextlib.ExitStack()
     try:
-        ctx = create_headless_context()
+        ctx = gl.enter_context(headless_context())
     except GLUnavailableError as exc:
         result.skipped.append(f"showcase renders: {exc}")
         return
@@ -244,7 +247,7 @@ def showcase_stage(out: Path, result: DemoResult, hm: Heightmap, masks: dict[str
                    f"(the sun {-state.sun[1]:.1f}° below the horizon)", time.perf_counter() - t0)
     finally:
         renderer.release()
-        ctx.release()
+        gl.close()
     result.notes.append(f"showcase: sea level {sea:.1f} m (12th percentile of the heights); "
                         "render times include the shadow and sky-light setup")
 
@@ -278,12 +281,14 @@ def render_stage(
     view-dependent LOD meshes (ROAM, geomipmapping) as wireframe overlays."""
     # moderngl is imported only when a context is made: without the [render] extra that
     # raises GLUnavailableError (with the install hint), handled below
-    from terrascape.render.context import create_headless_context, describe_context
+    from terrascape.render.context import describe_context, headless_context
     from terrascape.render.offscreen import OffscreenRenderer
     from terrascape.render.techniques import technique_names
 
+    # headless_context: releasing it makes a caller's own GL context current again
+    gl = contextlib.ExitStack()
     try:
-        ctx = create_headless_context()
+        ctx = gl.enter_context(headless_context())
     except GLUnavailableError as exc:
         result.skipped.append(f"rendering: {exc}")
         return
@@ -303,7 +308,7 @@ def render_stage(
         lod_stage(out, result, hm, renderer, close, size=size, force=force)
     finally:
         renderer.release()
-        ctx.release()
+        gl.close()
 
 
 def lod_stage(out: Path, result: DemoResult, hm: Heightmap, renderer, camera, *,

@@ -178,6 +178,7 @@ def flush_commands() -> bool:
 
 
 _DEPTH: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_EGL_HANDLE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 @contextlib.contextmanager
@@ -187,34 +188,57 @@ def current(ctx) -> Iterator[Any]:
     moderngl does not switch contexts by itself: once another context was created or released
     in the process, GL calls on ``ctx`` would go to the wrong (or no) context and silently
     draw nothing. ``with ctx:`` is not enough: glcontext's EGL exit makes *no* context
-    current. So the EGL state is saved and restored here (re-entrant; plain ``with ctx``
-    when libEGL cannot be loaded).
+    current. So the EGL state is saved and restored here (plain ``with ctx`` when libEGL
+    cannot be loaded).
+
+    Re-entrant: a block inside another block of ``ctx`` costs nothing while ``ctx`` is still
+    current. For an EGL context that is checked, not assumed — code in the outer block may
+    have created or released another context, which makes that one current.
     """
     depth = _DEPTH.get(ctx, 0)
-    if depth:
+    lib = _egl()
+    handle = _EGL_HANDLE.get(ctx) if lib is not None else None
+    if depth and (handle is None or lib.eglGetCurrentContext() == handle):
         _DEPTH[ctx] = depth + 1
         try:
             yield ctx
         finally:
-            _DEPTH[ctx] -= 1
+            _DEPTH[ctx] = depth
         return
-    lib = _egl()
     if lib is None:
         with ctx:
-            _DEPTH[ctx] = 1
+            _DEPTH[ctx] = depth + 1
             try:
                 yield ctx
             finally:
-                _DEPTH[ctx] = 0
+                _DEPTH[ctx] = depth
         return
     saved = _egl_saved(lib)
     ctx.__enter__()
-    _DEPTH[ctx] = 1
+    # a window's GLX context has no EGL handle (None): nested blocks then trust the depth
+    _EGL_HANDLE[ctx] = lib.eglGetCurrentContext() or None
+    _DEPTH[ctx] = depth + 1
     try:
         yield ctx
     finally:
-        _DEPTH[ctx] = 0
+        _DEPTH[ctx] = depth
         _egl_restore(lib, saved)
+
+
+def with_current_context(method):
+    """Decorate a method of a renderer holding ``self.ctx`` so that it runs with that context
+    made current (:func:`current`). moderngl does not switch contexts by itself: after another
+    context was created or released in the process, the renderer's GL calls would otherwise
+    go to the wrong (or no) context, and a program compiled earlier would name another
+    context's object — frames silently empty or wrong."""
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        # __init__ runs before self.ctx exists: the context is its first argument then.
+        with current(self.__dict__.get("ctx") or args[0]):
+            return method(self, *args, **kwargs)
+
+    return wrapper
 
 
 def describe_context(ctx) -> dict:
@@ -251,4 +275,5 @@ __all__ = [
     "current",
     "describe_context",
     "headless_context",
+    "with_current_context",
 ]

@@ -8,7 +8,6 @@ same inputs give the same bytes.
 from __future__ import annotations
 
 import contextlib
-import functools
 import os
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import replace
@@ -22,7 +21,7 @@ from terrascape.camera import Camera, frame_landscape, frame_terrain
 from terrascape.errors import FileFormatError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.io.atomic import atomic_output, atomic_outputs, check_output_path
-from terrascape.render.context import current
+from terrascape.render.context import with_current_context
 
 QUALITIES = ("default", "high")
 SUPERSAMPLE = 2
@@ -108,23 +107,11 @@ def _context(ctx):
         yield own
 
 
-def _current(method):
-    """Make the renderer's context current around a method (see ``terrain._current``)."""
-
-    @functools.wraps(method)
-    def wrapper(self, *args, **kwargs):
-        # __init__ runs before self.ctx exists: the context is its first argument then.
-        with current(self.__dict__.get("ctx") or args[0]):
-            return method(self, *args, **kwargs)
-
-    return wrapper
-
-
 class OffscreenRenderer:
     """A :class:`~terrascape.render.terrain.TerrainRenderer` plus a framebuffer of fixed size;
     reuse it for many frames (camera paths, benchmarks)."""
 
-    @_current
+    @with_current_context
     def __init__(
         self,
         ctx,
@@ -170,7 +157,7 @@ class OffscreenRenderer:
             self.terrain.heightmap, self.size, exaggeration=self.terrain.exaggeration, **kwargs
         )
 
-    @_current
+    @with_current_context
     def render(
         self,
         camera: Camera | None = None,
@@ -198,7 +185,7 @@ class OffscreenRenderer:
             return img.copy()
         return downsample_srgb(img, self.samples)
 
-    @_current
+    @with_current_context
     def last_shadow_count(self) -> np.ndarray | None:
         """uint8 ``(h, w)`` (draw size, row 0 at the top): the shadow volume count of the
         last ``object_shadows="volumes"`` frame, non-zero where objects shade the sun;
@@ -207,7 +194,7 @@ class OffscreenRenderer:
 
         return ShadowVolumes.of(self.terrain).last_count if self._stencil else None
 
-    @_current
+    @with_current_context
     def last_depth(self) -> np.ndarray:
         """float32 ``(h, w)`` window depth of the last frame (row 0 at the top, 1 = sky):
         with the camera given to :meth:`render` it gives each pixel's surface point
@@ -238,7 +225,7 @@ class OffscreenRenderer:
                 self._stencil = False
         return self._stencil.fbo if self._stencil else self.fbo
 
-    @_current
+    @with_current_context
     def release(self) -> None:
         if self._stencil:
             self._stencil.release()

@@ -23,6 +23,7 @@ from terrascape._validate import check_int, check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.relief.fields import has_walls, sampled_heights
 from terrascape.relief.reference import ReliefQuad, heights_to_depth
+from terrascape.render.context import with_current_context
 from terrascape.render.techniques import (
     RELIEF_TRACERS,
     TechniqueFallbackWarning,
@@ -245,6 +246,7 @@ class ReliefQuadRenderer:
         Optional ``(rows, cols, 3)`` float colour texture in [0, 1].
     """
 
+    @with_current_context
     def __init__(self, ctx, heights, *, size=(256, 256), bits: int = 32, colour=None,
                  depth_hint: float = 0.1):
         import moderngl
@@ -339,6 +341,7 @@ class ReliefQuadRenderer:
             )
         return self._vaos[key]
 
+    @with_current_context
     def render(self, quad: ReliefQuad, camera, technique: str = AUTO, *,
                settings: ReliefSettings | None = None, output: str = "hit",
                light_dir=(0.3, 0.8, 0.2), defines=None) -> np.ndarray:
@@ -359,6 +362,7 @@ class ReliefQuadRenderer:
         raw = self.fbo.read(components=4, dtype="f4")
         return np.frombuffer(raw, dtype=np.float32).reshape(self.size[1], self.size[0], 4)
 
+    @with_current_context
     def draw(self, quad, camera, technique=AUTO, *, settings=None, output="colour",
              light_dir=(0.3, 0.8, 0.2), defines=None):
         """Draw without reading back (for timing); call ``ctx.finish()`` to wait."""
@@ -422,6 +426,7 @@ class ReliefQuadRenderer:
         """Same as :attr:`drawn_technique`."""
         return self.drawn_technique
 
+    @with_current_context
     def release(self) -> None:
         for obj in (self._relief_tex, self._colour_tex, self._cone_tex, self._minmax_tex,
                     self._colour_target, self._depth_rb, self.fbo, self._vbo,

@@ -22,7 +22,6 @@ frame, sky box; Filipović 2008 §4.2: terrain drawn as tiles).
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Mapping
 from dataclasses import replace
@@ -37,7 +36,7 @@ from terrascape.heightmap import Heightmap
 from terrascape.lighting.sun import sun_direction
 from terrascape.mesh import DEFAULT_BAND, terrain_mesh
 from terrascape.mesh.small_triangles import cull_small_triangles
-from terrascape.render.context import current, describe_context
+from terrascape.render.context import describe_context, with_current_context
 from terrascape.render.deferred import DeferredShading
 from terrascape.render.shaders import load_program, set_uniforms
 from terrascape.render.techniques import (
@@ -205,20 +204,6 @@ def upload_texture(ctx, tex: TextureData, *, name: str = "texture", limits: dict
     return gl_tex
 
 
-def _current(method):
-    """Run a method with the renderer's context made current. moderngl does not switch
-    contexts by itself: after another context was created or released in the process, GL
-    calls would otherwise go to the wrong (or no) context and silently draw nothing."""
-
-    @functools.wraps(method)
-    def wrapper(self, *args, **kwargs):
-        # __init__ runs before self.ctx exists: the context is its first argument then.
-        with current(self.__dict__.get("ctx") or args[0]):
-            return method(self, *args, **kwargs)
-
-    return wrapper
-
-
 def _aabb_visible(planes: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
     """False when the box lies entirely outside one frustum plane (p-vertex test)."""
     p = np.where(planes[:, :3] >= 0, hi, lo)
@@ -255,7 +240,7 @@ class TerrainRenderer:
         software rasterisers (as ``small_triangle_cull``), off on GPUs.
     """
 
-    @_current
+    @with_current_context
     def __init__(
         self,
         ctx,
@@ -362,7 +347,7 @@ class TerrainRenderer:
             ]
         return self._grid_vbos
 
-    @_current
+    @with_current_context
     def set_indices(self, indices: np.ndarray | None) -> None:
         """Draw these triangles (grid-vertex indices ``row·cols + col``) instead of the full
         mesh, until called with ``None``. ``(m, 3)`` or flat with a length multiple of 3."""
@@ -417,7 +402,7 @@ class TerrainRenderer:
         return vao
 
     # --- objects on the terrain --------------------------------------------------------
-    @_current
+    @with_current_context
     def set_objects(self, instances) -> None:
         """Draw these :class:`~terrascape.objects.model.Instances` on the terrain in every
         frame (instanced, impostors far away, the sun's shadows per ``object_shadows``;
@@ -436,7 +421,7 @@ class TerrainRenderer:
         return self._objects
 
     # --- textures ------------------------------------------------------------------------
-    @_current
+    @with_current_context
     def set_texture(self, uniform: str, texture: Any) -> None:
         """Use ``texture`` (array or :class:`TextureData`) for sampler ``uniform`` in every
         technique, instead of the built default."""
@@ -552,7 +537,7 @@ class TerrainRenderer:
         return self._default_regions
 
     # --- drawing -------------------------------------------------------------------------
-    @_current
+    @with_current_context
     def render(
         self,
         fbo,
@@ -1119,7 +1104,7 @@ class TerrainRenderer:
                      # terrain's technique tiles with
                      u_ground_hex=(HEX_ROTATION, HEX_CONTRAST, HEX_SHARPNESS))
 
-    @_current
+    @with_current_context
     def release(self) -> None:
         """Free every GL object this renderer created."""
         for vao in self._vaos.values():
