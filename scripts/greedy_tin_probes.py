@@ -120,7 +120,7 @@ def rtin_then_removal(n_passes: int) -> None:
             gt._remove_vertices(h, plane, res, np.empty(tiles[0] * tiles[1]),
                                 np.empty(tiles[0] * tiles[1], np.int64), coords, tris, half,
                                 len(coords), len(tris), err, n_passes,
-                                np.ones(len(coords), np.bool_))
+                                np.ones(len(coords), np.bool_), np.zeros(1, np.uint8))
             t3 = time.perf_counter()
         out = gt._grid_triangles(coords, tris, cols)
         t4 = time.perf_counter()

@@ -144,3 +144,34 @@ def test_signal_after_one_of_two_outputs_says_what_was_kept(tmp_path, capsys, mo
     assert "nothing was written" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["hm.npy", "hm.npy.json"]  # + spacing
     assert np.load(out).shape == (33, 33)
+
+
+def test_a_signal_stops_a_long_one_order_mesh_within_seconds(tmp_path):
+    """A greedy TIN in one order is one compiled call of half a minute on a 2049² map at
+    error 0; it runs on a pool thread while the main thread waits, so SIGTERM is handled at
+    once, and the mesher, told to stop, ends within an insertion."""
+    from terrascape.lod.greedy_tin import greedy_tin
+
+    # compiled (or loaded) here first: a cold cache would make the run below compile for
+    # most of a minute before the signal could be answered
+    greedy_tin(Heightmap(np.eye(9, dtype=np.float32)), max_error=0.0, in_pieces=False)
+    src = tmp_path / "in.npy"
+    np.save(src, (np.random.default_rng(5).random((2049, 2049)) * 100).astype(np.float32))
+    proc = subprocess.Popen(
+        [sys.executable, "-c", "from terrascape.cli import main; main()", "mesh", str(src),
+         "-o", str(tmp_path / "out.ply"), "--mesher", "greedy", "--max-error", "0",
+         "--one-piece"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV,
+    )
+    line = proc.stderr.readline()  # "read… 0.1 s": the mesh starts now
+    assert line.startswith("read"), line
+    time.sleep(1.5)  # inside the insertion (about 30 s in all)
+    start = time.perf_counter()
+    proc.send_signal(signal.SIGTERM)
+    _out, err = proc.communicate(timeout=120)
+    waited = time.perf_counter() - start
+    assert proc.returncode == 143, err
+    assert "interrupted (SIGTERM); nothing was written" in err
+    # before, the signal waited for the whole insertion (generous: the host is shared)
+    assert waited < 10.0, f"SIGTERM took {waited:.1f} s"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.npy"]

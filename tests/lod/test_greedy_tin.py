@@ -497,6 +497,28 @@ def test_each_kernel_compiles_once_whatever_the_heights(monkeypatch):
         assert len(getattr(gt, name).signatures) <= 1, (name, getattr(gt, name).signatures)
 
 
+def test_the_kernels_end_at_once_when_told_to_stop():
+    """The stop flag another thread sets (an interrupted mesh): the insertion returns no
+    triangles, the decimation of a dense piece and the removal remove nothing more."""
+    from terrascape.lod import greedy_tin as gt
+
+    rng = np.random.default_rng(7)
+    piece = gt.read_only((rng.random((48, 40)) * 30).astype(np.float32))
+    ny, nx = piece.shape
+    tiles = (-(-ny // gt._TILE), -(-nx // gt._TILE))
+
+    def mesh(stop, dense_sides):
+        return gt._mesh_piece(piece, ny, nx, 0, 0, 0.5, 0.0, gt._NO_BUDGET,
+                              gt._REMOVAL_PASSES, dense_sides, np.empty((*tiles, 3)),
+                              np.empty((*tiles, 4)), gt._NO_SLOT_LIMIT,
+                              np.array([stop], np.uint8))
+
+    assert len(mesh(0, np.inf)[1]) > 3 * 1000  # inserted: most of the noise's samples
+    assert len(mesh(1, np.inf)[1]) == 0
+    # decimated from every sample: with the flag set, nothing is removed
+    assert len(mesh(1, 0.0)[1]) == 3 * 2 * (ny - 1) * (nx - 1) > len(mesh(0, 0.0)[1])
+
+
 def test_compacting_keeps_the_live_triangles_in_order_with_their_twins():
     """A decimated piece's triangles moved to the front: the live ones in their order, the
     twins pointing at the same (moved) halfedges."""
@@ -512,7 +534,8 @@ def test_compacting_keeps_the_live_triangles_in_order_with_their_twins():
     gt._tile_ranges(piece, plane, res)
     removed = gt._remove_vertices(piece, plane, res, np.empty(tiles[0] * tiles[1]),
                                   np.empty(tiles[0] * tiles[1], np.int64), coords, tris, half,
-                                  len(coords), len(tris), 1.0, 8, np.ones(len(coords), np.bool_))
+                                  len(coords), len(tris), 1.0, 8, np.ones(len(coords), np.bool_),
+                                  np.zeros(1, np.uint8))
     assert removed > 100
     live = tris.reshape(-1, 3)[:, 0] >= 0
     assert 0 < live.sum() < len(live)
@@ -608,7 +631,8 @@ def test_dense_pieces_are_decimated_and_meet_the_sparse_ones(monkeypatch):
         def mesh(dense_sides, piece=piece, x0=xs[j]):
             return gt._mesh_piece(piece, rows, cols, 0, x0, 0.5, line_tol, gt._NO_BUDGET,
                                   gt._REMOVAL_PASSES, dense_sides, np.empty((*tiles, 3)),
-                                  np.empty((*tiles, 4)), gt._NO_SLOT_LIMIT)[1]
+                                  np.empty((*tiles, 4)), gt._NO_SLOT_LIMIT,
+                                  np.zeros(1, np.uint8))[1]
 
         same = np.array_equal(mesh(gt._DENSE_SIDES), mesh(np.inf))
         assert same != decimated, (j, decimated)

@@ -76,7 +76,7 @@ References
 from __future__ import annotations
 
 import os
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 
 import numba
 import numpy as np
@@ -97,7 +97,7 @@ __all__ = ["greedy_tin"]
 
 # state slots of the resumable kernel
 _N_POINTS, _N_EDGES, _Q_LEN, _N_PENDING, _STATUS = range(5)
-_DONE, _FULL = 0, 1
+_DONE, _FULL, _STOPPED = 0, 1, 2
 # queue index of a triangle already within the error: it can never be refined, so it is
 # kept out of the queue (pending triangles have -1)
 _SETTLED = -2
@@ -844,11 +844,15 @@ def _split_on_edge(tris, half, queue, qerr, qidx, pending, state, stack, pn, a):
 
 @njit(cache=CACHE, fastmath=FASTMATH, _nrt=False, nogil=True)
 def _refine(h, tplane, tres, bound, order, max_error, max_tris, coords, tris, half, cand, cerr,
-            queue, qerr, qidx, pending, stack, state):
+            queue, qerr, qidx, pending, stack, state, stop):
     """Insert worst candidates until the error is met, the budget is reached, or the arrays
-    are full (then return ``_FULL`` so the caller grows them and calls again)."""
+    are full (then return ``_FULL`` so the caller grows them and calls again), or another
+    thread set ``stop[0]`` (``_STOPPED``: an interrupted mesh ends within an insertion)."""
     cap_tris = tris.shape[0] // 3
     while True:
+        if stop[0] != 0:
+            state[_STATUS] = _STOPPED
+            return
         # the triangles that changed (at the start: all) rasterised and queued
         _flush(h, tplane, tres, bound, order, coords, tris, cand, cerr, queue, qerr, qidx,
                pending, state, max_error)
@@ -1016,7 +1020,7 @@ def _fill_hole(rx, ry, rz, d, pprev, pnext, out, vx, vy, vz, max_error):
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
 def _remove_vertices(h, tplane, tres, bound, order, coords, tris, half, n_points, n_edges,
-                     max_error, passes, dirty):
+                     max_error, passes, dirty, stop):
     """Remove every vertex (newest first, ``passes`` times over) whose star, refilled
     without it, keeps every sample it covers within ``max_error``; the triangles left over
     get vertex −1. Returns how many vertices went.
@@ -1024,7 +1028,8 @@ def _remove_vertices(h, tplane, tres, bound, order, coords, tris, half, n_points
     The greedy insertion adds a vertex where the error was largest at that moment; vertices
     inserted later near it can make it unnecessary. Removing it takes two triangles away
     and changes no other sample's error. Only the vertices marked in ``dirty`` are tried
-    (then their neighbours when one goes: a star changed); ``dirty`` is consumed."""
+    (then their neighbours when one goes: a star changed); ``dirty`` is consumed. Ends
+    early, the mesh left valid, once another thread sets ``stop[0]``."""
     vedge = np.full(n_points, -1, np.int64)  # one halfedge leaving each vertex
     ring = np.empty((4, _MAX_DEGREE), np.int64)  # link vertices, x, y, star halfedges
     outer = np.empty((3, _MAX_DEGREE), np.int64)  # twins outside, ear-clipping links
@@ -1035,7 +1040,7 @@ def _remove_vertices(h, tplane, tres, bound, order, coords, tris, half, n_points
     scerr = np.empty(_MAX_DEGREE, np.float64)
     return _remove_kernel(h, tplane, tres, bound, order, coords, tris, half, n_edges,
                           max_error, passes, vedge, dirty, ring, outer, rz, fill, stris, scand,
-                          scerr)
+                          scerr, stop)
 
 
 # without the runtime's reference counting: the kernel allocates nothing, and counting the
@@ -1043,7 +1048,7 @@ def _remove_vertices(h, tplane, tres, bound, order, coords, tris, half, n_points
 # rasterisation of a small triangle
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True, _nrt=False)
 def _remove_kernel(h, tplane, tres, bound, order, coords, tris, half, n_edges, max_error,
-                   passes, vedge, dirty, rings, outers, rz, fill, stris, scand, scerr):
+                   passes, vedge, dirty, rings, outers, rz, fill, stris, scand, scerr, stop):
     ring = rings[0]
     rx = rings[1]  # the link's coordinates and heights
     ry = rings[2]
@@ -1062,6 +1067,8 @@ def _remove_kernel(h, tplane, tres, bound, order, coords, tris, half, n_edges, m
         for v in range(n_points - 1, 3, -1):
             if not dirty[v]:
                 continue
+            if stop[0] != 0:
+                return removed
             dirty[v] = False
             x = coords[v, 0]
             y = coords[v, 1]
@@ -1267,9 +1274,10 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         # (read once: a mesh within it never reads it again)
         cap = memory_limit()
         per_slot = PEAK_BYTES_PER_TRIANGLE["greedy one order"]
-        coords, tris, _ = _mesh_piece(h, rows, cols, 0, 0, float(tol), 0.0, budget, passes,
-                                      np.inf, np.empty((*tiles, 3)), np.empty((*tiles, 4)),
-                                      int(cap // per_slot))
+        stop = np.zeros(1, np.uint8)
+        coords, tris, _ = _stoppable(stop, _mesh_piece, h, rows, cols, 0, 0, float(tol), 0.0,
+                                     budget, passes, np.inf, np.empty((*tiles, 3)),
+                                     np.empty((*tiles, 4)), int(cap // per_slot), stop)
         if len(tris) == 0:
             slots = _START_SLOTS  # the insertion's arrays, doubled until the next would pass
             while 2 * slots <= cap // per_slot:
@@ -1346,6 +1354,21 @@ def _line_tolerance(magnitude: float, tol: float) -> float:
 _POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
 
 
+def _stoppable(stop: np.ndarray, kernel, *args):
+    """``kernel(*args)`` on a pool thread while this thread waits for it. One compiled call
+    can take a minute on a big map, and a signal (Ctrl-C, SIGTERM) is only handled between
+    Python steps: waiting here, this thread handles it at once. The kernel, told through
+    ``stop`` (one of ``args``), then ends within an insertion, and the signal's exception
+    goes on."""
+    future = _thread_pool(1).submit(kernel, *args)
+    try:
+        return future.result()
+    except BaseException:
+        stop[0] = 1
+        wait([future])
+        raise
+
+
 def _thread_pool(workers: int) -> ThreadPoolExecutor:
     """A pool of ``workers`` threads for the pieces, kept for the next mesh: starting the
     threads anew took as long as meshing a sparse piece. One per process (a forked child
@@ -1377,13 +1400,16 @@ def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
     tiles = (-(-rows // _TILE), -(-cols // _TILE))
     tplane = np.empty((*tiles, 3))
     tres = np.empty((*tiles, 4))
+    # set when this thread stops waiting (a signal, a refusal): the pieces still running end
+    # within an insertion instead of finishing
+    stop = np.zeros(1, np.uint8)
 
     def run(job):
         y0, y1, x0, x1 = job
         # a piece's arrays are bounded by its samples; the pieces together are checked below
         return _mesh_piece(_piece_of(h, y0, y1, x0, x1), rows, cols, y0, x0, float(tol),
                            float(line_tol), _NO_BUDGET, _REMOVAL_PASSES, _DENSE_SIDES, tplane,
-                           tres, _NO_SLOT_LIMIT)
+                           tres, _NO_SLOT_LIMIT, stop)
 
     workers = min(len(jobs), numba.get_num_threads())
     if len(jobs) == 1:
@@ -1411,6 +1437,7 @@ def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
             if early and len(parts) < len(jobs) and n_tris * per_triangle > cap:
                 check_triangles(n_tris, "greedy join", "joining a greedy TIN of at least")
     except BaseException:
+        stop[0] = 1
         for future in futures:
             future.cancel()
         raise
@@ -1453,7 +1480,7 @@ def _join_pieces(h: np.ndarray, tol: float, parts: list, tplane: np.ndarray,
     bound = np.empty(tres.shape[0] * tres.shape[1])
     tile_order = np.empty(tres.shape[0] * tres.shape[1], np.int64)
     _remove_vertices(h, tplane, tres, bound, tile_order, coords, tris, half, n_points,
-                     len(tris), float(tol), _REMOVAL_PASSES, on_line)
+                     len(tris), float(tol), _REMOVAL_PASSES, on_line, np.zeros(1, np.uint8))
     stack = np.empty(max(64, 8 * n_seams), np.int64)
     stack[:n_seams] = seams[:n_seams]
     _relax_edges(h, tplane, tres, bound, tile_order, coords, tris, half, stack, n_seams,
@@ -1745,7 +1772,7 @@ def _piece_of(h: np.ndarray, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
 def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, dense_sides, tplane,
-                tres, max_slots):
+                tres, max_slots, stop):
     """Greedy insertion over ``piece`` (:func:`_piece_of`: the samples from row ``y0`` and
     column ``x0`` of a ``rows × cols`` map), then, when the error was reached, ``passes``
     of the removal of redundant vertices. The insertion starts from the piece's corners and
@@ -1812,13 +1839,13 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, dense_
         n_edges = tris.shape[0]
         _remove_vertices(piece, p_plane, p_res, bound, order, coords, tris, half,
                          coords.shape[0], n_edges, tol, passes,
-                         np.ones(coords.shape[0], np.bool_))
+                         np.ones(coords.shape[0], np.bool_), stop)
         n_points = _drop_unused(coords, tris)
     else:
         coords, tris, half, n_points, n_edges = _insert_piece(
             piece, p_plane, p_res, bound, order, forced[:n_forced], tol, budget, passes,
-            max_slots)
-        if n_edges < 0:  # stopped before growing past max_slots: no triangles
+            max_slots, stop)
+        if n_edges < 0:  # stopped before growing past max_slots, or told to: no triangles
             return coords[:0], tris[:0], half[:0]
     # the piece's tiles are the map's (pieces start on tile multiples); a piece's last
     # row or column of tiles holds only its shared line, the next piece's first tiles
@@ -1872,12 +1899,13 @@ def _compact_triangles(tris, half, n_edges):
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
 def _insert_piece(piece, p_plane, p_res, bound, order, forced, tol, budget, passes,
-                  max_slots):
+                  max_slots, stop):
     """:func:`_mesh_piece`'s greedy insertion from the piece's corners and its ``forced``
     side vertices, then, when the error was reached, ``passes`` of the removal of
     redundant vertices. Returns the vertices, triangles, twins and how many of the first
     two and of the halfedges are used; the halfedges' count is -1 when the arrays would
-    have to grow to more than ``max_slots`` triangles (the memory limit's share)."""
+    have to grow to more than ``max_slots`` triangles (the memory limit's share), or when
+    another thread set ``stop[0]``."""
     ny, nx = piece.shape
     n_forced = forced.shape[0]
     capacity = max(_START_SLOTS, 4 * n_forced + 16)
@@ -1911,7 +1939,9 @@ def _insert_piece(piece, p_plane, p_res, bound, order, forced, tol, budget, pass
     state[_N_PENDING] = n_tris
     while True:
         _refine(piece, p_plane, p_res, bound, order, tol, budget, coords, tris, half, cand,
-                cerr, queue, qerr, qidx, pending, stack, state)
+                cerr, queue, qerr, qidx, pending, stack, state, stop)
+        if state[_STATUS] == _STOPPED:
+            return coords, tris, half, state[_N_POINTS], -1
         if state[_STATUS] != _FULL:
             break
         if 2 * capacity > max_slots:
@@ -1930,7 +1960,7 @@ def _insert_piece(piece, p_plane, p_res, bound, order, forced, tol, budget, pass
     if passes > 0 and (state[_Q_LEN] == 0 or qerr[0] <= tol):
         # the error bound is met: drop the vertices it no longer needs
         _remove_vertices(piece, p_plane, p_res, bound, order, coords, tris, half, n_points,
-                         n_edges, tol, passes, np.ones(n_points, np.bool_))
+                         n_edges, tol, passes, np.ones(n_points, np.bool_), stop)
     return coords, tris, half, n_points, n_edges
 
 
