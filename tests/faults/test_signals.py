@@ -175,3 +175,50 @@ def test_a_signal_stops_a_long_one_order_mesh_within_seconds(tmp_path):
     # before, the signal waited for the whole insertion (generous: the host is shared)
     assert waited < 10.0, f"SIGTERM took {waited:.1f} s"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.npy"]
+
+
+# A compiled call that returns arrays, with a signal arriving while it runs, under the
+# CLI's handlers.
+SIGNAL_IN_A_KERNEL = """
+import os, signal, threading, time
+import numpy as np
+from numba import njit
+from terrascape.cli.app import _signals_raise
+from terrascape.errors import Interrupted
+
+@njit(nogil=True)
+def spin(n):
+    counts = np.zeros(10, np.int64)
+    other = np.zeros(5, np.float32)
+    total = 0
+    for i in range(n):
+        total += (i * 7) % 13
+        counts[i % 10] += 1
+    return counts, other, total
+
+spin(10)  # compiled
+t0 = time.perf_counter()
+spin(10_000_000)
+n = int(10_000_000 * 1.0 / max(time.perf_counter() - t0, 1e-6))  # about a second
+returned = False
+with _signals_raise():
+    try:
+        threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGTERM)).start()
+        counts, _, _ = spin(n)
+        returned = int(counts.sum()) == n
+        time.sleep(5)
+        print("no signal")
+    except Interrupted as exc:
+        print("interrupted", exc.signum, "after the call returned:", returned)
+"""
+
+
+def test_a_signal_during_a_compiled_call_is_handled_after_it_returns(tmp_path):
+    """numba turns the call's result into Python objects in C code that cannot pass on an
+    exception: raised there, the interruption became a SystemError with a traceback (or a
+    crash). The CLI's handler sends the signal again, handled once the call has returned."""
+    proc = subprocess.run([sys.executable, "-c", SIGNAL_IN_A_KERNEL], capture_output=True,
+                          text=True, env=ENV, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == f"interrupted {int(signal.SIGTERM)} after the call returned: True"
+    assert "Error" not in proc.stderr

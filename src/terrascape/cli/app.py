@@ -12,8 +12,11 @@ import contextlib
 import difflib
 import importlib
 import inspect
+import os
 import signal
+import threading
 import time
+import types
 import warnings
 from collections.abc import Callable, Iterable, Iterator
 from typing import TYPE_CHECKING
@@ -281,7 +284,27 @@ _SIGNALS = tuple(s for s in (getattr(signal, n, None) for n in ("SIGINT", "SIGTE
                  if s is not None)
 
 
-def _raise_interrupted(signum: int, _frame: object) -> None:
+# numba turns a compiled call's result into Python objects in C, calling back into this
+# module's functions (array types, constants), and cannot pass on an exception raised there:
+# a signal handled at that moment gave a SystemError with a traceback, or a crash
+# (segmentation fault) when the result held several arrays
+_NUMBA_BOXING = os.path.join("numba", "core", "serialize.py")
+
+
+def _in_numba_boxing(frame: types.FrameType | None) -> bool:
+    while frame is not None:
+        if frame.f_code.co_filename.endswith(_NUMBA_BOXING):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _raise_interrupted(signum: int, frame: types.FrameType | None) -> None:
+    if _in_numba_boxing(frame):
+        # sent again a millisecond later from another thread (sent from this one, it would
+        # be handled at once, here): by then the compiled call has returned
+        threading.Timer(0.001, os.kill, (os.getpid(), signum)).start()
+        return
     raise Interrupted(signum)
 
 
