@@ -519,6 +519,37 @@ def test_the_kernels_end_at_once_when_told_to_stop():
     assert len(mesh(1, 0.0)[1]) == 3 * 2 * (ny - 1) * (nx - 1) > len(mesh(0, 0.0)[1])
 
 
+def test_one_order_runs_on_a_pool_thread_only_for_the_main_thread(monkeypatch):
+    """From the main thread the one-order mesher runs on a pool thread (the main thread
+    waits and so handles signals at once); from any other thread it runs right there, so
+    meshes asked for on several threads run side by side, not queued on that pool."""
+    import threading
+
+    from terrascape.lod import greedy_tin as gt
+
+    ran_on = []
+    mesh_piece = gt._mesh_piece
+
+    def spy(*args):
+        ran_on.append(threading.current_thread())
+        return mesh_piece(*args)
+
+    monkeypatch.setattr(gt, "_mesh_piece", spy)
+    hm = Heightmap(np.random.default_rng(3).random((40, 50)).astype(np.float32) * 10)
+    expected = gt.greedy_tin(hm, max_triangles=300)
+    if threading.current_thread() is threading.main_thread():
+        assert ran_on[-1] is not threading.main_thread()
+        assert ran_on[-1].name.startswith("greedy-tin")
+    callers = [threading.Thread(target=lambda: gt.greedy_tin(hm, max_triangles=300))
+               for _ in range(2)]
+    for t in callers:
+        t.start()
+    for t in callers:
+        t.join()
+    assert set(ran_on[-2:]) == set(callers)
+    np.testing.assert_array_equal(gt.greedy_tin(hm, max_triangles=300), expected)
+
+
 def test_compacting_keeps_the_live_triangles_in_order_with_their_twins():
     """A decimated piece's triangles moved to the front: the live ones in their order, the
     twins pointing at the same (moved) halfedges."""

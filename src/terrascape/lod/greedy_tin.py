@@ -76,6 +76,7 @@ References
 from __future__ import annotations
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor, wait
 
 import numba
@@ -1359,7 +1360,11 @@ def _stoppable(stop: np.ndarray, kernel, *args):
     can take a minute on a big map, and a signal (Ctrl-C, SIGTERM) is only handled between
     Python steps: waiting here, this thread handles it at once. The kernel, told through
     ``stop`` (one of ``args``), then ends within an insertion, and the signal's exception
-    goes on."""
+    goes on. Elsewhere (signals are handled by the main thread only) the kernel runs on the
+    calling thread: meshes asked for on several threads at once run side by side, not
+    one after another on this one pool thread."""
+    if threading.current_thread() is not threading.main_thread():
+        return kernel(*args)
     future = _thread_pool(1).submit(kernel, *args)
     try:
         return future.result()
