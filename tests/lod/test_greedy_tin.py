@@ -520,9 +520,10 @@ def test_the_kernels_end_at_once_when_told_to_stop():
 
 
 def test_one_order_runs_on_a_pool_thread_only_for_the_main_thread(monkeypatch):
-    """From the main thread the one-order mesher runs on a pool thread (the main thread
-    waits and so handles signals at once); from any other thread it runs right there, so
-    meshes asked for on several threads run side by side, not queued on that pool."""
+    """From the main thread the one-order mesher of a big map runs on a pool thread (the
+    main thread waits and so handles signals at once); from any other thread, or for a
+    small map, it runs right there, so meshes asked for on several threads run side by
+    side, not queued on that pool."""
     import threading
 
     from terrascape.lod import greedy_tin as gt
@@ -536,6 +537,9 @@ def test_one_order_runs_on_a_pool_thread_only_for_the_main_thread(monkeypatch):
 
     monkeypatch.setattr(gt, "_mesh_piece", spy)
     hm = Heightmap(np.random.default_rng(3).random((40, 50)).astype(np.float32) * 10)
+    gt.greedy_tin(hm, max_triangles=300)
+    assert ran_on[-1] is threading.current_thread()  # a small map: no hand-over
+    monkeypatch.setattr(gt, "_WAIT_SAMPLES", 40 * 50 - 1)
     expected = gt.greedy_tin(hm, max_triangles=300)
     if threading.current_thread() is threading.main_thread():
         assert ran_on[-1] is not threading.main_thread()
