@@ -279,6 +279,37 @@ def test_hud_and_screenshot(gl_ctx, tmp_path):
 
 
 @pytest.mark.gl
+def test_another_current_context_leaves_the_frame_and_hud_alone(gl_ctx):
+    """Another context created between two frames (the caller's own, a command run
+    in-process) is the current one; the session still draws its frame, HUD included, with
+    its own context, and leaves the other one current."""
+    from terrascape.render.context import create_headless_context, current
+    from terrascape.viewer.session import ViewerSession
+
+    with current(gl_ctx):  # gives the test's own context back at the end
+        s = ViewerSession(gl_ctx, _terrain(), size=(160, 120), warn=lambda m: None)
+        fbo = gl_ctx.simple_framebuffer((160, 120))
+        try:
+            s.render(fbo, 0.02)  # the HUD's font texture and program are made here
+            before = _frame(fbo)
+            other = create_headless_context()
+            try:
+                s.render(fbo, 0.02)
+                probe = other.texture((2, 2), 4, bytes(range(16)))  # still the current one
+                assert probe.read() == bytes(range(16))
+                probe.release()
+                with current(gl_ctx):
+                    after = _frame(fbo)
+            finally:
+                other.release()
+        finally:
+            fbo.release()
+            s.release()
+    assert (before.min(-1) > 200)[8:60, 8:150].sum() > 50  # the HUD's text
+    np.testing.assert_array_equal(after, before)
+
+
+@pytest.mark.gl
 def test_session_validates_inputs(gl_ctx):
     from terrascape.viewer.session import ViewerSession
 

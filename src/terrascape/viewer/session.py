@@ -25,6 +25,7 @@ from terrascape.camera import Camera, frame_terrain
 from terrascape.errors import InvalidParameterError, TerrascapeError
 from terrascape.heightmap import Heightmap
 from terrascape.lod.schemes import SCHEMES
+from terrascape.render.context import with_current_context
 from terrascape.viewer.controls import HELP, LOD_MODES, ViewerState, fly, look
 from terrascape.viewer.resolution import ResolutionControl
 
@@ -356,6 +357,7 @@ class ViewerSession:
         scripted frames): every frame at full size.
     """
 
+    @with_current_context
     def __init__(self, ctx, heightmap: Heightmap, *, size: tuple[int, int] = (1280, 720),
                  technique: str = "plain", lod: str = "none", texture: np.ndarray | None = None,
                  exaggeration: float = 1.0, hud: bool = True, font_size: int | None = None,
@@ -498,6 +500,7 @@ class ViewerSession:
         if changed:
             self.renderer.set_indices(tris)
 
+    @with_current_context
     def render(self, fbo, dt: float = 0.0, *, full_size: bool = False) -> dict[str, int]:
         """Draw one frame (LOD update, sky + terrain, HUD) into ``fbo``.
 
@@ -544,11 +547,8 @@ class ViewerSession:
                 self._note("a streamed world has its own level of detail (tiles); "
                            "the LOD schemes stay off")
                 self.state.lod = "none"
-            from terrascape.render.context import current
-
             # never waits: tiles still loading are drawn by their loaded parents
-            with current(self.ctx):
-                self.tile_stats = self.geometry.update(camera, (w, h))
+            self.tile_stats = self.geometry.update(camera, (w, h))
             self.lod_ms.add(self.geometry.last_update_ms, dt)
         else:
             self._update_lod(camera, (w, h))
@@ -642,6 +642,7 @@ class ViewerSession:
         return panels
 
     # --- screenshot ----------------------------------------------------------------------
+    @with_current_context
     def screenshot(self, fbo, directory: str | Path = ".") -> Path:
         """Write the framebuffer's colour to a new PNG in ``directory`` (never overwrites)."""
         from PIL import Image
@@ -663,13 +664,11 @@ class ViewerSession:
         self._note(f"screenshot {path}", seconds=3.0, warn=False)
         return path
 
+    @with_current_context
     def release(self) -> None:
         if self.geometry is not None:
-            from terrascape.render.context import current
-
             self.renderer.geometry = None
-            with current(self.ctx):
-                self.geometry.release()
+            self.geometry.release()
             self.geometry = None
         if self.renderer.moving_sun_shadows is not None:
             self.renderer.moving_sun_shadows.close()
