@@ -96,29 +96,38 @@ def test_signal_at_a_random_moment_leaves_old_or_new_pair(tmp_path, old_pair, ru
         assert proc.returncode in (128 + sig, -sig)
 
 
+def _signal_during(tmp_path, side: int, command: list[str], sig: int) -> float:
+    """Run ``terrascape <command>`` on a ``side``² noise map ``in.npy``, send ``sig`` 1.5 s
+    after the map was read (inside the command's long compiled work), check the exit code,
+    the line and that nothing was written, and return how long the exit took."""
+    src = tmp_path / "in.npy"
+    np.save(src, (np.random.default_rng(5).random((side, side)) * 100).astype(np.float32))
+    proc = subprocess.Popen(
+        [sys.executable, "-c", "from terrascape.cli import main; main()", command[0],
+         str(src), *command[1:]],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV,
+    )
+    line = proc.stderr.readline()  # "read… 0.01 s": the work starts now
+    assert line.startswith("read"), line
+    time.sleep(1.5)
+    start = time.perf_counter()
+    proc.send_signal(sig)
+    _out, err = proc.communicate(timeout=120)
+    waited = time.perf_counter() - start
+    assert proc.returncode == 128 + sig, err
+    assert f"interrupted ({signal.Signals(sig).name}); nothing was written" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.npy"]
+    return waited
+
+
 def test_ctrl_c_stops_a_long_erosion_within_seconds(tmp_path):
     """20 M droplets run for minutes; in chunks from Python, Ctrl-C is handled between two
     chunks instead of after the whole compiled loop."""
-    src = tmp_path / "in.npy"
-    np.save(src, (np.random.default_rng(5).random((257, 257)) * 100).astype(np.float32))
-    proc = subprocess.Popen(
-        [sys.executable, "-c", "from terrascape.cli import main; main()", "erode", str(src),
-         str(tmp_path / "out.npy"), "--hydraulic", "20000000"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV,
-    )
-    line = proc.stderr.readline()  # "read… 0.00 s": erosion starts now
-    assert line.startswith("read"), line
-    time.sleep(1.5)  # inside the compiled droplet loop (first chunk compiles, then runs)
-    start = time.perf_counter()
-    proc.send_signal(signal.SIGINT)
-    _out, err = proc.communicate(timeout=60)
-    waited = time.perf_counter() - start
-    assert proc.returncode == 130, err
-    assert "interrupted (SIGINT); nothing was written" in err
+    waited = _signal_during(tmp_path, 257, ["erode", str(tmp_path / "out.npy"),
+                                            "--hydraulic", "20000000"], signal.SIGINT)
     # One compiled call for all droplets ignored Ctrl-C for about a minute; now the wait is
     # one chunk plus the interpreter's exit (generous: the test host is shared and loaded).
     assert waited < 10.0, f"Ctrl-C took {waited:.1f} s"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.npy"]
 
 
 def test_signal_after_one_of_two_outputs_says_what_was_kept(tmp_path, capsys, monkeypatch):
@@ -155,26 +164,12 @@ def test_a_signal_stops_a_long_one_order_mesh_within_seconds(tmp_path):
     # compiled (or loaded) here first: a cold cache would make the run below compile for
     # most of a minute before the signal could be answered
     greedy_tin(Heightmap(np.eye(9, dtype=np.float32)), max_error=0.0, in_pieces=False)
-    src = tmp_path / "in.npy"
-    np.save(src, (np.random.default_rng(5).random((2049, 2049)) * 100).astype(np.float32))
-    proc = subprocess.Popen(
-        [sys.executable, "-c", "from terrascape.cli import main; main()", "mesh", str(src),
-         "-o", str(tmp_path / "out.ply"), "--mesher", "greedy", "--max-error", "0",
-         "--one-piece"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV,
-    )
-    line = proc.stderr.readline()  # "read… 0.1 s": the mesh starts now
-    assert line.startswith("read"), line
-    time.sleep(1.5)  # inside the insertion (about 30 s in all)
-    start = time.perf_counter()
-    proc.send_signal(signal.SIGTERM)
-    _out, err = proc.communicate(timeout=120)
-    waited = time.perf_counter() - start
-    assert proc.returncode == 143, err
-    assert "interrupted (SIGTERM); nothing was written" in err
-    # before, the signal waited for the whole insertion (generous: the host is shared)
+    waited = _signal_during(tmp_path, 2049, ["mesh", "-o", str(tmp_path / "out.ply"),
+                                             "--mesher", "greedy", "--max-error", "0",
+                                             "--one-piece"], signal.SIGTERM)
+    # before, the signal waited for the whole insertion (about 30 s; generous bound: the
+    # test host is shared)
     assert waited < 10.0, f"SIGTERM took {waited:.1f} s"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.npy"]
 
 
 # A compiled call that returns arrays, with a signal arriving while it runs, under the
