@@ -1796,7 +1796,8 @@ def _mesh_piece(piece, rows, cols, y0, x0, tol, line_tol, budget, passes, dense_
     one greedy order over the whole map passes it). The piece's tiles
     (:func:`_tile_ranges`) go into the map's ``tplane`` and ``tres``. Returns the vertices
     as map coordinates ``(x, y)``, the live triangles as indices into them (flat) and
-    their halfedge twins.
+    their halfedge twins. Once another thread sets ``stop[0]`` (an interrupted mesh) the
+    insertion ends within a step and returns no triangles, the removal within a vertex.
 
     One compiled call for the whole piece, growing its own arrays: pieces meshed on
     several threads hold the interpreter's lock only to enter. Indices are 32-bit to halve
