@@ -6,7 +6,9 @@ For each sun, on one thread: the sweep as one block, and split into the 2 and 4 
 equal work that two threads share (:func:`terrascape.lighting.shadows._block_bounds`),
 each block timed by itself (best of 3). The sum over the blocks against the one block is
 what splitting costs. Then the whole mask on two threads split into 2 and into 4 blocks
-(median of 5).
+(median of 5). Last, what else the whole mask's time holds: the extrema pass that streams
+the map (the kernel's own loop) and the mask's first touch, on one thread and on two
+(median of 7).
 """
 
 from __future__ import annotations
@@ -82,5 +84,41 @@ def main(size: int) -> None:
                   f"{statistics.median(runs) * 1e3:.1f} ms")
 
 
+@numba.njit(parallel=True)
+def _extrema_pass(h, smax, smin):
+    """The sweep kernel's extrema pass over the map's rows (``_line_sweep_kernel``)."""
+    bands = (h.shape[0] + 63) // 64
+    magnitude = np.zeros(bands, dtype=np.float64)
+    for band in numba.prange(bands):
+        for a in range(band * 64, min(h.shape[0], band * 64 + 64)):
+            magnitude[band] = max(magnitude[band],
+                                  sweep._segment_extrema(h[a], smax[a], smin[a]))
+    return magnitude.max()
+
+
+def other_parts(size: int) -> None:
+    h = read_only(terrain(size).heights)
+    segments = (h.shape[1] + sweep._SEGMENT - 1) // sweep._SEGMENT
+    smax = np.empty((h.shape[0], segments), h.dtype)
+    smin = np.empty_like(smax)
+
+    def median_ms(job):
+        job()
+        runs = []
+        for _ in range(7):
+            t0 = time.perf_counter()
+            job()
+            runs.append(time.perf_counter() - t0)
+        return statistics.median(runs) * 1e3
+
+    for threads in (1, 2):
+        numba.set_num_threads(threads)
+        extrema = median_ms(lambda: _extrema_pass(h, smax, smin))
+        touch = median_ms(lambda: np.zeros(h.shape, np.bool_).fill(True))
+        print(f"{threads} thread(s): extrema pass {extrema:.1f} ms, the mask's first touch "
+              f"{touch:.1f} ms")
+
+
 if __name__ == "__main__":
     main(int(sys.argv[1]) if len(sys.argv) > 1 else 4097)
+    other_parts(int(sys.argv[1]) if len(sys.argv) > 1 else 4097)
