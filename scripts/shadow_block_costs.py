@@ -13,7 +13,6 @@ the map (the kernel's own loop) and the mask's first touch, on one thread and on
 
 from __future__ import annotations
 
-import statistics
 import sys
 import time
 
@@ -22,6 +21,7 @@ import numpy as np
 
 from terrascape._numba import read_only
 from terrascape.bench.shade import terrain
+from terrascape.bench.terrain_vs_relief import _median_ms  # after one untimed call
 from terrascape.lighting import shadows as sweep
 from terrascape.lighting._common import sun_above_horizon
 
@@ -74,14 +74,8 @@ def main(size: int) -> None:
                 with numba.parallel_chunksize(1):
                     sweep._line_sweep_kernel(h, da, db, rise, sweep._NEAR, mask, blocks, 0, 0,
                                              transpose, transpose)
-            whole()
-            runs = []
-            for _ in range(5):
-                t0 = time.perf_counter()
-                whole()
-                runs.append(time.perf_counter() - t0)
             print(f"sun {az}°/{el}°, two threads, whole mask in {blocks} blocks: "
-                  f"{statistics.median(runs) * 1e3:.1f} ms")
+                  f"{_median_ms(whole, 5):.1f} ms")
 
 
 @numba.njit(parallel=True)
@@ -102,19 +96,10 @@ def other_parts(size: int) -> None:
     smax = np.empty((h.shape[0], segments), h.dtype)
     smin = np.empty_like(smax)
 
-    def median_ms(job):
-        job()
-        runs = []
-        for _ in range(7):
-            t0 = time.perf_counter()
-            job()
-            runs.append(time.perf_counter() - t0)
-        return statistics.median(runs) * 1e3
-
     for threads in (1, 2):
         numba.set_num_threads(threads)
-        extrema = median_ms(lambda: _extrema_pass(h, smax, smin))
-        touch = median_ms(lambda: np.zeros(h.shape, np.bool_).fill(True))
+        extrema = _median_ms(lambda: _extrema_pass(h, smax, smin), 7)
+        touch = _median_ms(lambda: np.zeros(h.shape, np.bool_).fill(True), 7)
         print(f"{threads} thread(s): extrema pass {extrema:.1f} ms, the mask's first touch "
               f"{touch:.1f} ms")
 
