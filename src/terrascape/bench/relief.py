@@ -19,7 +19,6 @@ compare with the thesis's FPS tables.
 
 from __future__ import annotations
 
-import contextlib
 import time
 
 import numpy as np
@@ -511,11 +510,9 @@ def precision_table(ctx, *, tex=256, fb=384, depth=0.1, angles=PRECISION_ANGLES,
 def run(quick: bool = False) -> list[BenchTable]:
     from terrascape.render.context import headless_context
 
-    # headless_context: releasing it makes a caller's own GL context current again
-    gl = contextlib.ExitStack()
-    ctx = gl.enter_context(headless_context())
     t0 = time.perf_counter()
-    try:
+    # released on the way out, the caller's own GL context made current again
+    with headless_context() as ctx:
         if quick:
             tables = quality_tables(ctx, tex=64, fb=128, angles=(60,), quick=True)
             tables.append(precision_table(ctx, tex=64, fb=128, angles=(70,), seeds=(0, 1)))
@@ -526,8 +523,6 @@ def run(quick: bool = False) -> list[BenchTable]:
             tables.append(precision_table(ctx))
             tables.append(prewarp_table())
             tables += seed_table(ctx)
-    finally:
-        gl.close()
     tables[-1].notes.append(f"benchmark wall time {time.perf_counter() - t0:.1f} s")
     return tables
 

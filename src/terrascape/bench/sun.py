@@ -9,7 +9,6 @@ viewer frame (sky + terrain + HUD, read back), at the same fixed camera.
 
 from __future__ import annotations
 
-import contextlib
 import statistics
 import time
 
@@ -41,33 +40,31 @@ def run(quick: bool = False) -> list[BenchTable]:
     size = (640, 360) if quick else (1280, 720)
     frames = 8 if quick else 20
     hm = generate("diamond-square", n, seed=1, spacing=VIEW_SPACING)
-    # headless_context: releasing it makes a caller's own GL context current again
-    gl = contextlib.ExitStack()
-    ctx = gl.enter_context(headless_context())
-    fbo = ctx.simple_framebuffer(size)
-    sessions = {
-        "exact every frame": ViewerSession(ctx, hm, size=size, technique="material",
-                                           moving_sun_shadows=False, warn=lambda m: None),
-        "coarse while moving": ViewerSession(ctx, hm, size=size, technique="material",
-                                             moving_sun_shadows=True, warn=lambda m: None),
-    }
-    for s in sessions.values():
-        s.state.sun_elevation = 25.0
-    sessions["coarse while moving"].renderer.moving_sun_shadows.wait_ready(120.0)
-    times: dict[str, list[float]] = {k: [] for k in sessions}
-    still: dict[str, list[float]] = {k: [] for k in sessions}
-    try:
-        # interleaved: a few frames of each in turn, so load changes hit both alike
-        for _ in range(max(1, frames // 4)):
-            for name, s in sessions.items():
-                times[name] += _frames(s, fbo, 4, 1.0)
-        for name, s in sessions.items():  # the sun stops: what the next frames cost
-            still[name] = _frames(s, fbo, 3, 0.0)
-    finally:
+    # released on the way out, the caller's own GL context made current again
+    with headless_context() as ctx:
+        fbo = ctx.simple_framebuffer(size)
+        sessions = {
+            "exact every frame": ViewerSession(ctx, hm, size=size, technique="material",
+                                               moving_sun_shadows=False, warn=lambda m: None),
+            "coarse while moving": ViewerSession(ctx, hm, size=size, technique="material",
+                                                 moving_sun_shadows=True, warn=lambda m: None),
+        }
         for s in sessions.values():
-            s.release()
-        fbo.release()
-        gl.close()
+            s.state.sun_elevation = 25.0
+        sessions["coarse while moving"].renderer.moving_sun_shadows.wait_ready(120.0)
+        times: dict[str, list[float]] = {k: [] for k in sessions}
+        still: dict[str, list[float]] = {k: [] for k in sessions}
+        try:
+            # interleaved: a few frames of each in turn, so load changes hit both alike
+            for _ in range(max(1, frames // 4)):
+                for name, s in sessions.items():
+                    times[name] += _frames(s, fbo, 4, 1.0)
+            for name, s in sessions.items():  # the sun stops: what the next frames cost
+                still[name] = _frames(s, fbo, 3, 0.0)
+        finally:
+            for s in sessions.values():
+                s.release()
+            fbo.release()
     table = BenchTable(
         f"Viewer frames with the sun moving 1° a frame, {size[0]}×{size[1]}, material, "
         f"diamond-square {n}×{n} (interleaved)",

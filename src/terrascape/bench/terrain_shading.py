@@ -22,7 +22,6 @@ Each row also gives the mean and largest difference of its last frame from ``bef
 
 from __future__ import annotations
 
-import contextlib
 import os
 import statistics
 import sys
@@ -122,41 +121,39 @@ def run(quick: bool = False) -> list[BenchTable]:
     frames = QUICK_FRAMES if quick else 6
     rounds = QUICK_ROUNDS if quick else 3
     techniques = ("material", "plain")
-    # headless_context: releasing it makes a caller's own GL context current again
-    gl = contextlib.ExitStack()
-    ctx = gl.enter_context(headless_context())
-    fbo = ctx.simple_framebuffer(SIZE)
-    renderer = ctx.info.get("GL_RENDERER", "?")
-    hm, session = _session(ctx, n)
-    cams = flight(hm, frames, SIZE)
-    times: dict[tuple[str, str], list[float]] = {}
-    last: dict[tuple[str, str], np.ndarray] = {}
-    try:
-        for tech in techniques:
-            session.state.technique = tech
-            variants = [v for v in VARIANTS
-                        if tech == "material" or v[0] not in MATERIAL_ONLY]
-            for _ in range(rounds):
-                # variant after variant on the same camera: paired frames under one load
-                for cam in cams:
-                    session.camera = cam
-                    for label, defines, trilinear, float_vis, light in variants:
-                        _use_variant(session, defines, trilinear, float_vis, light)
-                        session.render(fbo, 0.0)  # LOD converged, textures, program built
-                        ctx.finish()
-                        # again: the first frame may have made the layer textures
-                        _use_variant(session, defines, trilinear, float_vis, light)
-                        t0 = time.perf_counter()
-                        session.render(fbo, 0.0)
-                        ctx.finish()
-                        times.setdefault((tech, label), []).append(time.perf_counter() - t0)
-                        last[(tech, label)] = np.frombuffer(fbo.read(components=3),
-                                                            np.uint8).astype(np.int16)
-                print(f"bench terrain_shading: {tech} round done", file=sys.stderr, flush=True)
-    finally:
-        session.release()
-        fbo.release()
-        gl.close()
+    # released on the way out, the caller's own GL context made current again
+    with headless_context() as ctx:
+        fbo = ctx.simple_framebuffer(SIZE)
+        renderer = ctx.info.get("GL_RENDERER", "?")
+        hm, session = _session(ctx, n)
+        cams = flight(hm, frames, SIZE)
+        times: dict[tuple[str, str], list[float]] = {}
+        last: dict[tuple[str, str], np.ndarray] = {}
+        try:
+            for tech in techniques:
+                session.state.technique = tech
+                variants = [v for v in VARIANTS
+                            if tech == "material" or v[0] not in MATERIAL_ONLY]
+                for _ in range(rounds):
+                    # variant after variant on the same camera: paired frames under one load
+                    for cam in cams:
+                        session.camera = cam
+                        for label, defines, trilinear, float_vis, light in variants:
+                            _use_variant(session, defines, trilinear, float_vis, light)
+                            session.render(fbo, 0.0)  # LOD converged, textures, program built
+                            ctx.finish()
+                            # again: the first frame may have made the layer textures
+                            _use_variant(session, defines, trilinear, float_vis, light)
+                            t0 = time.perf_counter()
+                            session.render(fbo, 0.0)
+                            ctx.finish()
+                            times.setdefault((tech, label), []).append(time.perf_counter() - t0)
+                            last[(tech, label)] = np.frombuffer(fbo.read(components=3),
+                                                                np.uint8).astype(np.int16)
+                    print(f"bench terrain_shading: {tech} round done", file=sys.stderr, flush=True)
+        finally:
+            session.release()
+            fbo.release()
     table = BenchTable(
         f"Terrain shading cuts, viewer frames at {SIZE[0]}×{SIZE[1]}, ROAM "
         f"{ROAM_TRIANGLES // 1000}k, diamond-square {n}×{n} ({frames} cameras × {rounds} "
