@@ -71,4 +71,27 @@ def prefetch(typingctx, array, index):
     return sig, codegen
 
 
-__all__ = ["CACHE", "FASTMATH", "njit", "prange", "prefetch", "read_only"]
+@intrinsic
+def stop_requested(typingctx, flag):
+    """``flag[0] != 0`` read afresh from memory each time (an atomic load).
+
+    Another thread sets the flag to stop a running kernel
+    (:func:`terrascape._stoppable.run_stoppable`). A plain
+    read of an array the loop never writes is one LLVM may take out of the loop and make
+    once: in a ``prange`` loop it did, and the kernel never saw the flag set.
+    """
+    sig = types.boolean(flag)
+
+    def codegen(context, builder, signature, args):
+        array_type = signature.args[0]
+        arr = context.make_array(array_type)(context, builder, args[0])
+        zero = context.get_constant(types.intp, 0)
+        ptr = cgutils.get_item_pointer(context, builder, array_type, arr, [zero],
+                                       wraparound=False, boundscheck=False)
+        value = builder.load_atomic(ptr, "acquire", 1)
+        return builder.icmp_unsigned("!=", value, ir.Constant(value.type, 0))
+
+    return sig, codegen
+
+
+__all__ = ["CACHE", "FASTMATH", "njit", "prange", "prefetch", "read_only", "stop_requested"]

@@ -217,3 +217,52 @@ def test_a_signal_during_a_compiled_call_is_handled_after_it_returns(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == f"interrupted {int(signal.SIGTERM)} after the call returned: True"
     assert "Error" not in proc.stderr
+
+
+@pytest.mark.parametrize("model", ["thermal", "grid"])
+def test_a_signal_stops_a_long_erosion_in_one_compiled_run_within_seconds(tmp_path, model):
+    """The thermal and grid models make all their iterations in one compiled run (about a
+    minute here): it runs on a pool thread while the main thread waits, so SIGTERM is
+    handled at once, and the run, told to stop, ends before its next iteration."""
+    waited = _signal_during(tmp_path, 513, ["erode", str(tmp_path / "out.npy"), "--model",
+                                            model, "-n", "8000"], signal.SIGTERM)
+    # before, the signal waited for every iteration (generous bound: the host is shared)
+    assert waited < 10.0, f"SIGTERM took {waited:.1f} s"
+
+
+# Ctrl-C in a library call (a notebook's interrupt button sends the same signal).
+CTRL_C_IN_SKY_VIEW = """
+import sys, time
+import numpy as np
+from terrascape.generate import fbm
+from terrascape.lighting import sky_view_factor
+
+sky_view_factor(np.random.default_rng(3).random((16, 16)))  # compiled (or loaded) first
+heights = fbm(2049, seed=3)
+print("ready", flush=True)
+try:
+    sky_view_factor(heights)
+    print("finished")
+except KeyboardInterrupt:
+    print("KeyboardInterrupt", flush=True)
+"""
+
+
+def test_ctrl_c_stops_a_long_library_call_at_once():
+    """The sky-view factor of a 2049² map is one compiled call of about 20 s here. Ctrl-C
+    during it raises KeyboardInterrupt at once, not after the call (nor a SystemError from
+    numba's conversion of a result)."""
+    proc = subprocess.Popen([sys.executable, "-c", CTRL_C_IN_SKY_VIEW], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=ENV)
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(1.0)
+        start = time.perf_counter()
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=120)
+        waited = time.perf_counter() - start
+    finally:
+        proc.kill()
+    assert out.strip() == "KeyboardInterrupt", err
+    assert "Error" not in err
+    assert waited < 6.0, f"Ctrl-C took {waited:.1f} s"

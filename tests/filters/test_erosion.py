@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import math
 
 import numpy as np
@@ -158,3 +159,17 @@ def test_hydraulic_brush_spreads_wear(rough: Heightmap) -> None:
         1e-6 * np.abs(h0.astype(np.float64)).sum()
     with pytest.raises(InvalidParameterError):
         hydraulic_erosion(rough, radius=-1.0)
+
+
+def test_a_thermal_run_told_to_stop_ends_before_its_next_iteration(rough, monkeypatch):
+    """The flag an interrupted caller sets (a signal while it waits on the run): no
+    iteration after it, so the heights come back as they went in."""
+    te = importlib.import_module("terrascape.filters.thermal_erosion")  # the package face
+    # names the function
+
+    def stopped(long, kernel, *args):
+        return kernel(*args, np.ones(1, np.uint8))
+
+    assert not np.array_equal(thermal_erosion(rough, iterations=3).heights, rough.heights)
+    monkeypatch.setattr(te, "run_stoppable", stopped)
+    np.testing.assert_array_equal(thermal_erosion(rough, iterations=3).heights, rough.heights)

@@ -3,6 +3,8 @@ thread counts, mass balance, channels where water gathers, and parameter errors.
 
 from __future__ import annotations
 
+import importlib
+
 import numba
 import numpy as np
 import pytest
@@ -91,3 +93,19 @@ def test_nan_rain_and_stable_limit(terrain: Heightmap) -> None:
     with pytest.raises(InvalidParameterError, match="NaN"):
         virtual_pipe_erosion(terrain, rain=rain)
     assert stable_time_step((4.0, 4.0)) == pytest.approx((4.0 / (2 * 9.81)) ** 0.5)
+
+
+def test_a_run_told_to_stop_ends_before_its_next_step(terrain: Heightmap, monkeypatch) -> None:
+    """The flag an interrupted caller sets: no step after it (no rain fell, nothing
+    moved)."""
+    vp = importlib.import_module("terrascape.filters.virtual_pipe_erosion")  # the package
+    # face names the function
+
+    def stopped(long, kernel, *args):
+        return kernel(*args, np.ones(1, np.uint8))
+
+    assert virtual_pipe_erosion(terrain, iterations=3, dt=0.2).water.max() > 0.0
+    monkeypatch.setattr(vp, "run_stoppable", stopped)
+    out = virtual_pipe_erosion(terrain, iterations=3, dt=0.2)
+    np.testing.assert_array_equal(out.heightmap.heights, terrain.heights)
+    assert out.water.max() == 0.0 and out.flow.max() == 0.0

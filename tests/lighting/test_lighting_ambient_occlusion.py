@@ -66,3 +66,16 @@ def test_bad_parameters():
         sky_view_factor(np.zeros((4, 4)), max_distance=-1.0)
     with pytest.raises(InvalidParameterError):
         sky_view_factor(np.array([[np.nan, 0.0], [0.0, 0.0]]))
+
+
+def test_the_kernel_told_to_stop_begins_no_more_rows():
+    """The flag an interrupted caller sets: rows not yet begun are left as they were."""
+    from terrascape.lighting.ambient_occlusion import _svf_kernel
+
+    h = np.maximum(0.0, 20.0 - _radius(41, 20))
+    dirs = np.array([[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])
+    for stop in (0, 1):
+        out = np.full(h.shape, -1.0, np.float32)
+        _svf_kernel(h, 1.0, 1.0, dirs, 100.0, float(h.max()), out, np.array([stop], np.uint8))
+        assert (out == -1.0).all() == bool(stop)
+        assert (out == -1.0).any() == bool(stop)

@@ -24,7 +24,8 @@ import math
 
 import numpy as np
 
-from terrascape._numba import CACHE, FASTMATH, njit, prange
+from terrascape._numba import CACHE, FASTMATH, njit, prange, stop_requested
+from terrascape._stoppable import run_stoppable
 from terrascape._validate import check_int, check_range
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
@@ -33,6 +34,9 @@ _DZ8 = np.array([-1, -1, -1, 0, 0, 1, 1, 1], dtype=np.int64)
 _DX8 = np.array([-1, 0, 1, -1, 1, -1, 0, 1], dtype=np.int64)
 _DZ4 = np.array([-1, 0, 0, 1], dtype=np.int64)
 _DX4 = np.array([0, -1, 1, 0], dtype=np.int64)
+# Samples × iterations above which the run waits on a pool thread, so that Ctrl-C stops it
+# at once (:func:`run_stoppable`): about 20 ms of work, against 0.1 ms for the hand-over.
+_LONG_WORK = 1 << 20
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -43,14 +47,19 @@ def _excess(h, z, x, zz, xx, t):  # pragma: no cover - compiled
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _thermal_run(a, b, k, iterations, dz, dx, dist, tan_map, rate):  # pragma: no cover - compiled
-    """``iterations`` Jacobi steps ping-ponging between ``a`` and ``b``; returns the parity.
+def _thermal_run(a, b, k, iterations, dz, dx, dist, tan_map, rate,
+                 stop):  # pragma: no cover - compiled
+    """``iterations`` Jacobi steps ping-ponging between ``a`` and ``b``; returns the parity
+    of the steps made.
 
-    One compiled call for all iterations keeps the parallel regions back to back.
+    One compiled call for all iterations keeps the parallel regions back to back. Ends
+    before the next iteration once ``stop[0]`` is set (:func:`run_stoppable`).
     """
     rows, cols = a.shape
     nn = dz.shape[0]
     for it in range(iterations):
+        if stop_requested(stop):
+            return it % 2
         src = a if it % 2 == 0 else b
         dst = b if it % 2 == 0 else a
         # Pass 1: each cell's outflow factor k = rate * E / sum(e).
@@ -109,8 +118,9 @@ def _thermal_f64(h: np.ndarray, iterations: int, thr: np.ndarray, rate: float,
         tan_map = np.full(a.shape, float(thr[0]) / dist[0])
     else:
         dist = np.asarray(thr, dtype=np.float64)
-    parity = _thermal_run(a, b, k, iterations, dz, dx, dist, np.ascontiguousarray(tan_map,
-                          dtype=np.float64), rate)
+    parity = run_stoppable(a.size * iterations > _LONG_WORK, _thermal_run, a, b, k,
+                           iterations, dz, dx, dist,
+                           np.ascontiguousarray(tan_map, dtype=np.float64), rate)
     return b if parity else a
 
 

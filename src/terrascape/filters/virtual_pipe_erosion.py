@@ -50,7 +50,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrascape._numba import CACHE, FASTMATH, njit, prange
+from terrascape._numba import CACHE, FASTMATH, njit, prange, stop_requested
+from terrascape._stoppable import run_stoppable
 from terrascape._validate import check_int, check_positive, check_range
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
@@ -60,6 +61,9 @@ from terrascape.heightmap import Heightmap
 HALO_PER_ITERATION = 3
 
 GRAVITY = 9.81
+# Samples × steps above which the run waits on a pool thread, so that Ctrl-C stops it at
+# once (:func:`run_stoppable`): some tens of milliseconds, against 0.1 ms for the hand-over.
+_LONG_WORK = 1 << 20
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
@@ -181,12 +185,16 @@ def _transport(s1, fl, fr, ft, fb, d1, s_out, d2, dt, cell_area, evaporation):
 
 @njit(cache=CACHE, fastmath=FASTMATH)
 def _run(b, d, s, fl, fr, ft, fb, rain, iterations, dt, coef, sx, sz, kc, min_tilt, d_max,
-         ks, kd, evaporation, flow):  # pragma: no cover - compiled
+         ks, kd, evaporation, flow, stop):  # pragma: no cover - compiled
+    """``iterations`` time steps; ends before the next one once ``stop[0]`` is set
+    (:func:`run_stoppable`)."""
     d2 = np.empty_like(d)
     s1 = np.empty_like(s)
     vx = np.empty_like(d)
     vz = np.empty_like(d)
     for _ in range(iterations):
+        if stop_requested(stop):
+            break
         _flux(b, d, fl, fr, ft, fb, rain, dt, coef, sx * sz)
         _water_erode(b, d, s, fl, fr, ft, fb, d2, s1, vx, vz, flow, dt, sx, sz, kc, min_tilt,
                      d_max, ks, kd)
@@ -306,8 +314,9 @@ def virtual_pipe_erosion(
     d, s, fl, fr, ft, fb, flow = zeros
     pipe_length = min(sx, sz)
     coef = dt * pipe_length * pipe_length * GRAVITY / pipe_length
-    _run(b, d, s, fl, fr, ft, fb, rain_map, iterations, dt, coef, sx, sz, capacity, min_tilt,
-         max_depth, dissolving, deposition, evaporation, flow)
+    run_stoppable(b.size * iterations > _LONG_WORK, _run, b, d, s, fl, fr, ft, fb, rain_map,
+                  iterations, dt, coef, sx, sz, capacity, min_tilt, max_depth, dissolving,
+                  deposition, evaporation, flow)
     sediment = s.copy()
     b += s  # what the water still carries settles where it is
     return GridErosionResult(

@@ -19,11 +19,16 @@ from typing import Any
 
 import numpy as np
 
-from terrascape._numba import CACHE, FASTMATH, njit, prange
+from terrascape._numba import CACHE, FASTMATH, njit, prange, stop_requested
+from terrascape._stoppable import run_stoppable
 from terrascape._validate import check_int, check_positive
 from terrascape.lighting._common import as_heightmap
 
 _UNIT_STEPS = 16.0
+# Samples × directions above which the kernel waits on a pool thread, so that Ctrl-C stops
+# it at once (:func:`run_stoppable`): some tens of milliseconds, against 0.1 ms for the
+# hand-over.
+_LONG_WORK = 1 << 16
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -40,11 +45,15 @@ def _bilinear(h, x, z):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _svf_kernel(h, dx, dz, dirs, max_dist, hmax, out):
+def _svf_kernel(h, dx, dz, dirs, max_dist, hmax, out, stop):
+    """The sky-view factor of every sample into ``out``; rows not yet begun are left
+    unwritten once ``stop[0]`` is set (:func:`run_stoppable`)."""
     rows, cols = h.shape
     step0 = min(dx, dz)
     nd = dirs.shape[0]
     for r in prange(rows):
+        if stop_requested(stop):
+            continue
         for c in range(cols):
             hv = float(h[r, c])
             total = 0.0
@@ -100,7 +109,8 @@ def sky_view_factor(
     dirs = np.stack([np.sin(az), -np.cos(az)], axis=1)
     out = np.empty(hm.shape, dtype=np.float32)
     h = hm.heights.astype(np.float64)
-    _svf_kernel(h, float(hm.spacing[0]), float(hm.spacing[1]), dirs, dist, float(h.max()), out)
+    run_stoppable(h.size * nd > _LONG_WORK, _svf_kernel, h, float(hm.spacing[0]),
+                  float(hm.spacing[1]), dirs, dist, float(h.max()), out)
     return np.clip(out, 0.0, 1.0)
 
 

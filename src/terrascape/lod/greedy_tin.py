@@ -76,13 +76,13 @@ References
 from __future__ import annotations
 
 import os
-import threading
-from concurrent.futures import ThreadPoolExecutor, wait
+from concurrent.futures import ThreadPoolExecutor
 
 import numba
 import numpy as np
 
 from terrascape._numba import CACHE, FASTMATH, njit, read_only
+from terrascape._stoppable import run_stoppable
 from terrascape._validate import check_int, check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
@@ -1275,10 +1275,10 @@ def greedy_tin(heightmap: Heightmap, *, max_error: float | None = None,
         # (read once: a mesh within it never reads it again)
         cap = memory_limit()
         per_slot = PEAK_BYTES_PER_TRIANGLE["greedy one order"]
-        coords, tris, _ = _stoppable(rows * cols > _WAIT_SAMPLES, _mesh_piece, h, rows, cols,
-                                     0, 0, float(tol), 0.0, budget, passes, np.inf,
-                                     np.empty((*tiles, 3)), np.empty((*tiles, 4)),
-                                     int(cap // per_slot))
+        coords, tris, _ = run_stoppable(rows * cols > _WAIT_SAMPLES, _mesh_piece, h, rows,
+                                        cols, 0, 0, float(tol), 0.0, budget, passes, np.inf,
+                                        np.empty((*tiles, 3)), np.empty((*tiles, 4)),
+                                        int(cap // per_slot))
         if len(tris) == 0:
             slots = _START_SLOTS  # the insertion's arrays, doubled until the next would pass
             while 2 * slots <= cap // per_slot:
@@ -1356,30 +1356,9 @@ _POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
 
 
 # Maps of more samples are meshed in one order on a pool thread, the main thread waiting
-# (:func:`_stoppable`); a smaller one takes at most a second or two, and the hand-over
-# about 0.1 ms (3–5 % of a 2,000-triangle budget on a 257² map)
+# (:func:`terrascape._stoppable.run_stoppable`); a smaller one takes at most a second or
+# two, and the hand-over about 0.1 ms (3–5 % of a 2,000-triangle budget on a 257² map)
 _WAIT_SAMPLES = 1 << 18
-
-
-def _stoppable(big: bool, kernel, *args):
-    """``kernel(*args, stop)``, when ``big``, on a pool thread while this thread waits for
-    it. One compiled call can take a minute on a big map, and a signal (Ctrl-C, SIGTERM) is
-    only handled between Python steps: waiting here, this thread handles it at once. The
-    kernel, told through its last argument ``stop`` (a one-element flag), then ends within
-    an insertion, and the signal's exception goes on. Otherwise, or away from the main
-    thread (the only one that handles signals), the kernel runs on the calling thread:
-    meshes asked for on several threads at once run side by side, not one after another on
-    this one pool thread."""
-    stop = np.zeros(1, np.uint8)
-    if not big or threading.current_thread() is not threading.main_thread():
-        return kernel(*args, stop)
-    future = _thread_pool(1).submit(kernel, *args, stop)
-    try:
-        return future.result()
-    except BaseException:
-        stop[0] = 1
-        wait([future])
-        raise
 
 
 def _thread_pool(workers: int) -> ThreadPoolExecutor:

@@ -1,0 +1,120 @@
+"""Long compiled calls on a pool thread, stopped by a signal: where they run, with how many
+numba threads, and that the caller's exception waits for the kernel to end."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+
+import numba
+import numpy as np
+import pytest
+
+from terrascape import _stoppable
+from terrascape._stoppable import run_stoppable
+
+
+def _where(tag, stop):
+    return threading.current_thread(), numba.get_num_threads(), tag, int(stop[0])
+
+
+def test_a_long_call_from_the_main_thread_runs_on_the_pool_thread():
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("the test runner does not run tests on the main thread")
+    thread, _, tag, stop = run_stoppable(True, _where, "x")
+    assert thread is not threading.main_thread()
+    assert thread.name.startswith("terrascape-long")
+    assert (tag, stop) == ("x", 0)
+
+
+def test_a_short_call_or_one_from_another_thread_runs_where_it_is_called():
+    assert run_stoppable(False, _where, "y")[0] is threading.current_thread()
+    seen = []
+    callers = [threading.Thread(target=lambda: seen.append(run_stoppable(True, _where, "z")))
+               for _ in range(2)]
+    for t in callers:
+        t.start()
+    for t in callers:
+        t.join()
+    assert {s[0] for s in seen} == set(callers)
+
+
+def test_the_pool_thread_uses_the_callers_number_of_numba_threads():
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("the test runner does not run tests on the main thread")
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        thread, threads, _, _ = run_stoppable(True, _where, "one")
+        assert thread is not threading.main_thread()
+        assert threads == 1
+        numba.set_num_threads(before)
+        assert run_stoppable(True, _where, "all")[1] == before
+    finally:
+        numba.set_num_threads(before)
+
+
+def test_an_interrupted_wait_stops_the_kernel_and_waits_for_it():
+    """Ctrl-C while waiting: the flag is set, the caller waits until the kernel has seen it
+    and ended, and the KeyboardInterrupt goes on."""
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signals are only handled on the main thread")
+    ended = threading.Event()
+
+    def spin(stop):
+        deadline = time.monotonic() + 30.0
+        while not stop[0] and time.monotonic() < deadline:
+            time.sleep(0.001)
+        time.sleep(0.2)  # the caller must wait for this too
+        ended.set()
+
+    # Python's own Ctrl-C handler, whatever the test runner installed
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT)).start()
+        start = time.monotonic()
+        with pytest.raises(KeyboardInterrupt):
+            run_stoppable(True, spin)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert ended.is_set()  # the kernel had ended when the exception reached us
+    assert time.monotonic() - start < 10.0
+
+
+def test_a_forked_child_makes_its_own_pool():
+    _stoppable._pool()
+    pid = os.fork()
+    if pid == 0:  # the child: a pool of its own, whose thread runs
+        ok = False
+        try:
+            ok = _stoppable._pool() is not _stoppable._POOLS.get(os.getppid())
+            ok = ok and _stoppable._pool().submit(lambda: 7).result(timeout=10) == 7
+        finally:
+            os._exit(0 if ok else 1)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+
+
+def test_a_compiled_kernel_is_compiled_on_the_calling_thread(monkeypatch):
+    """A first call compiles for many seconds: on the calling thread, where Ctrl-C stops
+    the compiler at once, not on the pool thread, whose caller would wait for it all."""
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("the test runner does not run tests on the main thread")
+
+    @numba.njit
+    def kernel(values, scale, stop):
+        return values.sum() * scale + stop[0]
+
+    compiled_on = []
+    compile_for = kernel.compile
+
+    def spy(sig):
+        compiled_on.append(threading.current_thread())
+        return compile_for(sig)
+
+    monkeypatch.setattr(kernel, "compile", spy)
+    assert run_stoppable(True, kernel, np.arange(4.0), 2.0) == 12.0
+    assert compiled_on == [threading.main_thread()]
+    assert len(kernel.signatures) == 1  # the call found what the compilation made
