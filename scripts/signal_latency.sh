@@ -8,8 +8,6 @@
 # Prints the exit code, the seconds from the signal to the exit and the command's last line
 # on stderr; exits 1 if the command ended before the signal.
 set -u
-# job control: without it a script's background command starts with SIGINT ignored
-set -m
 if [ $# -lt 3 ]; then
     echo "usage: bash scripts/signal_latency.sh DELAY SIGNAL COMMAND [ARGS...]" >&2
     exit 2
@@ -19,9 +17,11 @@ sig=$2
 shift 2
 err=$(mktemp)
 trap 'rm -f "$err"' EXIT
-"$@" > /dev/null 2> "$err" &
+# SIGINT back to its default in the command: a script's background job, or anything
+# started from a shell in the background (nohup), has it ignored, and Python then ignores
+# Ctrl-C too
+env --default-signal=INT "$@" > /dev/null 2> "$err" &
 pid=$!
-set +m  # (and no job notices from here on)
 sleep "$delay"
 if ! kill -0 "$pid" 2> /dev/null; then
     wait "$pid"

@@ -113,3 +113,16 @@ def test_nan_refused() -> None:
     with pytest.raises(InvalidParameterError):
         drainage_area("not an array")  # type: ignore[arg-type]
     assert isinstance(flow_routing(Heightmap(np.ones((4, 4)))).filled, np.ndarray)
+
+
+def test_the_flood_told_to_stop_ends_at_once() -> None:
+    """The flag an interrupted caller sets: the flood takes no more samples from its heap
+    (it reads the flag every 65,536 samples, and first before the first)."""
+    from terrascape.analysis.drainage import _priority_flood
+
+    h = fbm(129, seed=3).heights.astype(np.float64)
+    for stop, taken in ((0, h.size), (1, 0)):
+        filled = np.empty_like(h)
+        parent = np.empty(h.size, np.int64)
+        order = np.empty(h.size, np.int64)
+        assert _priority_flood(h, filled, parent, order, np.array([stop], np.uint8)) == taken

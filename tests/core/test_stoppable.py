@@ -4,9 +4,13 @@ numba threads, and that the caller's exception waits for the kernel to end."""
 from __future__ import annotations
 
 import os
+import pathlib
 import signal
+import subprocess
+import sys
 import threading
 import time
+from concurrent.futures import Future
 
 import numba
 import numpy as np
@@ -14,6 +18,8 @@ import pytest
 
 from terrascape import _stoppable
 from terrascape._stoppable import run_stoppable
+
+SRC = str(pathlib.Path(__file__).resolve().parents[2] / "src")
 
 
 def _where(tag, stop):
@@ -25,7 +31,7 @@ def test_a_long_call_from_the_main_thread_runs_on_the_pool_thread():
         pytest.skip("the test runner does not run tests on the main thread")
     thread, _, tag, stop = run_stoppable(True, _where, "x")
     assert thread is not threading.main_thread()
-    assert thread.name.startswith("terrascape-long")
+    assert thread.name == "terrascape-long"
     assert (tag, stop) == ("x", 0)
 
 
@@ -83,18 +89,88 @@ def test_an_interrupted_wait_stops_the_kernel_and_waits_for_it():
     assert time.monotonic() - start < 10.0
 
 
-def test_a_forked_child_makes_its_own_pool():
-    _stoppable._pool()
+def test_a_forked_child_makes_its_own_worker():
+    _stoppable._worker()
     pid = os.fork()
-    if pid == 0:  # the child: a pool of its own, whose thread runs
+    if pid == 0:  # the child: a worker of its own, whose thread runs
         ok = False
         try:
-            ok = _stoppable._pool() is not _stoppable._POOLS.get(os.getppid())
-            ok = ok and _stoppable._pool().submit(lambda: 7).result(timeout=10) == 7
+            ok = _stoppable._worker() is not _stoppable._WORKERS.get(os.getppid())
+            future = Future()
+            _stoppable._worker().submit(future, lambda: 7)
+            ok = ok and future.result(timeout=10) == 7
         finally:
             os._exit(0 if ok else 1)
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0
+
+
+def test_a_kernel_that_holds_the_gil_is_refused():
+    """The waiting thread could not handle a signal while such a kernel runs."""
+
+    @numba.njit
+    def holds(stop):
+        return stop[0]
+
+    with pytest.raises(TypeError, match="nogil"):
+        run_stoppable(True, holds)
+    assert run_stoppable(False, holds) == 0  # on the calling thread it does not matter
+
+
+# The start of the worker's thread interrupted (Ctrl-C landing in Thread.start), then the
+# interpreter's exit: with a ThreadPoolExecutor, whose thread was not yet registered for
+# its shutdown, the exit waited for that thread for ever.
+INTERRUPTED_START = """
+import threading
+from terrascape._stoppable import run_stoppable
+
+start = threading.Thread.start
+
+def interrupted(self):
+    start(self)
+    raise KeyboardInterrupt
+
+threading.Thread.start = interrupted
+try:
+    run_stoppable(True, lambda stop: "ran")
+except KeyboardInterrupt:
+    print("interrupted", flush=True)
+threading.Thread.start = start
+print(run_stoppable(True, lambda stop: "ran"), flush=True)
+"""
+
+
+def test_a_signal_during_the_workers_start_does_not_hang_the_exit():
+    env = {**os.environ, "PYTHONPATH": SRC}
+    proc = subprocess.run([sys.executable, "-c", INTERRUPTED_START], capture_output=True,
+                          text=True, env=env, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["interrupted", "ran"]
+
+
+def test_a_call_interrupted_before_the_worker_began_it_is_cancelled(monkeypatch):
+    """A signal right after the hand-over: the worker does not run the call later."""
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("the test runner does not run tests on the main thread")
+    ran = []
+    worker = _stoppable._worker()
+    submit = worker.submit
+    gate = threading.Event()
+    blocker = Future()
+    submit(blocker, gate.wait)  # the worker is busy until the gate opens
+
+    def interrupted_submit(future, call):
+        submit(future, call)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(worker, "submit", interrupted_submit)
+    with pytest.raises(KeyboardInterrupt):
+        run_stoppable(True, lambda stop: ran.append(1))
+    gate.set()
+    blocker.result(timeout=10)
+    done = Future()
+    submit(done, lambda: "after")
+    assert done.result(timeout=10) == "after" and ran == []
 
 
 def test_a_compiled_kernel_is_compiled_on_the_calling_thread(monkeypatch):
@@ -103,7 +179,7 @@ def test_a_compiled_kernel_is_compiled_on_the_calling_thread(monkeypatch):
     if threading.current_thread() is not threading.main_thread():
         pytest.skip("the test runner does not run tests on the main thread")
 
-    @numba.njit
+    @numba.njit(nogil=True)
     def kernel(values, scale, stop):
         return values.sum() * scale + stop[0]
 

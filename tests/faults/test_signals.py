@@ -230,39 +230,72 @@ def test_a_signal_stops_a_long_erosion_in_one_compiled_run_within_seconds(tmp_pa
     assert waited < 10.0, f"SIGTERM took {waited:.1f} s"
 
 
-# Ctrl-C in a library call (a notebook's interrupt button sends the same signal).
-CTRL_C_IN_SKY_VIEW = """
-import sys, time
+def _interrupt(proc, sig: int, ready, delay: float) -> tuple[str, str, float]:
+    """Wait for ``ready()`` (a line the child prints when its long call begins; it must say
+    "ready" unless empty) and ``delay`` seconds more, send ``sig`` and return the child's
+    stdout and stderr and the seconds it took to exit (killed on any failure)."""
+    try:
+        line = ready()
+        assert line.strip() in ("", "ready"), line
+        time.sleep(delay)
+        assert proc.poll() is None, proc.stderr.read()
+        start = time.perf_counter()
+        proc.send_signal(sig)
+        out, err = proc.communicate(timeout=120)
+        return out, err, time.perf_counter() - start
+    finally:
+        proc.kill()
+
+
+# Ctrl-C in a library call (a notebook's interrupt button sends the same signal): the call
+# (after a first one that compiles or loads it) is about 10-20 s here.
+CTRL_C_IN_A_LIBRARY_CALL = """
+import sys
 import numpy as np
+from terrascape.analysis.drainage import breach_depressions
 from terrascape.generate import fbm
 from terrascape.lighting import sky_view_factor
 
-sky_view_factor(np.random.default_rng(3).random((16, 16)))  # compiled (or loaded) first
-heights = fbm(2049, seed=3)
+call = {"sky-view": sky_view_factor, "breach": breach_depressions}[sys.argv[1]]
+call(np.random.default_rng(3).random((16, 16)))
+heights = fbm(int(sys.argv[2]), seed=3)
 print("ready", flush=True)
 try:
-    sky_view_factor(heights)
+    call(heights)
     print("finished")
 except KeyboardInterrupt:
     print("KeyboardInterrupt", flush=True)
 """
 
 
-def test_ctrl_c_stops_a_long_library_call_at_once():
-    """The sky-view factor of a 2049² map is one compiled call of about 20 s here. Ctrl-C
-    during it raises KeyboardInterrupt at once, not after the call (nor a SystemError from
-    numba's conversion of a result)."""
-    proc = subprocess.Popen([sys.executable, "-c", CTRL_C_IN_SKY_VIEW], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env=ENV)
-    try:
-        assert proc.stdout.readline().strip() == "ready"
-        time.sleep(1.0)
-        start = time.perf_counter()
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=120)
-        waited = time.perf_counter() - start
-    finally:
-        proc.kill()
+@pytest.mark.parametrize(("call", "side"), [("sky-view", 2049), ("breach", 4097)])
+def test_ctrl_c_stops_a_long_library_call_at_once(call, side):
+    """The sky-view factor of a 2049² map, or the drainage of a 4097² one: Ctrl-C during
+    it raises KeyboardInterrupt at once, not after the call (nor a SystemError from numba's
+    conversion of a result), and the interpreter exits."""
+    proc = subprocess.Popen([sys.executable, "-c", CTRL_C_IN_A_LIBRARY_CALL, call, str(side)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+    out, err, waited = _interrupt(proc, signal.SIGINT, lambda: proc.stdout.readline(), 1.0)
     assert out.strip() == "KeyboardInterrupt", err
-    assert "Error" not in err
+    assert proc.returncode == 0 and "Error" not in err
     assert waited < 6.0, f"Ctrl-C took {waited:.1f} s"
+
+
+@pytest.mark.gl
+def test_a_signal_stops_a_big_cone_map_within_seconds(tmp_path, gl_ctx):
+    """The cone map of a 1024² natural texture is one compiled call of about a minute;
+    made on a pool thread, it is stopped at once by SIGTERM."""
+    from terrascape.relief.cone_map import footprint_cone_map
+
+    footprint_cone_map(np.eye(16))  # compiled (or loaded) first
+    out = tmp_path / "r.png"
+    proc = subprocess.Popen([sys.executable, "-c", "from terrascape.cli import main; main()",
+                             "relief", str(out), "--technique", "cone", "--field",
+                             "natural", "--texture-size", "1024"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=ENV)
+    # after start-up, the GL context and the texture: the cone map is under way
+    _out, err, waited = _interrupt(proc, signal.SIGTERM, lambda: "", 5.0)
+    assert proc.returncode == 143, err
+    assert "interrupted (SIGTERM); nothing was written" in err
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+    assert waited < 10.0, f"SIGTERM took {waited:.1f} s"  # before: the whole cone map

@@ -543,7 +543,7 @@ def test_one_order_runs_on_a_pool_thread_only_for_the_main_thread(monkeypatch):
     expected = gt.greedy_tin(hm, max_triangles=300)
     if threading.current_thread() is threading.main_thread():
         assert ran_on[-1] is not threading.main_thread()
-        assert ran_on[-1].name.startswith("terrascape-long")
+        assert ran_on[-1].name == "terrascape-long"
     callers = [threading.Thread(target=lambda: gt.greedy_tin(hm, max_triangles=300))
                for _ in range(2)]
     for t in callers:

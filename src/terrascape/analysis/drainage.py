@@ -43,13 +43,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrascape._numba import CACHE, FASTMATH, njit
+from terrascape._numba import CACHE, FASTMATH, njit, stop_requested
+from terrascape._stoppable import run_stoppable
 from terrascape._validate import as_height_array, check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 
 _DZ8 = np.array([-1, -1, -1, 0, 0, 1, 1, 1], dtype=np.int64)
 _DX8 = np.array([-1, 0, 1, -1, 1, -1, 0, 1], dtype=np.int64)
+# Samples above which the flood runs on a pool thread, so that Ctrl-C stops it at once
+# (:func:`run_stoppable`): a 512² map takes a few tens of milliseconds, a 4097² one seconds.
+_LONG_SAMPLES = 1 << 18
 
 
 # --- binary min-heap on (level, height) keys; sift by moving holes (no swaps) -------------
@@ -100,10 +104,12 @@ def _heap_pop(hk, hh, hv, n):  # pragma: no cover - compiled
     return top, n
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
-def _priority_flood(h, filled, parent, order):  # pragma: no cover - compiled
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)  # its caller waits, handling signals
+def _priority_flood(h, filled, parent, order, stop):  # pragma: no cover - compiled
     """Fill ``h`` into ``filled``; ``parent`` = flat index of the sample that reached each
-    sample (-1 on the border); ``order`` = samples in the order they left the heap.
+    sample (-1 on the border); ``order`` = samples in the order they left the heap. Returns
+    how many left it: fewer than all once ``stop[0]`` is set (read every 65,536 samples;
+    :func:`run_stoppable`).
 
     The heap key is (filled level, original height): inside a lake the front first runs
     down the original slope to the pit bottom, so the flood tree (``parent``) follows the
@@ -128,6 +134,8 @@ def _priority_flood(h, filled, parent, order):  # pragma: no cover - compiled
                 size = _heap_push(hk, hh, hv, size, h[z, x], h[z, x], i)
     done = 0
     while size > 0:
+        if done & 0xFFFF == 0 and stop_requested(stop):
+            break
         c, size = _heap_pop(hk, hh, hv, size)
         order[done] = c
         done += 1
@@ -306,7 +314,7 @@ def _routing(h: np.ndarray, sx: float, sz: float) -> FlowRouting:
     filled = np.empty_like(h)
     parent = np.empty(rows * cols, dtype=np.int64)
     order = np.empty(rows * cols, dtype=np.int64)
-    _priority_flood(h, filled, parent, order)
+    run_stoppable(h.size > _LONG_SAMPLES, _priority_flood, h, filled, parent, order)
     receivers = np.empty(rows * cols, dtype=np.int64)
     dist = np.empty(rows * cols, dtype=np.float64)
     _d8_receivers(filled, parent, receivers, dist, float(sx), float(sz))

@@ -183,7 +183,7 @@ def _transport(s1, fl, fr, ft, fb, d1, s_out, d2, dt, cell_area, evaporation):
             d2[z, x] *= 1.0 - evaporation * dt
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)  # its caller waits, handling signals
 def _run(b, d, s, fl, fr, ft, fb, rain, iterations, dt, coef, sx, sz, kc, min_tilt, d_max,
          ks, kd, evaporation, flow, stop):  # pragma: no cover - compiled
     """``iterations`` time steps; ends before the next one once ``stop[0]`` is set

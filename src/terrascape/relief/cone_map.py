@@ -36,17 +36,26 @@ import math
 
 import numpy as np
 
-from terrascape._numba import CACHE, FASTMATH, njit, prange
+from terrascape._numba import CACHE, FASTMATH, njit, prange, stop_requested
+from terrascape._stoppable import run_stoppable
 from terrascape._validate import check_positive
 from terrascape.relief.minmax_mip import corner_depths
 from terrascape.relief.reference import heights_to_depth
 
+# Texels above which a cone map is made on a pool thread, so that Ctrl-C stops it at once
+# (:func:`run_stoppable`): a 128² texture takes tens of milliseconds, a 1024² one a minute.
+_LONG_TEXELS = 128 * 128
+
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _cone_kernel(depth, du, dv, c_max, out):
+def _cone_kernel(depth, du, dv, c_max, out, stop):
+    """Cone ratios into ``out``; rows not yet begun are left unwritten once ``stop[0]`` is
+    set (:func:`run_stoppable`)."""
     rows, cols = depth.shape
     d_min = depth.min()
     for r in prange(rows):
+        if stop_requested(stop):
+            continue
         for c in range(cols):
             d_i = depth[r, c]
             best = c_max
@@ -92,7 +101,8 @@ def cone_map(heights, *, c_max: float = 1.0) -> np.ndarray:
     c_max = check_positive(c_max, "c_max")
     rows, cols = depth.shape
     out = np.empty_like(depth)
-    _cone_kernel(depth, 1.0 / cols, 1.0 / rows, c_max, out)
+    run_stoppable(depth.size > _LONG_TEXELS, _cone_kernel, depth, 1.0 / cols, 1.0 / rows,
+                  c_max, out)
     return out.astype(np.float32)
 
 
@@ -114,12 +124,15 @@ def cone_map_bruteforce(heights, *, c_max: float = 1.0) -> np.ndarray:
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _footprint_cone_kernel(cell_min, apex, c_max, out):
+def _footprint_cone_kernel(cell_min, apex, c_max, out, stop):
     # Texel i's footprint F_i = [i − ½, i + ½]²; cell k spans [k, k + 1]² with minimum
-    # depth cell_min[k]. Box distance per axis: max(0, |i − (k + ½)| − 1) texels.
+    # depth cell_min[k]. Box distance per axis: max(0, |i − (k + ½)| − 1) texels. Rows not
+    # yet begun are left unwritten once stop[0] is set (run_stoppable).
     rows, cols = cell_min.shape
     d_min = cell_min.min()
     for r in prange(rows):
+        if stop_requested(stop):
+            continue
         for c in range(cols):
             a = apex[r, c]
             best = c_max
@@ -132,10 +145,11 @@ def _footprint_cone_kernel(cell_min, apex, c_max, out):
                 if (ring - 0.5) / (span * max(rows, cols)) >= best:
                     break
                 for oy in range(-ring - 1, ring + 1):
+                    # the ring's cells only: all of its first and last row, the two ends of
+                    # the others (2·ring + 1 apart)
                     edge = oy == -ring - 1 or oy == ring
-                    for ox in range(-ring - 1, ring + 1):
-                        if not edge and ox != -ring - 1 and ox != ring:
-                            continue
+                    step = 1 if edge else 2 * ring + 1
+                    for ox in range(-ring - 1, ring + 1, step):
                         m = cell_min[(r + oy) % rows, (c + ox) % cols]
                         diff = a - m
                         if diff > 0.0:
@@ -172,7 +186,8 @@ def footprint_cone_map(heights, *, c_max: float = 1.0) -> np.ndarray:
         np.minimum(np.roll(cell_min, 1, axis=0), np.roll(np.roll(cell_min, 1, axis=0), 1, 1)),
     )
     out = np.empty_like(depth)
-    _footprint_cone_kernel(cell_min, apex, c_max, out)
+    run_stoppable(depth.size > _LONG_TEXELS, _footprint_cone_kernel, cell_min, apex, c_max,
+                  out)
     return np.stack([apex, out], axis=-1).astype(np.float32)
 
 
