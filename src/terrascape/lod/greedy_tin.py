@@ -1372,6 +1372,23 @@ def _thread_pool(workers: int) -> ThreadPoolExecutor:
     return pool
 
 
+def _submit_all(workers: int, run, jobs: list, futures: list) -> None:
+    """Hand ``run(job)`` for every job to the pool of ``workers`` threads, into ``futures``.
+
+    A signal while handing them out may land while the pool starts a thread it has not yet
+    registered for the interpreter's exit, which would then wait for that thread for ever.
+    So on any exception the pool is shut down (its threads, that one too, then end) and
+    left for a new one."""
+    pool = _thread_pool(workers)
+    try:
+        for job in jobs:
+            futures.append(pool.submit(run, job))
+    except BaseException:
+        _POOLS.pop((os.getpid(), workers), None)
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+
+
 def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
     """The mesh of ``h`` within ``tol`` as independent rectangular pieces meshed in parallel.
 
@@ -1409,12 +1426,6 @@ def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
         return _grid_triangles(coords, tris, cols)
     parts = []
     n_tris = 0
-    if workers > 1:
-        futures = [_thread_pool(workers).submit(run, job) for job in jobs]
-        done = (future.result() for future in futures)
-    else:
-        futures = []
-        done = (run(job) for job in jobs)
     # the mesh's size is known piece by piece: once the pieces so far already make a join
     # that cannot fit, those not yet started are dropped. Only with more than two pieces
     # per thread (with fewer, at most one is still waiting when the first is done), and
@@ -1422,7 +1433,13 @@ def _mesh_in_pieces(h: np.ndarray, tol: float, magnitude: float) -> np.ndarray:
     early = len(jobs) > 2 * workers
     cap = memory_limit() if early else 0
     per_triangle = PEAK_BYTES_PER_TRIANGLE["greedy join"]
+    futures: list = []
     try:
+        if workers > 1:
+            _submit_all(workers, run, jobs, futures)
+            done = (future.result() for future in futures)
+        else:
+            done = (run(job) for job in jobs)
         for part in done:
             parts.append(part)
             n_tris += len(part[1]) // 3
