@@ -1,12 +1,14 @@
 """Shared fixtures: a seeded rng, a headless GL context and an Xvfb screen that skip —
-except in CI."""
+except in CI, and a run of a call whose thread start is interrupted."""
 
 from __future__ import annotations
 
 import os
+import pathlib
 import select
 import shutil
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -17,6 +19,45 @@ IN_CI = os.environ.get("CI", "").lower() in {"1", "true", "yes"}
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(12345)
+
+
+# Ctrl-C landing in Thread.start once the thread has started (a pool then may not have
+# registered it for the interpreter's exit), during ``CALL``; then, with "again", the same
+# call once more, printed.
+_INTERRUPTED_START = """
+import sys
+import threading
+SETUP
+start = threading.Thread.start
+
+def interrupted(self):
+    start(self)
+    raise KeyboardInterrupt
+
+threading.Thread.start = interrupted
+try:
+    CALL
+except KeyboardInterrupt:
+    print("interrupted", flush=True)
+threading.Thread.start = start
+if sys.argv[1] == "again":
+    print(CALL, flush=True)
+"""
+
+
+@pytest.fixture
+def interrupted_thread_start():
+    """``run(setup, call, then, **env)``: the script above in a fresh interpreter (``then``
+    "exit" or "again"); returns the finished process (a hang at exit times out)."""
+    src = str(pathlib.Path(__file__).resolve().parents[1] / "src")
+
+    def run(setup: str, call: str, then: str, **env: str) -> subprocess.CompletedProcess:
+        script = _INTERRUPTED_START.replace("SETUP", setup).replace("CALL", call)
+        return subprocess.run([sys.executable, "-c", script, then], capture_output=True,
+                              text=True, env={**os.environ, "PYTHONPATH": src, **env},
+                              timeout=120)
+
+    return run
 
 
 @pytest.fixture(scope="session")

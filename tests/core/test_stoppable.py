@@ -6,8 +6,6 @@ from __future__ import annotations
 import os
 import pathlib
 import signal
-import subprocess
-import sys
 import threading
 import time
 from concurrent.futures import Future
@@ -117,35 +115,15 @@ def test_a_kernel_that_holds_the_gil_is_refused():
     assert run_stoppable(False, holds) == 0  # on the calling thread it does not matter
 
 
-# The start of the worker's thread interrupted (Ctrl-C landing in Thread.start), then the
-# interpreter's exit: with a ThreadPoolExecutor, whose thread was not yet registered for
-# its shutdown, the exit waited for that thread for ever.
-INTERRUPTED_START = """
-import threading
-from terrascape._stoppable import run_stoppable
-
-start = threading.Thread.start
-
-def interrupted(self):
-    start(self)
-    raise KeyboardInterrupt
-
-threading.Thread.start = interrupted
-try:
-    run_stoppable(True, lambda stop: "ran")
-except KeyboardInterrupt:
-    print("interrupted", flush=True)
-threading.Thread.start = start
-print(run_stoppable(True, lambda stop: "ran"), flush=True)
-"""
-
-
-def test_a_signal_during_the_workers_start_does_not_hang_the_exit():
-    env = {**os.environ, "PYTHONPATH": SRC}
-    proc = subprocess.run([sys.executable, "-c", INTERRUPTED_START], capture_output=True,
-                          text=True, env=env, timeout=60)
-    assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.split() == ["interrupted", "ran"]
+def test_a_signal_during_the_workers_start_does_not_hang_the_exit(interrupted_thread_start):
+    """Ctrl-C landing in the start of the worker's thread, then the interpreter's exit:
+    with a ThreadPoolExecutor, whose thread was not yet registered for its shutdown, the
+    exit waited for that thread for ever."""
+    for then, said in (("exit", ["interrupted"]), ("again", ["interrupted", "ran"])):
+        proc = interrupted_thread_start("from terrascape._stoppable import run_stoppable",
+                                        'run_stoppable(True, lambda stop: "ran")', then)
+        assert proc.returncode == 0, proc.stderr
+        assert proc.stdout.split() == said
 
 
 def test_a_call_interrupted_before_the_worker_began_it_is_cancelled(monkeypatch):

@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import importlib.util
 import os
-import pathlib
-import subprocess
-import sys
 from itertools import pairwise
 
 import numpy as np
@@ -723,41 +720,19 @@ def test_random_maps_in_small_pieces_keep_the_bound(monkeypatch, piece):
         assert max_vertical_error(hm, tri) <= err + 1e-6, (case, rows, cols, err)
 
 
-# Ctrl-C landing while the pieces' pool starts a thread (Thread.start interrupted once it
-# has started the thread), then the interpreter's exit.
-PIECES_INTERRUPTED = """
-import sys
-import threading
-import numpy as np
-from terrascape.heightmap import Heightmap
-from terrascape.lod.greedy_tin import greedy_tin
-
-hm = Heightmap((np.random.default_rng(1).random((700, 700)) * 50).astype(np.float32))
-start = threading.Thread.start
-
-def interrupted(self):
-    start(self)
-    raise KeyboardInterrupt
-
-threading.Thread.start = interrupted
-try:
-    greedy_tin(hm, max_error=5.0)
-except KeyboardInterrupt:
-    print("interrupted", flush=True)
-threading.Thread.start = start
-if sys.argv[1] == "again":  # the next mesh makes a new pool
-    print(len(greedy_tin(hm, max_error=5.0)) > 0, flush=True)
-"""
-
-
-def test_a_signal_while_the_pieces_pool_starts_a_thread_does_not_hang_the_exit():
+def test_a_signal_while_the_pieces_pool_starts_a_thread_does_not_hang_the_exit(
+        interrupted_thread_start):
     """The executor registers a thread for the interpreter's exit only once its start has
     returned: interrupted before, the exit waited for that thread for ever. The pool is
     shut down on the way out (its threads end) and the next mesh makes a new one."""
-    env = {**os.environ, "PYTHONPATH": str(pathlib.Path(__file__).resolve().parents[2] / "src"),
-           "NUMBA_NUM_THREADS": "2"}  # two workers: the pieces go to the pool
+    setup = ("import numpy as np\n"
+             "from terrascape.heightmap import Heightmap\n"
+             "from terrascape.lod.greedy_tin import greedy_tin\n"
+             "hm = Heightmap((np.random.default_rng(1).random((700, 700)) * 50)"
+             ".astype(np.float32))")
     for then, said in (("exit", ["interrupted"]), ("again", ["interrupted", "True"])):
-        proc = subprocess.run([sys.executable, "-c", PIECES_INTERRUPTED, then],
-                              capture_output=True, text=True, env=env, timeout=120)
+        # two workers: the pieces go to the pool
+        proc = interrupted_thread_start(setup, "len(greedy_tin(hm, max_error=5.0)) > 0", then,
+                                        NUMBA_NUM_THREADS="2")
         assert proc.returncode == 0, proc.stderr
         assert proc.stdout.split() == said
