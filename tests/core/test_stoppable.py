@@ -1,4 +1,4 @@
-"""Long compiled calls on a pool thread, stopped by a signal: where they run, with how many
+"""Long compiled calls on a worker thread, stopped by a signal: where they run, with how many
 numba threads, and that the caller's exception waits for the kernel to end."""
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ def _where(tag, stop):
     return threading.current_thread(), numba.get_num_threads(), tag, int(stop[0])
 
 
-def test_a_long_call_from_the_main_thread_runs_on_the_pool_thread():
+def test_a_long_call_from_the_main_thread_runs_on_the_worker_thread():
     if threading.current_thread() is not threading.main_thread():
         pytest.skip("the test runner does not run tests on the main thread")
     thread, _, tag, stop = run_stoppable(True, _where, "x")
@@ -153,7 +153,7 @@ def test_a_call_interrupted_before_the_worker_began_it_is_cancelled(monkeypatch)
 
 def test_a_compiled_kernel_is_compiled_on_the_calling_thread(monkeypatch):
     """A first call compiles for many seconds: on the calling thread, where Ctrl-C stops
-    the compiler at once, not on the pool thread, whose caller would wait for it all."""
+    the compiler at once, not on the worker thread, whose caller would wait for it all."""
     if threading.current_thread() is not threading.main_thread():
         pytest.skip("the test runner does not run tests on the main thread")
 

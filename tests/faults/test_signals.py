@@ -157,7 +157,7 @@ def test_signal_after_one_of_two_outputs_says_what_was_kept(tmp_path, capsys, mo
 
 def test_a_signal_stops_a_long_one_order_mesh_within_seconds(tmp_path):
     """A greedy TIN in one order is one compiled call of half a minute on a 2049² map at
-    error 0; it runs on a pool thread while the main thread waits, so SIGTERM is handled at
+    error 0; it runs on a worker thread while the main thread waits, so SIGTERM is handled at
     once, and the mesher, told to stop, ends within an insertion."""
     from terrascape.lod.greedy_tin import greedy_tin
 
@@ -222,7 +222,7 @@ def test_a_signal_during_a_compiled_call_is_handled_after_it_returns(tmp_path):
 @pytest.mark.parametrize("model", ["thermal", "grid"])
 def test_a_signal_stops_a_long_erosion_in_one_compiled_run_within_seconds(tmp_path, model):
     """The thermal and grid models make all their iterations in one compiled run (about a
-    minute here): it runs on a pool thread while the main thread waits, so SIGTERM is
+    minute here): it runs on a worker thread while the main thread waits, so SIGTERM is
     handled at once, and the run, told to stop, ends before its next iteration."""
     waited = _signal_during(tmp_path, 513, ["erode", str(tmp_path / "out.npy"), "--model",
                                             model, "-n", "8000"], signal.SIGTERM)
@@ -284,7 +284,7 @@ def test_ctrl_c_stops_a_long_library_call_at_once(call, side):
 @pytest.mark.gl
 def test_a_signal_stops_a_big_cone_map_within_seconds(tmp_path, gl_ctx):
     """The cone map of a 1024² natural texture is one compiled call of about a minute;
-    made on a pool thread, it is stopped at once by SIGTERM."""
+    made on a worker thread, it is stopped at once by SIGTERM."""
     from terrascape.relief.cone_map import footprint_cone_map
 
     footprint_cone_map(np.eye(16))  # compiled (or loaded) first

@@ -520,7 +520,7 @@ def test_the_kernels_end_at_once_when_told_to_stop():
 
 
 def test_one_order_runs_on_a_pool_thread_only_for_the_main_thread(monkeypatch):
-    """From the main thread the one-order mesher of a big map runs on a pool thread (the
+    """From the main thread the one-order mesher of a big map runs on a worker thread (the
     main thread waits and so handles signals at once); from any other thread, or for a
     small map, it runs right there, so meshes asked for on several threads run side by
     side, not queued on that pool."""

@@ -51,7 +51,7 @@ from terrascape.heightmap import Heightmap
 
 _DZ8 = np.array([-1, -1, -1, 0, 0, 1, 1, 1], dtype=np.int64)
 _DX8 = np.array([-1, 0, 1, -1, 1, -1, 0, 1], dtype=np.int64)
-# Samples above which the flood runs on a pool thread, so that Ctrl-C stops it at once
+# Samples above which the flood runs on a worker thread, so that Ctrl-C stops it at once
 # (:func:`run_stoppable`): a 512² map takes a few tens of milliseconds, a 4097² one seconds.
 _LONG_SAMPLES = 1 << 18
 

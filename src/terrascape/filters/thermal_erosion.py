@@ -34,7 +34,7 @@ _DZ8 = np.array([-1, -1, -1, 0, 0, 1, 1, 1], dtype=np.int64)
 _DX8 = np.array([-1, 0, 1, -1, 1, -1, 0, 1], dtype=np.int64)
 _DZ4 = np.array([-1, 0, 0, 1], dtype=np.int64)
 _DX4 = np.array([0, -1, 1, 0], dtype=np.int64)
-# Samples × iterations above which the run waits on a pool thread, so that Ctrl-C stops it
+# Samples × iterations above which the run waits on a worker thread, so that Ctrl-C stops it
 # at once (:func:`run_stoppable`): about 20 ms of work, against 0.1 ms for the hand-over.
 _LONG_WORK = 1 << 20
 

@@ -61,7 +61,7 @@ from terrascape.heightmap import Heightmap
 HALO_PER_ITERATION = 3
 
 GRAVITY = 9.81
-# Samples × steps above which the run waits on a pool thread, so that Ctrl-C stops it at
+# Samples × steps above which the run waits on a worker thread, so that Ctrl-C stops it at
 # once (:func:`run_stoppable`): some tens of milliseconds, against 0.1 ms for the hand-over.
 _LONG_WORK = 1 << 20
 

@@ -25,7 +25,7 @@ from terrascape._validate import check_int, check_positive
 from terrascape.lighting._common import as_heightmap
 
 _UNIT_STEPS = 16.0
-# Samples × directions above which the kernel waits on a pool thread, so that Ctrl-C stops
+# Samples × directions above which the kernel waits on a worker thread, so that Ctrl-C stops
 # it at once (:func:`run_stoppable`): some tens of milliseconds, against 0.1 ms for the
 # hand-over.
 _LONG_WORK = 1 << 16

@@ -1355,7 +1355,7 @@ def _line_tolerance(magnitude: float, tol: float) -> float:
 _POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
 
 
-# Maps of more samples are meshed in one order on a pool thread, the main thread waiting
+# Maps of more samples are meshed in one order on a worker thread, the main thread waiting
 # (:func:`terrascape._stoppable.run_stoppable`); a smaller one takes at most a second or
 # two, and the hand-over about 0.1 ms (3–5 % of a 2,000-triangle budget on a 257² map)
 _WAIT_SAMPLES = 1 << 18

@@ -42,7 +42,7 @@ from terrascape._validate import check_positive
 from terrascape.relief.minmax_mip import corner_depths
 from terrascape.relief.reference import heights_to_depth
 
-# Texels above which a cone map is made on a pool thread, so that Ctrl-C stops it at once
+# Texels above which a cone map is made on a worker thread, so that Ctrl-C stops it at once
 # (:func:`run_stoppable`): a 128² texture takes tens of milliseconds, a 1024² one a minute.
 _LONG_TEXELS = 128 * 128
 
