@@ -84,8 +84,7 @@ class _Worker:
 
     def __init__(self) -> None:
         self._calls: queue.SimpleQueue = queue.SimpleQueue()
-        self.thread = threading.Thread(target=self._serve, name="terrascape-long", daemon=True)
-        self.thread.start()
+        threading.Thread(target=self._serve, name="terrascape-long", daemon=True).start()
 
     def submit(self, future: Future, call: Callable[[], Any]) -> None:
         self._calls.put((future, call))

@@ -107,13 +107,8 @@ def _signal_during(tmp_path, side: int, command: list[str], sig: int) -> float:
          str(src), *command[1:]],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV,
     )
-    line = proc.stderr.readline()  # "read… 0.01 s": the work starts now
-    assert line.startswith("read"), line
-    time.sleep(1.5)
-    start = time.perf_counter()
-    proc.send_signal(sig)
-    _out, err = proc.communicate(timeout=120)
-    waited = time.perf_counter() - start
+    # "read… 0.01 s": the work starts now
+    _out, err, waited = _interrupt(proc, sig, 1.5, (proc.stderr, "read"))
     assert proc.returncode == 128 + sig, err
     assert f"interrupted ({signal.Signals(sig).name}); nothing was written" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.npy"]
@@ -230,13 +225,16 @@ def test_a_signal_stops_a_long_erosion_in_one_compiled_run_within_seconds(tmp_pa
     assert waited < 10.0, f"SIGTERM took {waited:.1f} s"
 
 
-def _interrupt(proc, sig: int, ready, delay: float) -> tuple[str, str, float]:
-    """Wait for ``ready()`` (a line the child prints when its long call begins; it must say
-    "ready" unless empty) and ``delay`` seconds more, send ``sig`` and return the child's
-    stdout and stderr and the seconds it took to exit (killed on any failure)."""
+def _interrupt(proc, sig: int, delay: float, first_line=None) -> tuple[str, str, float]:
+    """Wait for the child's first line on a stream, when ``first_line`` is ``(stream,
+    prefix)`` (it says its long work begins), and ``delay`` seconds more; send ``sig`` and
+    return the child's stdout and stderr and the seconds it took to exit (killed on any
+    failure)."""
     try:
-        line = ready()
-        assert line.strip() in ("", "ready"), line
+        if first_line is not None:
+            stream, prefix = first_line
+            line = stream.readline()
+            assert line.startswith(prefix), line
         time.sleep(delay)
         assert proc.poll() is None, proc.stderr.read()
         start = time.perf_counter()
@@ -275,7 +273,7 @@ def test_ctrl_c_stops_a_long_library_call_at_once(call, side):
     conversion of a result), and the interpreter exits."""
     proc = subprocess.Popen([sys.executable, "-c", CTRL_C_IN_A_LIBRARY_CALL, call, str(side)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
-    out, err, waited = _interrupt(proc, signal.SIGINT, lambda: proc.stdout.readline(), 1.0)
+    out, err, waited = _interrupt(proc, signal.SIGINT, 1.0, (proc.stdout, "ready"))
     assert out.strip() == "KeyboardInterrupt", err
     assert proc.returncode == 0 and "Error" not in err
     assert waited < 6.0, f"Ctrl-C took {waited:.1f} s"
@@ -294,7 +292,7 @@ def test_a_signal_stops_a_big_cone_map_within_seconds(tmp_path, gl_ctx):
                              "natural", "--texture-size", "1024"], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env=ENV)
     # after start-up, the GL context and the texture: the cone map is under way
-    _out, err, waited = _interrupt(proc, signal.SIGTERM, lambda: "", 5.0)
+    _out, err, waited = _interrupt(proc, signal.SIGTERM, 5.0)
     assert proc.returncode == 143, err
     assert "interrupted (SIGTERM); nothing was written" in err
     assert not out.exists() and list(tmp_path.iterdir()) == []
