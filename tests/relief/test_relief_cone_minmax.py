@@ -43,25 +43,31 @@ def test_footprint_cones_are_empty_of_the_bilinear_surface():
     assert (fc[..., 1] > 0).all()
 
 
+def _cells_and_apexes(h):
+    """Each bilinear cell's lowest depth, and each texel's apex: the least of the four
+    cells overlapping its footprint (footprint_cone_map's definitions)."""
+    from terrascape.relief.minmax_mip import corner_depths
+    from terrascape.relief.reference import heights_to_depth
+
+    cell_min = corner_depths(heights_to_depth(h)).min(axis=-1)
+    apex = np.minimum(np.minimum(cell_min, np.roll(cell_min, 1, axis=1)),
+                      np.minimum(np.roll(cell_min, 1, axis=0),
+                                 np.roll(np.roll(cell_min, 1, axis=0), 1, 1)))
+    return cell_min, apex
+
+
 def _footprint_cones_by_brute_force(h, c_max=1.0):
     """footprint_cone_map's definition over every cell at every offset its ring walk can
     reach ([-n/2 - 1, n/2] on each axis, wrapped), with numpy: the lowest box-to-box
     distance ÷ depth difference, capped at c_max."""
-    from terrascape.relief.minmax_mip import corner_depths
-    from terrascape.relief.reference import heights_to_depth
-
-    depth = heights_to_depth(h)
-    rows, cols = depth.shape
-    cell_min = corner_depths(depth).min(axis=-1)
-    apex = np.minimum(np.minimum(cell_min, np.roll(cell_min, 1, axis=1)),
-                      np.minimum(np.roll(cell_min, 1, axis=0),
-                                 np.roll(np.roll(cell_min, 1, axis=0), 1, 1)))
+    cell_min, apex = _cells_and_apexes(h)
+    rows, cols = cell_min.shape
     reach = max(rows, cols) // 2
     offsets = np.arange(-reach - 1, reach + 1)
     oy, ox = np.meshgrid(offsets, offsets, indexing="ij")
     dist = np.hypot(np.maximum(0.0, np.abs(ox + 0.5) - 1.0) / cols,
                     np.maximum(0.0, np.abs(oy + 0.5) - 1.0) / rows)
-    ratio = np.full(depth.shape, c_max)
+    ratio = np.full(cell_min.shape, c_max)
     for r in range(rows):
         for c in range(cols):
             diff = apex[r, c] - cell_min[(r + oy) % rows, (c + ox) % cols]
@@ -84,6 +90,78 @@ def test_footprint_cones_equal_their_definition(field):
     np.testing.assert_allclose(fc[..., 0], apex, rtol=1e-6)
     np.testing.assert_allclose(fc[..., 1], ratio, rtol=1e-5)
     assert (ratio < 1.0).mean() > 0.3  # many cones are narrowed by some cell
+
+
+@pytest.mark.parametrize(("rows", "cols", "seed"), [(40, 56, 1), (64, 64, 2), (33, 47, 3)])
+def test_cones_searched_by_blocks_equal_their_definition(rows, cols, seed):
+    """Textures of several blocks a side, not multiples of the block, heights in a few
+    steps (many cells tie at a texel's cone): every cone is the definition's, bit for bit.
+    A ring of blocks stopped on its positive side's distance (the negative side is half a
+    texel nearer in box distance) narrowed 1–3 cones of each map too little."""
+    h = np.round(natural_field(64, seed=seed)[:rows, :cols] * 4) / 4
+    fc = footprint_cone_map(h)
+    apex, ratio = _footprint_cones_by_brute_force(h)
+    np.testing.assert_array_equal(fc[..., 0], apex.astype(np.float32))
+    np.testing.assert_array_equal(fc[..., 1], ratio.astype(np.float32))
+    np.testing.assert_allclose(cone_map(h), cone_map_bruteforce(h), rtol=1e-6)
+    assert (ratio < 1.0).mean() > 0.3
+
+
+def _cones_from_few_cells(values, apex, footprint, c_max=1.0):
+    """The cone definition where few cells lie above any texel's apex: every texel against
+    each of those cells only, at the nearer of its two wrapped offsets on each axis (box to
+    box with ``footprint``, else centre to centre)."""
+    rows, cols = values.shape
+    ky, kx = np.nonzero(values < apex.max())
+
+    def gap(k, i, n):
+        o = (k[None, None, :] - i) % n
+        near = np.minimum(np.abs(o + 0.5), np.abs(o - n + 0.5))
+        if footprint:
+            return np.maximum(0.0, near - 1.0) / n
+        return np.minimum(o, n - o) / n
+
+    gy = gap(ky, np.arange(rows)[:, None, None], rows)
+    gx = gap(kx, np.arange(cols)[None, :, None], cols)
+    diff = (apex[:, :, None] - values[ky, kx][None, None, :]).astype(np.float64)
+    ratio = np.where(diff > 0.0, np.sqrt(gx * gx + gy * gy) / np.where(diff > 0, diff, 1.0),
+                     np.inf)
+    return np.minimum(c_max, ratio.min(axis=-1))
+
+
+@pytest.mark.parametrize("seed", [7, 8, 9])
+@pytest.mark.parametrize("footprint", [False, True])
+def test_wide_cones_searched_by_groups_of_blocks(footprint, seed):
+    """A deep flat texture with a few high points: most cones reach tens of texels, past the
+    rings searched block by block, into the groups of blocks. Each cone is the definition's.
+    (It failed when the groups' search skipped one ring of blocks more than the first
+    search had made, and when a ring of groups stopped on its positive side's distance.)"""
+    from terrascape.relief.reference import heights_to_depth
+
+    rng = np.random.default_rng(seed)
+    h = np.zeros((192, 176))
+    h[rng.integers(0, 192, 5), rng.integers(0, 176, 5)] = rng.uniform(0.2, 1.0, 5)
+    if footprint:
+        got = footprint_cone_map(h)[..., 1]
+        values, apex = _cells_and_apexes(h)
+    else:
+        got = cone_map(h)
+        values = apex = heights_to_depth(h)
+    want = _cones_from_few_cells(values, apex, footprint)
+    np.testing.assert_allclose(got, want, rtol=1e-6)
+    # a search ends where a ring's distance ÷ the deepest possible difference reaches the
+    # cone: most reach past the four rings of 8-texel blocks
+    reach = want * (apex - values.min()) * 192
+    assert np.median(reach) > 40
+
+
+def test_cones_of_a_smooth_field_through_groups_of_blocks():
+    """A smooth field of 150×130 texels: many cones are found in the groups of blocks, past
+    cones found in nearer ones, so a group's bound decides. Every cone is the definition's
+    (a group bound 8 texels too eager on one axis got 32 wrong)."""
+    h = natural_field(256, seed=2)[:150, :130]
+    _, ratio = _footprint_cones_by_brute_force(h)
+    np.testing.assert_array_equal(footprint_cone_map(h)[..., 1], ratio.astype(np.float32))
 
 
 def test_minmax_mip_bounds_every_cell():
@@ -133,9 +211,6 @@ def test_the_cone_kernels_told_to_stop_begin_no_more_rows(footprint):
     for stop in (0, 1):
         out = np.full(depth.shape, -1.0)
         flag = np.array([stop], np.uint8)
-        if footprint:
-            cm._footprint_cone_kernel(depth, depth, 1.0, out, flag)
-        else:
-            cm._cone_kernel(depth, 1.0 / 16, 1.0 / 16, 1.0, out, flag)
+        cm._cone_kernel(depth, depth, footprint, 1.0, out, flag)
         assert (out == -1.0).all() == bool(stop)
         assert (out == -1.0).any() == bool(stop)

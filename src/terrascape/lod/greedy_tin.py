@@ -81,7 +81,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numba
 import numpy as np
 
-from terrascape._numba import CACHE, FASTMATH, njit, read_only
+from terrascape._numba import CACHE, FASTMATH, njit, read_only, stop_requested
 from terrascape._stoppable import run_stoppable
 from terrascape._validate import check_int, check_positive
 from terrascape.errors import InvalidParameterError
@@ -851,7 +851,7 @@ def _refine(h, tplane, tres, bound, order, max_error, max_tris, coords, tris, ha
     thread set ``stop[0]`` (``_STOPPED``: an interrupted mesh ends within an insertion)."""
     cap_tris = tris.shape[0] // 3
     while True:
-        if stop[0] != 0:
+        if stop_requested(stop):
             state[_STATUS] = _STOPPED
             return
         # the triangles that changed (at the start: all) rasterised and queued
@@ -1068,7 +1068,7 @@ def _remove_kernel(h, tplane, tres, bound, order, coords, tris, half, n_edges, m
         for v in range(n_points - 1, 3, -1):
             if not dirty[v]:
                 continue
-            if stop[0] != 0:
+            if stop_requested(stop):
                 return removed
             dirty[v] = False
             x = coords[v, 0]
