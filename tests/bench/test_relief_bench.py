@@ -72,3 +72,14 @@ def test_precision_table_worst_over_seeds(gl_ctx):
     fences_linear = [row for row in table.rows
                      if row[1].startswith("fences") and row[3] == "relief 16+8"]
     assert max(row[6] for row in fences_linear) > 5.0  # it steps through the fences
+
+
+def test_cone_map_table_times_both_fields():
+    table = bench_relief.cone_map_table(sizes=(32, 64))
+    assert [(r[0], r[1]) for r in table.rows] == [("city", "32²"), ("natural", "32²"),
+                                                  ("city", "64²"), ("natural", "64²")]
+    for _, texels, seconds, per_texel, median in table.rows:
+        side = int(texels.rstrip("²"))
+        assert 0.0 < seconds < 5.0
+        assert per_texel == pytest.approx(seconds / side**2 * 1e9)
+        assert 0.0 < median <= 1.0  # cones in UV per unit depth, capped at 1

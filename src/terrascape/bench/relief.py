@@ -283,6 +283,27 @@ def prewarp_table(*, tex=512, angles=ANGLES):
     return table
 
 
+def cone_map_table(*, sizes=(256, 512, 1024)):
+    """Build time of the cone technique's cone map (:func:`footprint_cone_map`) on the
+    natural and city fields: best of 3 after a warm-up, numba's threads."""
+    import numba
+
+    from terrascape.relief.cone_map import footprint_cone_map
+
+    table = BenchTable("Cone step mapping: building the cone map (CPU, once per texture)",
+                       ["field", "texels", "s", "ns/texel", "median cone ratio"])
+    for tex in sizes:
+        for name, heights in _fields(tex).items():
+            seconds = best_of(lambda h=heights: footprint_cone_map(h), repeat=3, warmup=1)
+            cones = footprint_cone_map(heights)
+            table.rows.append([name, f"{tex}²", seconds, seconds / tex**2 * 1e9,
+                               float(np.median(cones[..., 1]))])
+    table.notes.append(f"exact cones searched by blocks of texels, {numba.get_num_threads()} "
+                       "numba threads; the cone technique builds one when its texture is "
+                       "first drawn")
+    return table
+
+
 # Janković 2010 §2.7 (test configuration 2): FPS of texture mapping vs parallax / relief.
 SEED_FPS = {
     "urban 512² tiled": {"texture": 176, "relief": 44, "parallax_tex": 894, "parallax": 867},
@@ -517,11 +538,13 @@ def run(quick: bool = False) -> list[BenchTable]:
             tables = quality_tables(ctx, tex=64, fb=128, angles=(60,), quick=True)
             tables.append(precision_table(ctx, tex=64, fb=128, angles=(70,), seeds=(0, 1)))
             tables.append(prewarp_table(tex=128, angles=(60,)))
+            tables.append(cone_map_table(sizes=(64, 128)))
             tables += seed_table(ctx, size=(320, 240), terrain=65, quick=True)
         else:
             tables = quality_tables(ctx)
             tables.append(precision_table(ctx))
             tables.append(prewarp_table())
+            tables.append(cone_map_table())
             tables += seed_table(ctx)
     tables[-1].notes.append(f"benchmark wall time {time.perf_counter() - t0:.1f} s")
     return tables
