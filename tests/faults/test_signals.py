@@ -246,7 +246,7 @@ def _interrupt(proc, sig: int, delay: float, first_line=None) -> tuple[str, str,
 
 
 # Ctrl-C in a library call (a notebook's interrupt button sends the same signal): the call
-# (after a first one that compiles or loads it) is about 10-20 s here.
+# (after a first one that compiles or loads it) is about 10-30 s here.
 CTRL_C_IN_A_LIBRARY_CALL = """
 import signal
 import sys
