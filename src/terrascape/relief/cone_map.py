@@ -97,13 +97,21 @@ def _block_cones(values, low, jy, jx, r, c, a, best, origin, footprint):
         return best
     u0 = jy * block - origin
     v0 = jx * block - origin
-    near_y = _axis_gap(u0 - r, u0 - r + block - 1, rows, footprint)
-    near_x = _axis_gap(v0 - c, v0 - c + block - 1, cols, footprint)
-    # the bound squared: no root or division for the blocks passed over
-    limit = best * _BOUND_MARGIN * block_diff
-    if near_x * near_x + near_y * near_y >= limit * limit:
+    if _square_cannot_beat(u0 - r, v0 - c, block, rows, cols, best, block_diff, footprint):
         return best
     return _cell_cones(values, u0, v0, r, c, a, best, footprint)
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, inline="always")
+def _square_cannot_beat(oy, ox, size, rows, cols, best, diff, footprint):
+    """Whether no cell of the square of ``size`` cells at offset ``(oy, ox)`` from the
+    texel, none lower than ``diff`` below the apex, can narrow the cone ``best``: its
+    nearest offset ÷ ``diff`` is no less (compared squared: no root or division for the
+    squares passed over)."""
+    near_y = _axis_gap(oy, oy + size - 1, rows, footprint)
+    near_x = _axis_gap(ox, ox + size - 1, cols, footprint)
+    limit = best * _BOUND_MARGIN * diff
+    return near_x * near_x + near_y * near_y >= limit * limit
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -144,12 +152,15 @@ def _cell_cones(values, u0, v0, r, c, a, best, footprint):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, inline="always")
-def _ring_gap(q, size, rows, cols, footprint):
-    """Least UV distance from a texel to the cells of ring ``q`` of squares of ``size``
-    texels around its own: at least (q − 1)·size + 1 texels off on one axis, the negative
-    side being the nearer in box distance."""
+def _ring_cannot_beat(q, size, rows, cols, span, best, footprint):
+    """Whether no cell of ring ``q`` (≥ 1) of squares of ``size`` texels around the texel's
+    own can narrow the cone ``best``, ``span`` being the deepest a cell can lie below the
+    apex: the ring's least UV distance ÷ ``span`` is no less. Every cell of the ring lies
+    at least (q − 1)·size + 1 texels off on one axis, the negative side being the nearer in
+    box distance."""
     near = -((q - 1) * size + 1)
-    return min(_axis_gap(near, near, cols, footprint), _axis_gap(near, near, rows, footprint))
+    gap = min(_axis_gap(near, near, cols, footprint), _axis_gap(near, near, rows, footprint))
+    return gap / span >= best * _BOUND_MARGIN
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -199,8 +210,8 @@ def _row_cones(values, apex, low, group_low, r, origin, p_max, d_min, footprint,
         # the nearest rings block by block, nearest first
         done = False
         for q in range(_NEAR_RINGS + 1):
-            gap = _ring_gap(q, block, rows, cols, footprint)
-            if q > 0 and gap / span >= best * _BOUND_MARGIN:
+            # ring 0, the texel's own block, is always searched
+            if q > 0 and _ring_cannot_beat(q, block, rows, cols, span, best, footprint):
                 done = True
                 break
             for jy in range(by - q, by + q + 1):
@@ -214,8 +225,7 @@ def _row_cones(values, apex, low, group_low, r, origin, p_max, d_min, footprint,
             hy = (r + origin) // size
             hx = (c + origin) // size
             for p in range(p_max + 1):
-                gap = _ring_gap(p, size, rows, cols, footprint)
-                if p > 0 and gap / span >= best * _BOUND_MARGIN:
+                if p > 0 and _ring_cannot_beat(p, size, rows, cols, span, best, footprint):
                     break
                 for gy in range(hy - p, hy + p + 1):
                     step = 1 if gy == hy - p or gy == hy + p else 2 * p
@@ -224,11 +234,8 @@ def _row_cones(values, apex, low, group_low, r, origin, p_max, d_min, footprint,
                         group_diff = a - group_low[gy, gx]
                         if group_diff <= 0.0:
                             continue
-                        v0 = gx * size - origin
-                        near_y = _axis_gap(u0 - r, u0 - r + size - 1, rows, footprint)
-                        near_x = _axis_gap(v0 - c, v0 - c + size - 1, cols, footprint)
-                        limit = best * _BOUND_MARGIN * group_diff
-                        if near_x * near_x + near_y * near_y >= limit * limit:
+                        if _square_cannot_beat(u0 - r, gx * size - origin - c, size, rows,
+                                               cols, best, group_diff, footprint):
                             continue
                         for jy in range(gy * group, (gy + 1) * group):
                             for jx in range(gx * group, (gx + 1) * group):
