@@ -431,3 +431,24 @@ def test_diagonal_suns_sweep_the_map_untransposed_with_the_same_mask(az, monkeyp
                             lambda *_, g=(True, int(db), float(da), rise): g)
         assert np.array_equal(shadows._fast_mask_for_light(hm, light), mask)
         monkeypatch.undo()
+
+
+def test_the_reference_told_to_stop_begins_no_more_grid_lines(terrain):
+    """The flag an interrupted caller sets: with it, the rays cast per sample write nothing;
+    without it, the same kernel gives the reference's mask."""
+    from terrascape.lighting.shadows import _oriented, _reference_kernel, _sweep_geometry
+    from terrascape.lighting.sun import sun_direction
+
+    hm = Heightmap(terrain(65, 5))
+    expected = shadow_mask_reference(hm, 200.0, 20.0)
+    assert 0.05 < expected.mean() < 0.95
+    transpose, da, db, rise = _sweep_geometry(hm, sun_direction(200.0, 20.0))
+    for stop in (0, 1):
+        h, full, out = _oriented(hm, transpose)
+        full[:] = True  # so that an unwritten sample shows
+        _reference_kernel(h, da, db, rise, float(hm.heights.max()), out,
+                          np.array([stop], np.uint8))
+        if stop:
+            assert full.all()
+        else:
+            np.testing.assert_array_equal(full, expected)

@@ -47,7 +47,8 @@ from typing import Any
 import numba
 import numpy as np
 
-from terrascape._numba import CACHE, FASTMATH, njit, prange, prefetch, read_only
+from terrascape._numba import CACHE, FASTMATH, njit, prange, prefetch, read_only, stop_requested
+from terrascape._stoppable import run_stoppable
 from terrascape._validate import check_int, check_range
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
@@ -75,6 +76,10 @@ _BAND = 64
 # Grid lines ahead of the sweep whose heights a block asks the CPU to bring into cache
 # (:func:`_prefetch_block_line`).
 _PREFETCH_AHEAD = 2
+# Samples above which the reference's rays are cast on a worker thread, so that Ctrl-C stops
+# them at once (:func:`run_stoppable`): each ray walks up to a side of the map, so a 128²
+# map's take a few milliseconds, against the hand-over's 0.1 ms
+_LONG_SAMPLES = 128 * 128
 
 
 # --------------------------------------------------------------------------------------------
@@ -163,10 +168,13 @@ def _ray_hits_terrain(h, a, b, da, db, rise, hmax):
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, parallel=True)
-def _reference_kernel(h, da, db, rise, hmax, out):
-    """Marghidanu's second function (``stvoriMapuSjene``), shadow part: every sample."""
+def _reference_kernel(h, da, db, rise, hmax, out, stop):
+    """Marghidanu's second function (``stvoriMapuSjene``), shadow part: every sample. Grid
+    lines not yet begun are left unwritten once ``stop[0]`` is set (:func:`run_stoppable`)."""
     n0, n1 = h.shape
     for a in prange(n0):
+        if stop_requested(stop):
+            continue
         for b in range(n1):
             out[a, b] = _ray_hits_terrain(h, a, b, da, db, rise, hmax)
 
@@ -198,7 +206,8 @@ def shadow_mask_reference(
         return np.zeros(hm.shape, dtype=np.bool_)
     transpose, da, db, rise = geo
     h, full, out = _oriented(hm, transpose)
-    _reference_kernel(h, da, db, rise, float(hm.heights.max()), out)
+    run_stoppable(h.size > _LONG_SAMPLES, _reference_kernel, h, da, db, rise,
+                  float(hm.heights.max()), out)
     return full
 
 
