@@ -10,14 +10,30 @@ repeated: ``d c b a | a b c d``), ``mirror`` (``d c b | a b c d``), ``nearest``,
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import numba
 import numpy as np
 from scipy import ndimage
 
+from terrascape._stoppable import run_stoppable
 from terrascape._validate import check_finite, check_int, check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 
 MODES = ("reflect", "nearest", "mirror", "wrap", "constant")
+
+# A blur runs a band of rows or columns at a time, so that Ctrl-C stops it between two
+# bands: scipy filters a whole axis in one call, which a wide Gaussian on a large map makes
+# a call of many seconds. Maps of more samples are blurred on a worker thread
+# (:func:`run_stoppable`), their bands shared among the numba threads (scipy's filter
+# releases the GIL)
+_LONG_SAMPLES = 1 << 20
+# rows or columns per band: a wide Gaussian (σ = 50) over a band of an 8193² map takes a
+# few tenths of a second
+_BAND = 256
 
 
 def _check_mode(mode: str) -> str:
@@ -76,10 +92,9 @@ def gaussian_blur(
         sig = tuple(check_positive(v, "sigma", allow_zero=True) for v in vals)
     truncate = check_positive(truncate, "truncate")
     cval = check_finite(cval, "cval")
-    out = ndimage.gaussian_filter(
-        hm.heights.astype(np.float64), sigma=sig, mode=mode, cval=cval, truncate=truncate
-    )
-    return hm.with_heights(out.astype(np.float32))
+    passes = [(axis, {"sigma": sig[axis], "mode": mode, "cval": cval, "truncate": truncate})
+              for axis in (0, 1) if sig[axis] > 1e-15]  # scipy skips the same axes
+    return hm.with_heights(_separable(ndimage.gaussian_filter1d, hm.heights, passes))
 
 
 def box_blur(
@@ -114,8 +129,53 @@ def box_blur(
     else:
         win = (check_int(size, "box size", minimum=1),) * 2
     cval = check_finite(cval, "cval")
-    out = ndimage.uniform_filter(hm.heights.astype(np.float64), size=win, mode=mode, cval=cval)
-    return hm.with_heights(out.astype(np.float32))
+    passes = [(axis, {"size": win[axis], "mode": mode, "cval": cval})
+              for axis in (0, 1) if win[axis] > 1]  # scipy skips the same axes
+    return hm.with_heights(_separable(ndimage.uniform_filter1d, hm.heights, passes))
+
+
+def _separable(filter1d: Callable[..., Any], heights: np.ndarray,
+               passes: list[tuple[int, dict]]) -> np.ndarray:
+    """The float32 result of ``filter1d`` along each ``(axis, options)`` of ``passes`` in
+    turn, computed in float64: what scipy's n-dimensional filter gives, bit for bit (it
+    runs the same 1-D passes, axis 0 first; a line's result depends on that line alone)."""
+    out = np.empty(heights.shape, np.float64)
+    long = heights.size > _LONG_SAMPLES
+    if not passes:
+        out[...] = heights
+    else:
+        run_stoppable(long, _filter_in_bands, filter1d, heights, passes, out, long)
+    return out.astype(np.float32)
+
+
+def _filter_in_bands(filter1d: Callable[..., Any], heights: np.ndarray,
+                     passes: list[tuple[int, dict]], out: np.ndarray, parallel: bool,
+                     stop: np.ndarray) -> None:
+    """:func:`_separable`'s passes into ``out``, each in bands of ``_BAND`` lines (columns
+    for axis 0, rows for axis 1), with ``parallel`` shared among the numba threads; no band
+    begins once ``stop[0]`` is set. The first pass reads the heights (scipy filters in
+    float64 whatever the input's type), the next ones ``out`` in place (each band its own
+    lines). Only a long blur is parallel: it runs off the main thread, where no signal can
+    interrupt the start of the pool's threads (which would hang the interpreter's exit)."""
+    workers = numba.get_num_threads() if parallel else 1
+    for i, (axis, options) in enumerate(passes):
+        src = heights if i == 0 else out
+
+        def band(start: int, axis: int = axis, options: dict = options,
+                 src: np.ndarray = src) -> None:
+            if stop[0]:
+                return
+            lines = slice(start, start + _BAND)
+            part = (slice(None), lines) if axis == 0 else (lines, slice(None))
+            filter1d(src[part], axis=axis, output=out[part], **options)
+
+        starts = range(0, out.shape[1 - axis], _BAND)
+        if workers > 1 and len(starts) > 1:
+            with ThreadPoolExecutor(min(workers, len(starts))) as pool:
+                list(pool.map(band, starts))
+        else:
+            for start in starts:
+                band(start)
 
 
 __all__ = ["MODES", "box_blur", "gaussian_blur"]
