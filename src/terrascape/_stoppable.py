@@ -92,12 +92,15 @@ class _Worker:
     def _serve(self) -> None:
         while True:
             future, call = self._calls.get()
-            if not future.set_running_or_notify_cancel():
-                continue  # cancelled before it began
-            try:
-                future.set_result(call())
-            except BaseException as exc:  # handed to the caller, which re-raises it
-                future.set_exception(exc)
+            if future.set_running_or_notify_cancel():  # else cancelled before it began
+                try:
+                    future.set_result(call())
+                except BaseException as exc:  # handed to the caller, which re-raises it
+                    future.set_exception(exc)
+            # dropped before waiting for the next call: the call holds its arguments, and
+            # kept here until then they would outlive the caller's use of them (a finished
+            # blur's float64 image stayed in memory while the command wrote its output)
+            future = call = None
 
 
 def _worker() -> _Worker:

@@ -3,11 +3,13 @@ numba threads, and that the caller's exception waits for the kernel to end."""
 
 from __future__ import annotations
 
+import gc
 import os
 import pathlib
 import signal
 import threading
 import time
+import weakref
 from concurrent.futures import Future
 
 import numba
@@ -172,3 +174,28 @@ def test_a_compiled_kernel_is_compiled_on_the_calling_thread(monkeypatch):
     assert run_stoppable(True, kernel, np.arange(4.0), 2.0) == 12.0
     assert compiled_on == [threading.main_thread()]
     assert len(kernel.signatures) == 1  # the call found what the compilation made
+
+
+def test_the_worker_keeps_no_reference_to_a_finished_calls_arguments():
+    """Once a long call has returned, or raised, nothing of it stays alive on the worker:
+    its arguments are freed with the caller's last reference (they were kept until the next
+    call, a whole image's worth of memory while a command went on)."""
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("the test runner does not run tests on the main thread")
+    for fails in (False, True):
+        image = np.zeros(8)
+        alive = weakref.ref(image)
+
+        def call(a, stop, fails=fails):
+            if fails:
+                raise ValueError("bad")
+            return float(a.sum())
+
+        if fails:
+            with pytest.raises(ValueError):
+                run_stoppable(True, call, image)
+        else:
+            assert run_stoppable(True, call, image) == 0.0
+        del image
+        gc.collect()
+        assert alive() is None, f"fails={fails}"
