@@ -92,9 +92,9 @@ def gaussian_blur(
         sig = tuple(check_positive(v, "sigma", allow_zero=True) for v in vals)
     truncate = check_positive(truncate, "truncate")
     cval = check_finite(cval, "cval")
-    passes = [(axis, {"sigma": sig[axis], "mode": mode, "cval": cval, "truncate": truncate})
-              for axis in (0, 1) if sig[axis] > 1e-15]  # scipy skips the same axes
-    return hm.with_heights(_separable(ndimage.gaussian_filter1d, hm.heights, passes))
+    out = np.empty(hm.shape, np.float64)
+    gaussian_filter_in_bands(hm.heights, sig, out, mode=mode, cval=cval, truncate=truncate)
+    return hm.with_heights(out.astype(np.float32))
 
 
 def box_blur(
@@ -131,43 +131,57 @@ def box_blur(
     cval = check_finite(cval, "cval")
     passes = [(axis, {"size": win[axis], "mode": mode, "cval": cval})
               for axis in (0, 1) if win[axis] > 1]  # scipy skips the same axes
-    return hm.with_heights(_separable(ndimage.uniform_filter1d, hm.heights, passes))
+    out = np.empty(hm.shape, np.float64)
+    _separable(ndimage.uniform_filter1d, hm.heights, passes, out)
+    return hm.with_heights(out.astype(np.float32))
 
 
-def _separable(filter1d: Callable[..., Any], heights: np.ndarray,
-               passes: list[tuple[int, dict]]) -> np.ndarray:
-    """The float32 result of ``filter1d`` along each ``(axis, options)`` of ``passes`` in
-    turn, computed in float64: what scipy's n-dimensional filter gives, bit for bit (it
-    runs the same 1-D passes, axis 0 first; a line's result depends on that line alone)."""
-    out = np.empty(heights.shape, np.float64)
-    long = heights.size > _LONG_SAMPLES
+def gaussian_filter_in_bands(src: np.ndarray, sigma: float | tuple[float, float],
+                             out: np.ndarray, *, mode: str = "reflect", cval: float = 0.0,
+                             truncate: float = 4.0) -> None:
+    """``scipy.ndimage.gaussian_filter(src, sigma, output=out, …)`` of a 2-D array into the
+    float64 ``out`` (which may be ``src``), bit for bit, a band of lines at a time: Ctrl-C
+    stops it between two bands, and a large array's bands are shared among the numba
+    threads. Parameters as :func:`gaussian_blur`'s, checked by the caller."""
+    sig = (sigma, sigma) if np.isscalar(sigma) else tuple(sigma)  # type: ignore[arg-type]
+    passes = [(axis, {"sigma": sig[axis], "mode": mode, "cval": cval, "truncate": truncate})
+              for axis in (0, 1) if sig[axis] > 1e-15]  # scipy skips the same axes
+    _separable(ndimage.gaussian_filter1d, src, passes, out)
+
+
+def _separable(filter1d: Callable[..., Any], src: np.ndarray, passes: list[tuple[int, dict]],
+               out: np.ndarray) -> None:
+    """``filter1d`` along each ``(axis, options)`` of ``passes`` in turn from ``src`` into
+    the float64 ``out`` (which may be ``src``): what scipy's n-dimensional filter gives, bit
+    for bit (it runs the same 1-D passes, axis 0 first; a line's result depends on that
+    line alone, and scipy reads a line before it writes it)."""
+    long = src.size > _LONG_SAMPLES
     if not passes:
-        out[...] = heights
+        out[...] = src
     else:
-        run_stoppable(long, _filter_in_bands, filter1d, heights, passes, out, long)
-    return out.astype(np.float32)
+        run_stoppable(long, _filter_in_bands, filter1d, src, passes, out, long)
 
 
-def _filter_in_bands(filter1d: Callable[..., Any], heights: np.ndarray,
+def _filter_in_bands(filter1d: Callable[..., Any], src: np.ndarray,
                      passes: list[tuple[int, dict]], out: np.ndarray, parallel: bool,
                      stop: np.ndarray) -> None:
     """:func:`_separable`'s passes into ``out``, each in bands of ``_BAND`` lines (columns
     for axis 0, rows for axis 1), with ``parallel`` shared among the numba threads; no band
-    begins once ``stop[0]`` is set. The first pass reads the heights (scipy filters in
-    float64 whatever the input's type), the next ones ``out`` in place (each band its own
-    lines). Only a long blur is parallel: it runs off the main thread, where no signal can
-    interrupt the start of the pool's threads (which would hang the interpreter's exit)."""
+    begins once ``stop[0]`` is set. The first pass reads ``src`` (scipy filters in float64
+    whatever the input's type), the next ones ``out`` in place (each band its own lines).
+    Only a long blur is parallel: it runs off the main thread, where no signal can interrupt
+    the start of the pool's threads (which would hang the interpreter's exit)."""
     workers = numba.get_num_threads() if parallel else 1
     for i, (axis, options) in enumerate(passes):
-        src = heights if i == 0 else out
+        first = src if i == 0 else out
 
         def band(start: int, axis: int = axis, options: dict = options,
-                 src: np.ndarray = src) -> None:
+                 first: np.ndarray = first) -> None:
             if stop[0]:
                 return
             lines = slice(start, start + _BAND)
             part = (slice(None), lines) if axis == 0 else (lines, slice(None))
-            filter1d(src[part], axis=axis, output=out[part], **options)
+            filter1d(first[part], axis=axis, output=out[part], **options)
 
         starts = range(0, out.shape[1 - axis], _BAND)
         if workers > 1 and len(starts) > 1:
@@ -178,4 +192,4 @@ def _filter_in_bands(filter1d: Callable[..., Any], heights: np.ndarray,
                 band(start)
 
 
-__all__ = ["MODES", "box_blur", "gaussian_blur"]
+__all__ = ["MODES", "box_blur", "gaussian_blur", "gaussian_filter_in_bands"]

@@ -23,10 +23,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy import ndimage
 
 from terrascape._validate import check_positive
 from terrascape.errors import InvalidParameterError
+from terrascape.filters.smooth import gaussian_filter_in_bands
 from terrascape.io.image import luminance
 
 #: Pixels converted at a time: the float64 copies of an RGB block (24 bytes per pixel,
@@ -112,14 +112,16 @@ def _subtract_blur_in_strips(y: np.ndarray, sigma: float) -> None:
     radius = int(_TRUNCATE * sigma + 0.5)
     step = max(radius, -(-rows // 8))
     if step + 3 * radius >= rows:
-        y -= ndimage.gaussian_filter(y, sigma, mode="reflect", truncate=_TRUNCATE)
+        blurred = np.empty_like(y)
+        gaussian_filter_in_bands(y, sigma, blurred, truncate=_TRUNCATE)
+        y -= blurred
         return
     above = y[:0].copy()  # original rows [r0 - radius, r0): already overwritten in y
     for r0 in range(0, rows, step):
         r1 = min(rows, r0 + step)
         below = min(rows, r1 + radius)
         strip = np.concatenate((above, y[r0:below]))
-        ndimage.gaussian_filter(strip, sigma, mode="reflect", truncate=_TRUNCATE, output=strip)
+        gaussian_filter_in_bands(strip, sigma, strip, truncate=_TRUNCATE)
         top = len(above)
         above = y[max(0, r1 - radius):r1].copy()
         y[r0:r1] -= strip[top:top + r1 - r0]
@@ -166,7 +168,7 @@ def height_from_image(
     if blur > 0.0:
         # scipy filters a line at a time through its own line buffers, so the output may be
         # the input (gaussian_filter does the same between its two axes): identical values.
-        ndimage.gaussian_filter(y, blur, mode="reflect", output=y)
+        gaussian_filter_in_bands(y, blur, y)
     if hp is not None:
         _subtract_blur_in_strips(y, hp)
     lo, hi = float(y.min()), float(y.max())
