@@ -153,3 +153,34 @@ def test_bad_parameters(rng, tmp_path):
         read_image(tmp_path / "missing.png")
     with pytest.raises(InvalidParameterError, match="Heightmap"):
         write_png16(np.zeros((3, 3)), tmp_path / "x.png")
+
+
+def _zlib_level_class(path) -> int:
+    """FLEVEL of the PNG's zlib stream (0 fastest … 3 best): zlib writes 1 for levels 2–5 and
+    2 for its default, 6."""
+    data = path.read_bytes()
+    at = 8
+    while at < len(data):
+        length = int.from_bytes(data[at:at + 4], "big")
+        if data[at + 4:at + 8] == b"IDAT":
+            return data[at + 9] >> 6  # the stream's second byte (FLG)
+        at += 12 + length
+    raise AssertionError("no IDAT chunk")
+
+
+def test_16bit_height_pngs_are_compressed_at_the_faster_level(rng, tmp_path):
+    """16-bit heights go out at zlib level 4 (about the bytes of Pillow's default in up to
+    a third of the time), read back to the same codes; 8-bit images keep the default."""
+    from terrascape.export._common import write_png
+    from terrascape.io.image import PNG16_COMPRESS_LEVEL
+
+    assert PNG16_COMPRESS_LEVEL == 4
+    hm = _hm(rng, shape=(300, 200))
+    write_png16(hm, tmp_path / "h.png")
+    assert _zlib_level_class(tmp_path / "h.png") == 1
+    codes = rng.integers(0, 65536, (64, 48), dtype=np.uint16)
+    write_png(tmp_path / "e.png", codes, force=False)
+    assert _zlib_level_class(tmp_path / "e.png") == 1
+    np.testing.assert_array_equal(np.asarray(Image.open(tmp_path / "e.png")), codes)
+    write_png(tmp_path / "w.png", (codes >> 8).astype(np.uint8), force=False)
+    assert _zlib_level_class(tmp_path / "w.png") == 2

@@ -15,6 +15,7 @@ from scipy import ndimage
 from terrascape.errors import HeightmapSizeError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.io.atomic import atomic_output, atomic_outputs
+from terrascape.io.image import PNG16_COMPRESS_LEVEL
 
 FITS = ("pad", "resample", "crop")
 
@@ -226,9 +227,12 @@ def write_text(path: Path, text: str, *, force: bool) -> Path:
 
 
 def write_png(path: Path, image: np.ndarray, *, force: bool) -> Path:
-    """8-bit gray/RGB(A) or 16-bit gray PNG, atomically."""
+    """8-bit gray/RGB(A) or 16-bit gray PNG, atomically (16-bit heights at
+    :data:`~terrascape.io.image.PNG16_COMPRESS_LEVEL`)."""
+    level = PNG16_COMPRESS_LEVEL if image.dtype == np.uint16 else 6  # 6: Pillow's default
     with atomic_output(path, force=force) as tmp:
-        Image.fromarray(np.ascontiguousarray(image)).save(tmp, format="PNG")
+        Image.fromarray(np.ascontiguousarray(image)).save(tmp, format="PNG",
+                                                          compress_level=level)
     return path
 
 
