@@ -208,7 +208,11 @@ PEAK_BYTES_PER_SAMPLE: dict[str, float] = {
     "ridged": 23.0,
     "blur": 23.0,
     "erode": 30.0,
+    # `shade --lighting classic` (measured 10.3 B at 4097², 2026-12-07); the daylight model,
+    # shade's default, works on whole-map float64 RGB arrays: measured 164–166 B at 2049²
+    # and 4097², grey or --color (`/usr/bin/time -v terrascape shade`, 2026-12-07 13:34 UTC)
     "shade": 13.0,
+    "shade daylight": 200.0,
     "normalmap": 16.0,
     "texture regions": 40.0,
     # Photo and terrain materials are made in blocks of rows: the RGB image (3 B), Pillow's

@@ -300,3 +300,25 @@ def test_greedy_tin_in_one_order_stops_before_its_arrays_pass_the_limit(tmp_path
     code = run_app(["mesh", str(path), "-o", str(out), "--mesher", "greedy", "--one-piece",
                     "--max-error", "40", "--max-memory", "10M", "-q"])
     assert code == 0 and out.exists()
+
+
+def test_shade_estimates_the_daylight_models_whole_map_arrays(tmp_path, small_map, capsys):
+    """The daylight model (shade's default) peaks at about 165 B a sample (float64 RGB
+    arrays of the whole map), the classic one at about 10 B: a limit between the two
+    estimates refuses the first with one line and no file, and lets the second through."""
+    from terrascape.memory import PEAK_BYTES_PER_SAMPLE
+
+    assert PEAK_BYTES_PER_SAMPLE["shade daylight"] >= 165.0
+    daylight = estimate_peak("shade daylight", 2049, 2049)
+    classic = estimate_peak("shade", 2049, 2049)
+    assert daylight > 10 * classic
+    big = tmp_path / "big.npy"
+    np.save(big, np.zeros((2049, 2049), np.float32))
+    limit = str(int((daylight + classic) / 2))
+    code = run_app(["shade", str(big), "-o", str(tmp_path / "d.png"), "--max-memory", limit])
+    line = _one_error_line(capsys.readouterr().err)
+    assert code == 1 and "--lighting classic" in line
+    assert not (tmp_path / "d.png").exists()
+    assert run_app(["shade", str(big), "-o", str(tmp_path / "c.png"), "--max-memory", limit,
+                    "--lighting", "classic", "-q"]) == 0
+    assert (tmp_path / "c.png").exists()

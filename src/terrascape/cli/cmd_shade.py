@@ -260,7 +260,9 @@ def shade_cmd(
     check_output_path(output, force=force)
     with timed("read", quiet=quiet):
         hm = _read_heightmap(heightmap)
-    _check_memory("shade", hm.rows, hm.cols, max_memory)
+    _check_memory("shade" if lighting == "classic" else "shade daylight", hm.rows, hm.cols,
+                  max_memory, hint="use a smaller map or --lighting classic (a fifteenth of the "
+                                   "memory), or raise --max-memory")
     with timed("lightmap", quiet=quiet):
         if lighting == "classic":
             light = lightmap(
