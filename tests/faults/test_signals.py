@@ -289,9 +289,9 @@ def test_ctrl_c_stops_a_long_library_call_at_once(call, side, delay):
     """The sky-view factor of a 2049² map, the drainage of a 4097² one, the relief cone
     map of a 4096² natural texture (about half a minute), the shadows of a 4097² map by
     one ray per sample (about 20 s), or a Gaussian blur of σ = 150 on a 4097² map (about
-    10 s on two threads): Ctrl-C during it raises
-    KeyboardInterrupt at once, not after the call (nor a SystemError from numba's
-    conversion of a result), and the interpreter exits."""
+    10 s on two threads): Ctrl-C during it raises KeyboardInterrupt at once, not after the
+    call (nor a SystemError from numba's conversion of a result), and the interpreter
+    exits."""
     proc = subprocess.Popen([sys.executable, "-c", CTRL_C_IN_A_LIBRARY_CALL, call, str(side)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
     out, err, waited = _interrupt(proc, signal.SIGINT, delay, (proc.stdout, "ready"))

@@ -77,8 +77,8 @@ _BAND = 64
 # (:func:`_prefetch_block_line`).
 _PREFETCH_AHEAD = 2
 # Samples above which the reference's rays are cast on a worker thread, so that Ctrl-C stops
-# them at once (:func:`run_stoppable`): each ray walks up to a side of the map, so a 128²
-# map's take a few milliseconds, against the hand-over's 0.1 ms
+# them at once (:func:`run_stoppable`): each ray walks up to a side of the map; a smooth
+# 129² map's took 1.4–2.2 ms at suns of 5–45° (2026-12-07), against the hand-over's 0.1 ms
 _LONG_SAMPLES = 128 * 128
 
 
