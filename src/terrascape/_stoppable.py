@@ -23,7 +23,7 @@ import os
 import queue
 import threading
 from collections.abc import Callable
-from concurrent.futures import Future, wait
+from concurrent.futures import Future, ThreadPoolExecutor, wait
 from typing import Any
 
 import numba
@@ -73,6 +73,28 @@ def run_stoppable(long: bool, kernel: Callable[..., Any], *args: Any) -> Any:
         raise
 
 
+def for_each_band(work: Callable[[int], None], starts: range, parallel: bool,
+                  stop: np.ndarray) -> None:
+    """``work(start)`` for each of ``starts`` (the first line of each band of a grid), none
+    begun once ``stop[0]`` is set; shared among as many threads as numba's when
+    ``parallel``. Give it ``run_stoppable``'s ``stop`` and call it, when parallel, through
+    ``run_stoppable``: off the main thread, where no signal can interrupt the start of the
+    pool's threads (which would hang the interpreter's exit). Useful where ``work`` spends
+    its time in code that releases the GIL (numpy's and scipy's array loops)."""
+
+    def band(start: int) -> None:
+        if not stop[0]:
+            work(start)
+
+    workers = numba.get_num_threads() if parallel else 1
+    if workers > 1 and len(starts) > 1:
+        with ThreadPoolExecutor(min(workers, len(starts))) as pool:
+            list(pool.map(band, starts))
+    else:
+        for start in starts:
+            band(start)
+
+
 class _Worker:
     """One daemon thread running the calls handed to it, one at a time, kept for the next.
 
@@ -111,4 +133,4 @@ def _worker() -> _Worker:
     return worker
 
 
-__all__ = ["run_stoppable"]
+__all__ = ["for_each_band", "run_stoppable"]

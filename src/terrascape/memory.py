@@ -208,11 +208,12 @@ PEAK_BYTES_PER_SAMPLE: dict[str, float] = {
     "ridged": 23.0,
     "blur": 23.0,
     "erode": 30.0,
-    # `shade --lighting classic` (measured 10.3 B at 4097², 2026-12-07); the daylight model,
-    # shade's default, works on whole-map float64 RGB arrays: measured 164–166 B at 2049²
-    # and 4097², grey or --color (`/usr/bin/time -v terrascape shade`, 2026-12-07 13:34 UTC)
-    "shade": 13.0,
-    "shade daylight": 200.0,
+    # `shade --lighting classic` (measured 14.2 B at 2049², 10.2 B at 4097²); the daylight
+    # model, shade's default, keeps float32 normals, shadows and output and works in bands
+    # of rows: measured 35 B grey, 45 B --color at 2049², 29 and 37 B at 4097², 27 B grey
+    # at 8193² (`bash scripts/shade_memory_time.sh`, 2026-12-07 14:59 UTC; 165 B before)
+    "shade": 17.0,
+    "shade daylight": 54.0,
     "normalmap": 16.0,
     "texture regions": 40.0,
     # Photo and terrain materials are made in blocks of rows: the RGB image (3 B), Pillow's

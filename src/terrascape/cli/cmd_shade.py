@@ -261,7 +261,7 @@ def shade_cmd(
     with timed("read", quiet=quiet):
         hm = _read_heightmap(heightmap)
     _check_memory("shade" if lighting == "classic" else "shade daylight", hm.rows, hm.cols,
-                  max_memory, hint="use a smaller map or --lighting classic (a fifteenth of the "
+                  max_memory, hint="use a smaller map or --lighting classic (a third of the "
                                    "memory), or raise --max-memory")
     with timed("lightmap", quiet=quiet):
         if lighting == "classic":

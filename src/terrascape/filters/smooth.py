@@ -11,14 +11,12 @@ repeated: ``d c b a | a b c d``), ``mirror`` (``d c b | a b c d``), ``nearest``,
 from __future__ import annotations
 
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
-import numba
 import numpy as np
 from scipy import ndimage
 
-from terrascape._stoppable import run_stoppable
+from terrascape._stoppable import for_each_band, run_stoppable
 from terrascape._validate import check_finite, check_int, check_positive
 from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
@@ -171,25 +169,16 @@ def _filter_in_bands(filter1d: Callable[..., Any], src: np.ndarray,
     whatever the input's type), the next ones ``out`` in place (each band its own lines).
     Only a long blur is parallel: it runs off the main thread, where no signal can interrupt
     the start of the pool's threads (which would hang the interpreter's exit)."""
-    workers = numba.get_num_threads() if parallel else 1
     for i, (axis, options) in enumerate(passes):
         first = src if i == 0 else out
 
         def band(start: int, axis: int = axis, options: dict = options,
                  first: np.ndarray = first) -> None:
-            if stop[0]:
-                return
             lines = slice(start, start + _BAND)
             part = (slice(None), lines) if axis == 0 else (lines, slice(None))
             filter1d(first[part], axis=axis, output=out[part], **options)
 
-        starts = range(0, out.shape[1 - axis], _BAND)
-        if workers > 1 and len(starts) > 1:
-            with ThreadPoolExecutor(min(workers, len(starts))) as pool:
-                list(pool.map(band, starts))
-        else:
-            for start in starts:
-                band(start)
+        for_each_band(band, range(0, out.shape[1 - axis], _BAND), parallel, stop)
 
 
 __all__ = ["MODES", "box_blur", "gaussian_blur", "gaussian_filter_in_bands"]

@@ -37,11 +37,13 @@ References
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from terrascape._stoppable import for_each_band, run_stoppable
 from terrascape._validate import check_range
 from terrascape.errors import InvalidParameterError
 from terrascape.lighting.sun import sun_direction
@@ -60,6 +62,13 @@ _LUMA = np.array([0.2126, 0.7152, 0.0722])
 _MAGENTA_GUARD = 0.01
 # Below this the sun model is evaluated at the horizon (the Preetham fit is for a sun above).
 MIN_SUN_ELEVATION = 0.5
+
+# The lightmap's float64 RGB steps run a band of rows at a time, about this many samples
+# (3 MB per float64 RGB temporary): on the whole map they held 165 bytes a sample.
+_BAND_SAMPLES = 1 << 17
+# Maps above this many samples are lit on the worker thread (Ctrl-C stops them between two
+# bands) with the bands shared among the numba threads (numpy's loops release the GIL).
+_LONG_SAMPLES = 1 << 20
 
 
 def _rayleigh_depth(lam: np.ndarray) -> np.ndarray:
@@ -315,47 +324,86 @@ def daylight_lightmap(
     hm = as_heightmap(heightmap)
     sun_above_horizon(sun_azimuth, sun_elevation)
     day = daylight(sun_azimuth, sun_elevation, turbidity=turbidity, exposure=exposure)
-    normals = normal_map(hm).astype(np.float64)
-    vis = (soft_shadow(hm, sun_azimuth, sun_elevation, sun_radius_deg=sun_radius_deg,
-                       samples=shadow_samples) if shadows else np.ones(hm.shape, np.float32))
-    if sky_visibility is None:
-        svf = local_sky_visibility(hm)
-    else:
+    if sky_visibility is not None:
         svf = np.asarray(sky_visibility, dtype=np.float64)
         if svf.shape != hm.shape:
             raise InvalidParameterError(
                 f"sky_visibility must have the heightmap's shape {hm.shape}, got {svf.shape}")
-    radiance = day.surface_irradiance(normals, vis, svf) / math.pi
-    rgb = day.display(radiance).astype(np.float32)
-    if color:
-        return rgb
-    return (rgb @ _LUMA.astype(np.float32)).astype(np.float32)
+    normals = normal_map(hm)
+    vis = (soft_shadow(hm, sun_azimuth, sun_elevation, sun_radius_deg=sun_radius_deg,
+                       samples=shadow_samples) if shadows else np.ones(hm.shape, np.float32))
+    if sky_visibility is None:
+        coarse, step = _coarse_sky_visibility(hm)
+
+        def svf_rows(rows: slice) -> np.ndarray:
+            return _enlarged_rows(coarse, step, rows, hm.shape)
+    else:
+        def svf_rows(rows: slice) -> np.ndarray:
+            return svf[rows]
+    out = np.empty(hm.shape + ((3,) if color else ()), np.float32)
+    long = hm.heights.size > _LONG_SAMPLES
+    run_stoppable(long, _light_in_bands, day, normals, vis, svf_rows, out, long)
+    return out
+
+
+def _light_in_bands(day: Daylight, normals: np.ndarray, vis: np.ndarray,
+                    svf_rows: Callable[[slice], np.ndarray], out: np.ndarray, parallel: bool,
+                    stop: np.ndarray) -> None:
+    """:func:`daylight_lightmap`'s light into ``out`` (RGB, or grey when 2-D) a band of rows
+    at a time, the bands shared among the numba threads when ``parallel``; no band begins
+    once ``stop[0]`` is set. Every step works sample by sample, so the bands give the whole
+    map's values bit for bit."""
+    band_rows = max(1, _BAND_SAMPLES // out.shape[1])
+    luma = _LUMA.astype(np.float32)
+
+    def band(start: int) -> None:
+        rows = slice(start, start + band_rows)
+        n = normals[rows].astype(np.float64)
+        radiance = day.surface_irradiance(n, vis[rows], svf_rows(rows)) / math.pi
+        rgb = day.display(radiance).astype(np.float32)
+        out[rows] = rgb if out.ndim == 3 else rgb @ luma
+
+    for_each_band(band, range(0, out.shape[0], band_rows), parallel, stop)
 
 
 def local_sky_visibility(heightmap: Any, *, max_side: int = 257, directions: int = 8) -> np.ndarray:
     """Sky-view factor over a radius of 1/8 of the map, computed on a map of at most
     ``max_side`` samples a side and enlarged bilinearly to the heightmap's shape (the full
     sky-view factor of a 1025² map takes tens of seconds)."""
-    from scipy import ndimage
-
-    from terrascape.heightmap import Heightmap
     from terrascape.lighting._common import as_heightmap
-    from terrascape.lighting.ambient_occlusion import sky_view_factor
 
     hm = as_heightmap(heightmap)
+    coarse, step = _coarse_sky_visibility(hm, max_side=max_side, directions=directions)
+    return _enlarged_rows(coarse, step, slice(0, hm.rows), hm.shape)
+
+
+def _coarse_sky_visibility(hm: Any, *, max_side: int = 257,
+                           directions: int = 8) -> tuple[np.ndarray, int]:
+    """:func:`local_sky_visibility` on the coarse grid (float64) and its step in samples."""
+    from terrascape.heightmap import Heightmap
+    from terrascape.lighting.ambient_occlusion import sky_view_factor
+
     step = max(1, math.ceil(max(hm.shape) / max_side))
     small = Heightmap(np.ascontiguousarray(hm.heights[::step, ::step]),
                       spacing=(hm.spacing[0] * step, hm.spacing[1] * step))
     radius = 0.125 * max(hm.extent)
     svf = sky_view_factor(small, directions=directions, max_distance=max(radius, 1e-6))
-    if step == 1:
-        return svf.astype(np.float64)
-    # original sample r sits at r / step on the coarse grid
-    rows = np.minimum(np.arange(hm.rows) / step, small.rows - 1)
-    cols = np.minimum(np.arange(hm.cols) / step, small.cols - 1)
-    rr, cc = np.meshgrid(rows, cols, indexing="ij")
-    return ndimage.map_coordinates(svf.astype(np.float64), [rr, cc], order=1, mode="nearest")
+    return svf.astype(np.float64), step
 
+
+def _enlarged_rows(coarse: np.ndarray, step: int, rows: slice,
+                   shape: tuple[int, int]) -> np.ndarray:
+    """Rows ``rows`` of the coarse sky visibility enlarged bilinearly to ``shape`` (each
+    sample on its own: a band's values are the whole map's)."""
+    from scipy import ndimage
+
+    if step == 1:
+        return coarse[rows]
+    # original sample r sits at r / step on the coarse grid
+    r = np.minimum(np.arange(shape[0])[rows] / step, coarse.shape[0] - 1)
+    c = np.minimum(np.arange(shape[1]) / step, coarse.shape[1] - 1)
+    rr, cc = np.meshgrid(r, c, indexing="ij")
+    return ndimage.map_coordinates(coarse, [rr, cc], order=1, mode="nearest")
 
 LIGHTING_MODELS = ("daylight", "classic")
 #: Earlier names of the lighting models, still accepted with a note naming the current one.
