@@ -174,14 +174,10 @@ class Heightmap:
                 lo = (lo - 1) * 2 + 1
             hi = (lo - 1) * 2 + 1
             side = lo if (n - lo) <= (hi - n) else hi
-            zoom = ((side - 1) / (self.rows - 1), (side - 1) / (self.cols - 1))
             # scipy.ndimage takes longer to import than numpy; only this resample needs it.
-            from scipy import ndimage
+            from terrascape.filters.resample import resample_cubic
 
-            out = ndimage.zoom(self.heights, zoom, order=3, mode="nearest", grid_mode=False)
-            out = out[:side, :side]
-            if out.shape != (side, side):  # zoom rounding guard
-                out = np.pad(out, ((0, side - out.shape[0]), (0, side - out.shape[1])), "edge")
+            out = resample_cubic(self.heights, (side, side))
             spacing = (self.extent[0] / (side - 1), self.extent[1] / (side - 1))
             return Heightmap(out, spacing, dict(self.metadata), self.origin, self.crs,
                              self.nodata)

@@ -253,6 +253,7 @@ import sys
 import numpy as np
 from terrascape.analysis.drainage import breach_depressions
 from terrascape.filters import gaussian_blur
+from terrascape.filters.resample import resample_cubic
 from terrascape.generate import fbm
 from terrascape.lighting import shadow_mask_reference, sky_view_factor
 from terrascape.relief import footprint_cone_map
@@ -267,7 +268,9 @@ call, make = {"sky-view": (sky_view_factor, lambda n: fbm(n, seed=3)),
               "shadow-rays": (lambda h: shadow_mask_reference(h, 135.0, 45.0),
                               lambda n: fbm(n, scale=(n - 1) / 4, octaves=8,
                                             seed=3).normalised(0.0, 0.2 * (n - 1))),
-              "blur": (lambda h: gaussian_blur(h, 150.0), lambda n: fbm(n, seed=3))}[sys.argv[1]]
+              "blur": (lambda h: gaussian_blur(h, 150.0), lambda n: fbm(n, seed=3)),
+              "resample": (lambda h: resample_cubic(h, (3 * h.shape[0] - 2, 3 * h.shape[1] - 2)),
+                           lambda n: fbm(n, seed=3))}[sys.argv[1]]
 call(np.random.default_rng(3).random((16, 16)))
 heights = make(int(sys.argv[2]))
 print("ready", flush=True)
@@ -280,18 +283,19 @@ except KeyboardInterrupt:
 
 
 # the cone map's delay lets its numpy preparation (about a second) end first: Ctrl-C then
-# lands in the compiled search
+# lands in the compiled search; the resample's lands where one scipy zoom call (the
+# resample before its bands) was past its interruptible first steps (Ctrl-C took 22.5 s)
 @pytest.mark.parametrize(("call", "side", "delay"),
                          [("sky-view", 2049, 1.0), ("breach", 4097, 1.0),
                           ("cone-map", 4096, 5.0), ("shadow-rays", 4097, 1.0),
-                          ("blur", 4097, 1.0)])
+                          ("blur", 4097, 1.0), ("resample", 4097, 6.0)])
 def test_ctrl_c_stops_a_long_library_call_at_once(call, side, delay):
     """The sky-view factor of a 2049² map, the drainage of a 4097² one, the relief cone
     map of a 4096² natural texture (about half a minute), the shadows of a 4097² map by
-    one ray per sample (about 20 s), or a Gaussian blur of σ = 150 on a 4097² map (about
-    10 s on two threads): Ctrl-C during it raises KeyboardInterrupt at once, not after the
-    call (nor a SystemError from numba's conversion of a result), and the interpreter
-    exits."""
+    one ray per sample (about 20 s), a Gaussian blur of σ = 150 on a 4097² map (about
+    10 s on two threads), or a 4097² map resampled to 12289² (about 9 s on two threads):
+    Ctrl-C during it raises KeyboardInterrupt at once, not after the call (nor a
+    SystemError from numba's conversion of a result), and the interpreter exits."""
     proc = subprocess.Popen([sys.executable, "-c", CTRL_C_IN_A_LIBRARY_CALL, call, str(side)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
     out, err, waited = _interrupt(proc, signal.SIGINT, delay, (proc.stdout, "ready"))

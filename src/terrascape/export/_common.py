@@ -13,6 +13,7 @@ from PIL import Image
 from scipy import ndimage
 
 from terrascape.errors import HeightmapSizeError, InvalidParameterError
+from terrascape.filters.resample import resample_cubic
 from terrascape.heightmap import Heightmap
 from terrascape.io.atomic import atomic_output, atomic_outputs
 from terrascape.io.image import PNG16_COMPRESS_LEVEL
@@ -147,14 +148,11 @@ def fit_to_sizes(
                 f"cannot crop {cols}×{rows} to {target[1]}×{target[0]}; use --fit pad"
             )
         return heightmap.with_heights(h[:target[0], :target[1]])
-    zoom = ((target[0] - 1) / (rows - 1), (target[1] - 1) / (cols - 1))
-    out = ndimage.zoom(h.astype(np.float64), zoom, order=3, mode="nearest", grid_mode=False)
-    short = (max(0, target[0] - out.shape[0]), max(0, target[1] - out.shape[1]))
-    out = np.pad(out, ((0, short[0]), (0, short[1])), "edge")[:target[0], :target[1]]
+    out = resample_cubic(h, target)
     ex, ez = heightmap.extent
     md = dict(heightmap.metadata)
     md.pop("nodata_mask", None)
-    return Heightmap(out.astype(np.float32), (ex / (target[1] - 1), ez / (target[0] - 1)), md,
+    return Heightmap(out, (ex / (target[1] - 1), ez / (target[0] - 1)), md,
                      heightmap.origin, heightmap.crs, heightmap.nodata)
 
 
