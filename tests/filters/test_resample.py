@@ -70,13 +70,17 @@ def test_bands_give_the_values_of_one_band(monkeypatch, parallel):
 
 
 def test_bands_do_not_begin_once_told_to_stop():
-    coefficients = np.pad(_smooth_map(40, 30, 4).astype(np.float64), resample._PAD, "edge")
-    before = coefficients.copy()
+    h = _smooth_map(40, 30, 4)
+    coefficients = np.full((40 + 2 * resample._PAD, 30 + 2 * resample._PAD), np.nan)
     out = np.full((50, 20), np.nan, np.float32)
-    resample._resample_in_bands(coefficients, out, False, np.ones(1, np.uint8))
-    assert np.isnan(out).all() and np.array_equal(coefficients, before)
-    resample._resample_in_bands(coefficients, out, False, np.zeros(1, np.uint8))
+    resample._resample_in_bands(h, coefficients, out, False, np.ones(1, np.uint8))
+    assert np.isnan(out).all() and np.isnan(coefficients[resample._PAD:-resample._PAD]).all()
+    resample._resample_in_bands(h, coefficients, out, False, np.zeros(1, np.uint8))
     assert np.isfinite(out).all()
+    # the padding is np.pad's "edge" before the prefilter turned it into coefficients
+    expected = np.pad(h.astype(np.float64), resample._PAD, "edge")
+    ndimage.spline_filter(expected, 3, output=expected, mode="nearest")
+    assert np.array_equal(coefficients, expected)
 
 
 def test_bad_input_is_refused():

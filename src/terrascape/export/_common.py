@@ -169,26 +169,56 @@ def split_tiles(heights: np.ndarray, tiles: int) -> dict[tuple[int, int], np.nda
             for i in range(tiles) for j in range(tiles)}
 
 
+# rows of a map converted to codes at a time: float64 temporaries of a band, not the map's
+_CODE_ROWS = 256
+
+
 def uint16_codes(heights: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """Heights mapped linearly onto 0…65535 (``lo`` → 0, ``hi`` → 65535), rounded."""
+    """Heights mapped linearly onto 0…65535 (``lo`` → 0, ``hi`` → 65535), rounded (in
+    float64, a band of rows at a time)."""
     span = hi - lo
+    out = np.zeros(heights.shape, np.uint16)
     if span <= 0:
-        return np.zeros(heights.shape, np.uint16)
-    codes = np.rint((heights.astype(np.float64) - lo) * (65535.0 / span))
-    return np.clip(codes, 0, 65535).astype(np.uint16)
+        return out
+    scale = 65535.0 / span
+    for start in range(0, heights.shape[0], _CODE_ROWS):
+        rows = slice(start, start + _CODE_ROWS)
+        band = heights[rows].astype(np.float64)
+        band -= lo
+        band *= scale
+        np.rint(band, out=band)
+        np.clip(band, 0, 65535, out=band)
+        out[rows] = band
+    return out
+
+
+def weight_codes(weights: np.ndarray) -> np.ndarray:
+    """8-bit codes ``round(255·w)`` of weights in [0, 1] (any shape, rows first), computed
+    in float64 a band of rows at a time."""
+    out = np.empty(weights.shape, np.uint8)
+    for start in range(0, weights.shape[0], _CODE_ROWS):
+        rows = slice(start, start + _CODE_ROWS)
+        band = weights[rows].astype(np.float64)
+        band *= 255.0
+        np.rint(band, out=band)
+        np.clip(band, 0, 255, out=band)
+        out[rows] = band
+    return out
 
 
 def layer_weights(heightmap: Heightmap, shape: tuple[int, int] | None = None,
                   seed: int = 0) -> tuple[list[str], np.ndarray]:
     """Texture-layer names and weights ``(rows, cols, layers)`` (sum 1) of the default height
-    regions, resampled to ``shape`` if given."""
+    regions, resampled to ``shape`` if given: float32 (a view of the layers, each one
+    contiguous), float64 when resampled."""
     from terrascape.texture import default_regions, region_weights
 
     regions = default_regions(heightmap)
     w = region_weights(heightmap.heights, regions, seed=seed, slope=heightmap.slope(),
                        slope_rule=True)
-    w = np.moveaxis(w, 0, -1).astype(np.float64)
+    w = np.moveaxis(w, 0, -1)
     if shape is not None and tuple(shape) != w.shape[:2]:
+        w = w.astype(np.float64)
         zoom = ((shape[0] - 1) / (w.shape[0] - 1), (shape[1] - 1) / (w.shape[1] - 1), 1)
         w = ndimage.zoom(w, zoom, order=1, grid_mode=False)[:shape[0], :shape[1]]
         w = np.clip(w, 0, None)

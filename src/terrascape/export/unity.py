@@ -27,6 +27,7 @@ from terrascape.export._common import (
     split_tiles,
     tiled_sizes,
     uint16_codes,
+    weight_codes,
     write_bytes,
     write_png,
     write_text,
@@ -68,7 +69,7 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
             for k in range(0, len(layer_names), 4):
                 rgba = np.zeros((control, control, 4), np.uint8)
                 part = sub[..., k:k + 4]
-                rgba[..., :part.shape[2]] = np.rint(part * 255).clip(0, 255)
+                rgba[..., :part.shape[2]] = weight_codes(part)
                 written.append(write_png(out / f"{stem}_splat{k // 4}.png", rgba,
                                          force=options.force))
     ex, ez = hm.extent

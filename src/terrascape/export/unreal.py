@@ -14,8 +14,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from terrascape.errors import InvalidParameterError
 from terrascape.export._common import (
     ExportOptions,
@@ -26,6 +24,7 @@ from terrascape.export._common import (
     split_tiles,
     tiled_sizes,
     uint16_codes,
+    weight_codes,
     write_bytes,
     write_png,
     write_text,
@@ -73,7 +72,7 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     if options.layers:
         layer_names, w = layer_weights(hm)
         for k, layer in enumerate(layer_names):
-            grey = np.rint(w[..., k] * 255).clip(0, 255).astype(np.uint8)
+            grey = weight_codes(w[..., k])
             for (i, j), block in split_tiles(grey, options.tiles).items():
                 stem = name if options.tiles == 1 else f"{name}_x{j}_y{i}"
                 written.append(write_png(out / f"{stem}_layer_{layer}.png", block,

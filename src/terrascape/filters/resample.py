@@ -68,18 +68,29 @@ def resample_cubic(heights: Any, shape: tuple[int, int]) -> np.ndarray:
         raise TypeError(f"shape must be (rows, cols), got {shape!r}")
     rows = check_int(shape[0], "rows of the resampled map", minimum=2)
     cols = check_int(shape[1], "columns of the resampled map", minimum=2)
-    coefficients = np.pad(h.astype(np.float64), _PAD, mode="edge")
+    coefficients = np.empty((h.shape[0] + 2 * _PAD, h.shape[1] + 2 * _PAD))
     out = np.empty((rows, cols), np.float32)
     long = coefficients.size + out.size > _LONG_SAMPLES
-    run_stoppable(long, _resample_in_bands, coefficients, out, long)
+    run_stoppable(long, _resample_in_bands, h, coefficients, out, long)
     return out
 
 
-def _resample_in_bands(coefficients: np.ndarray, out: np.ndarray, parallel: bool,
-                       stop: np.ndarray) -> None:
-    """The padded samples ``coefficients`` turned in place into the spline's coefficients,
-    then evaluated into ``out``, each a band at a time (shared among the numba threads when
-    ``parallel``; none begins once ``stop[0]`` is set)."""
+def _resample_in_bands(h: np.ndarray, coefficients: np.ndarray, out: np.ndarray,
+                       parallel: bool, stop: np.ndarray) -> None:
+    """``h`` padded by its edge samples into the float64 ``coefficients`` (``np.pad``'s
+    "edge"), turned in place into the spline's coefficients, then evaluated into ``out``;
+    each step a band at a time (shared among the numba threads when ``parallel``; none
+    begins once ``stop[0]`` is set)."""
+    def pad(start: int) -> None:
+        rows = h[start:start + _BAND]
+        band = coefficients[_PAD + start:_PAD + start + rows.shape[0]]
+        band[:, _PAD:-_PAD] = rows
+        band[:, :_PAD] = rows[:, :1]
+        band[:, -_PAD:] = rows[:, -1:]
+
+    for_each_band(pad, range(0, h.shape[0], _BAND), parallel, stop)
+    coefficients[:_PAD] = coefficients[_PAD]
+    coefficients[-_PAD:] = coefficients[-_PAD - 1]
     for axis in (0, 1):
         def prefilter(start: int, axis: int = axis) -> None:
             lines = slice(start, start + _BAND)
