@@ -244,3 +244,23 @@ def test_bad_input_raises_typed_errors():
         region_texture(hm, [Region("a", 1, 1, texture=np.zeros((4, 4, 2), np.uint8))])
     with pytest.raises(InvalidParameterError, match="not a built-in"):
         region_texture(hm, [Region("lava", 1, 1)])
+
+
+def test_region_weights_rows_do_not_begin_once_told_to_stop():
+    """The weights' kernel leaves rows not yet begun unwritten once the stop flag is set
+    (Ctrl-C during a large map's weights: tests/faults/test_signals.py), and otherwise
+    gives region_weights' values."""
+    from terrascape.texture import regions as module
+
+    h = np.linspace(0.0, 100.0, 40 * 30, dtype=np.float32).reshape(40, 30)
+    regions = default_regions(h)
+    rule, s0, s1 = module._resolve_slope_rule(None, regions)
+    args = (h, np.zeros((1, 1), np.float32), False, *module._region_arrays(regions, 0.0, 0),
+            rule, module._water_index(regions), s0, s1, module._water_level(regions, None))
+    for flag in (1, 0):
+        out = np.full((len(regions), 40, 30), np.nan, np.float32)
+        module._weights_kernel(*args, out, np.array([flag], np.uint8))
+        if flag:
+            assert np.isnan(out).all()
+        else:
+            assert np.array_equal(out, region_weights(h, regions))
