@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 from PIL import Image
-from scipy import ndimage
 
 from terrascape.errors import HeightmapSizeError, InvalidParameterError
 from terrascape.filters.resample import resample_cubic
@@ -206,24 +205,15 @@ def weight_codes(weights: np.ndarray) -> np.ndarray:
     return out
 
 
-def layer_weights(heightmap: Heightmap, shape: tuple[int, int] | None = None,
-                  seed: int = 0) -> tuple[list[str], np.ndarray]:
+def layer_weights(heightmap: Heightmap, seed: int = 0) -> tuple[list[str], np.ndarray]:
     """Texture-layer names and weights ``(rows, cols, layers)`` (sum 1) of the default height
-    regions, resampled to ``shape`` if given: float32 (a view of the layers, each one
-    contiguous), float64 when resampled."""
+    regions: float32, a view of the layers (each one contiguous)."""
     from terrascape.texture import default_regions, region_weights
 
     regions = default_regions(heightmap)
     w = region_weights(heightmap.heights, regions, seed=seed, slope=heightmap.slope(),
                        slope_rule=True)
-    w = np.moveaxis(w, 0, -1)
-    if shape is not None and tuple(shape) != w.shape[:2]:
-        w = w.astype(np.float64)
-        zoom = ((shape[0] - 1) / (w.shape[0] - 1), (shape[1] - 1) / (w.shape[1] - 1), 1)
-        w = ndimage.zoom(w, zoom, order=1, grid_mode=False)[:shape[0], :shape[1]]
-        w = np.clip(w, 0, None)
-        w /= np.maximum(w.sum(axis=2, keepdims=True), 1e-12)
-    return [r.name for r in regions], w
+    return [r.name for r in regions], np.moveaxis(w, 0, -1)
 
 
 def write_bytes(path: Path, data: bytes, *, force: bool) -> Path:

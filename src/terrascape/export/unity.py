@@ -61,7 +61,7 @@ def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     layer_names: list[str] = []
     if options.layers:
         control = tile_res - 1
-        layer_names, w = layer_weights(hm, (options.tiles * control + 1,) * 2)
+        layer_names, w = layer_weights(hm)  # the map's own grid: tiles · control + 1 a side
         w = w if options.flip else w[::-1]
         for i, j in blocks:
             sub = w[i * control:(i + 1) * control, j * control:(j + 1) * control]
