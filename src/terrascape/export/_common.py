@@ -172,37 +172,33 @@ def split_tiles(heights: np.ndarray, tiles: int) -> dict[tuple[int, int], np.nda
 _CODE_ROWS = 256
 
 
-def uint16_codes(heights: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """Heights mapped linearly onto 0…65535 (``lo`` → 0, ``hi`` → 65535), rounded (in
-    float64, a band of rows at a time)."""
-    span = hi - lo
-    out = np.zeros(heights.shape, np.uint16)
-    if span <= 0:
-        return out
-    scale = 65535.0 / span
-    for start in range(0, heights.shape[0], _CODE_ROWS):
+def _rounded_codes(values: np.ndarray, lo: float, scale: float, top: int,
+                   dtype: type) -> np.ndarray:
+    """``clip(rint((values - lo)·scale), 0, top)`` as ``dtype``, computed in float64 a band
+    of rows at a time (the same values as on the whole array, without its float64 copies)."""
+    out = np.empty(values.shape, dtype)
+    for start in range(0, values.shape[0], _CODE_ROWS):
         rows = slice(start, start + _CODE_ROWS)
-        band = heights[rows].astype(np.float64)
+        band = values[rows].astype(np.float64)
         band -= lo
         band *= scale
         np.rint(band, out=band)
-        np.clip(band, 0, 65535, out=band)
+        np.clip(band, 0, top, out=band)
         out[rows] = band
     return out
+
+
+def uint16_codes(heights: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """Heights mapped linearly onto 0…65535 (``lo`` → 0, ``hi`` → 65535), rounded."""
+    span = hi - lo
+    if span <= 0:
+        return np.zeros(heights.shape, np.uint16)
+    return _rounded_codes(heights, lo, 65535.0 / span, 65535, np.uint16)
 
 
 def weight_codes(weights: np.ndarray) -> np.ndarray:
-    """8-bit codes ``round(255·w)`` of weights in [0, 1] (any shape, rows first), computed
-    in float64 a band of rows at a time."""
-    out = np.empty(weights.shape, np.uint8)
-    for start in range(0, weights.shape[0], _CODE_ROWS):
-        rows = slice(start, start + _CODE_ROWS)
-        band = weights[rows].astype(np.float64)
-        band *= 255.0
-        np.rint(band, out=band)
-        np.clip(band, 0, 255, out=band)
-        out[rows] = band
-    return out
+    """8-bit codes ``round(255·w)`` of weights in [0, 1] (any shape, rows first)."""
+    return _rounded_codes(weights, 0.0, 255.0, 255, np.uint8)
 
 
 def layer_weights(heightmap: Heightmap, seed: int = 0) -> tuple[list[str], np.ndarray]:
