@@ -230,10 +230,11 @@ PEAK_BYTES_PER_SAMPLE: dict[str, float] = {
     "heightfromimage": 27.0,
     "render": 200.0,
     # `mesh`: the heights and the meshers' per-sample work, before the mesh's own size (a
-    # 4097² map meshed at a 50 m error: 14.6 B .ply, 14.5 B .obj); a .glb's baked texture
-    # (167–170 B), 2026-12-06
+    # 4097² map meshed at a 50 m error: 14.6 B .ply, 14.5 B .obj), 2026-12-06; a .glb's
+    # baked texture, its daylight lightmap now in bands: 42 B at 2049², 45 B at 4097² (167
+    # B before; `/usr/bin/time terrascape mesh m.npy -o m.glb --max-error 50`, 2026-12-07)
     "mesh": 18.0,
-    "mesh glb": 205.0,
+    "mesh glb": 55.0,
 }
 
 #: Peak bytes per triangle of ``terrascape mesh`` by output format: a 4097² fBm map meshed
