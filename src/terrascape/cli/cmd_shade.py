@@ -260,9 +260,12 @@ def shade_cmd(
     check_output_path(output, force=force)
     with timed("read", quiet=quiet):
         hm = _read_heightmap(heightmap)
+    from terrascape.memory import PEAK_BYTES_PER_SAMPLE
+
+    share = PEAK_BYTES_PER_SAMPLE["shade"] / PEAK_BYTES_PER_SAMPLE["shade daylight"]
     _check_memory("shade" if lighting == "classic" else "shade daylight", hm.rows, hm.cols,
-                  max_memory, hint="use a smaller map or --lighting classic (a third of the "
-                                   "memory), or raise --max-memory")
+                  max_memory, hint=f"use a smaller map or --lighting classic (about {share:.0%} "
+                                   "of the memory), or raise --max-memory")
     with timed("lightmap", quiet=quiet):
         if lighting == "classic":
             light = lightmap(

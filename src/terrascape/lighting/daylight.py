@@ -325,7 +325,7 @@ def daylight_lightmap(
     sun_above_horizon(sun_azimuth, sun_elevation)
     day = daylight(sun_azimuth, sun_elevation, turbidity=turbidity, exposure=exposure)
     if sky_visibility is not None:
-        svf = np.asarray(sky_visibility, dtype=np.float64)
+        svf = np.asarray(sky_visibility)  # converted to float64 a band at a time
         if svf.shape != hm.shape:
             raise InvalidParameterError(
                 f"sky_visibility must have the heightmap's shape {hm.shape}, got {svf.shape}")
@@ -339,7 +339,7 @@ def daylight_lightmap(
             return _enlarged_rows(coarse, step, rows, hm.shape)
     else:
         def svf_rows(rows: slice) -> np.ndarray:
-            return svf[rows]
+            return svf[rows].astype(np.float64)
     out = np.empty(hm.shape + ((3,) if color else ()), np.float32)
     long = hm.heights.size > _LONG_SAMPLES
     run_stoppable(long, _light_in_bands, day, normals, vis, svf_rows, out, long)
