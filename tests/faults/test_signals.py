@@ -283,9 +283,10 @@ except KeyboardInterrupt:
 
 
 # the cone map's delay lets its numpy preparation (about a second; 6 s, and under load
-# more than the delay, while it reduced a stack of the four corners) end first: Ctrl-C then
-# lands in the compiled search (a search not handed over took 26.1 s); the resample's lands where one scipy zoom call (the
-# resample before its bands) was past its interruptible first steps (Ctrl-C took 22.5 s)
+# more than the delay, while it reduced a stack of the four corners) end first: Ctrl-C
+# then lands in the compiled search (a search not handed over took 26.1 s); the
+# resample's lands where one scipy zoom call (the resample before its bands) was past its
+# interruptible first steps (Ctrl-C took 22.5 s)
 @pytest.mark.parametrize(("call", "side", "delay"),
                          [("sky-view", 2049, 1.0), ("breach", 4097, 1.0),
                           ("cone-map", 4096, 5.0), ("shadow-rays", 4097, 1.0),

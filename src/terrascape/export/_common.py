@@ -3,10 +3,12 @@ tiles and atomic writes of the small "how to import" text files."""
 
 from __future__ import annotations
 
+import functools
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from PIL import Image
@@ -14,7 +16,7 @@ from PIL import Image
 from terrascape.errors import HeightmapSizeError, InvalidParameterError
 from terrascape.filters.resample import resample_cubic
 from terrascape.heightmap import Heightmap
-from terrascape.io.atomic import atomic_output, atomic_outputs
+from terrascape.io.atomic import atomic_output, atomic_outputs, output_unit
 from terrascape.io.image import PNG16_COMPRESS_LEVEL
 
 FITS = ("pad", "resample", "crop")
@@ -220,6 +222,23 @@ def write_bytes(path: Path, data: bytes, *, force: bool) -> Path:
 
 #: Threads flushing a batch of small files to the disk (see ``atomic_outputs``).
 SYNC_THREADS = 8
+
+
+def one_unit(export: Callable[[Heightmap, Any, ExportOptions], list[Path]]
+             ) -> Callable[[Heightmap, Any, ExportOptions], list[Path]]:
+    """A destination's ``export`` whose files all appear when it ends, or none do
+    (:func:`terrascape.io.atomic.output_unit`): interrupted or failing half-way (a signal,
+    a full disk, an existing file without ``force``), it leaves no file of its own, not
+    even those it had finished; with ``force``, the previous export's files stay as they
+    were."""
+
+    @functools.wraps(export)
+    def export_as_one_unit(heightmap: Heightmap, out_dir: Any,
+                           options: ExportOptions) -> list[Path]:
+        with output_unit(sync_threads=SYNC_THREADS):
+            return export(heightmap, out_dir, options)
+
+    return export_as_one_unit
 
 
 def write_many(items: list[tuple[Path, bytes]], *, force: bool) -> list[Path]:

@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from terrascape.errors import InvalidParameterError
-from terrascape.export._common import ExportOptions, check_name, check_out_dir, write_text
+from terrascape.export._common import ExportOptions, check_name, check_out_dir, one_unit, write_text
 from terrascape.export.instances import objects_for, write_engine_instances
 from terrascape.heightmap import Heightmap
 
@@ -25,6 +25,7 @@ TAKES_MESHER = True
 COMPRESSIONS = ("none", "quantize")
 
 
+@one_unit
 def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     out = check_out_dir(out_dir)
     name = check_name(options.name)

@@ -42,7 +42,7 @@ import numpy as np
 
 from terrascape._numba import CACHE, FASTMATH, njit
 from terrascape.errors import InvalidParameterError
-from terrascape.export._common import ExportOptions, check_out_dir, write_many, write_text
+from terrascape.export._common import ExportOptions, check_out_dir, one_unit, write_many, write_text
 from terrascape.export._geo import GeoGrid, geo_grid, tms_geographic_bounds, tms_geographic_range
 from terrascape.heightmap import Heightmap
 
@@ -306,6 +306,7 @@ def encode_pyramid(grid: GeoGrid, jobs, *, workers: int = 2, min_parallel_jobs: 
         yield from pool.map(_encode_job, jobs, chunksize=16)
 
 
+@one_unit
 def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     out = check_out_dir(out_dir)
     grid = geo_grid(heightmap, options.lonlat)

@@ -17,6 +17,7 @@ from terrascape.export._common import (
     check_name,
     check_out_dir,
     fit_to_sizes,
+    one_unit,
     uint16_codes,
     write_bytes,
     write_text,
@@ -32,6 +33,7 @@ FORMATS = ("exr", "exr16", "r16")
 PLUGINS = ("hterrain", "terrain3d")
 
 
+@one_unit
 def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     out = check_out_dir(out_dir)
     name = check_name(options.name)

@@ -29,7 +29,13 @@ import numpy as np
 from PIL import Image
 
 from terrascape.errors import InvalidParameterError
-from terrascape.export._common import ExportOptions, check_out_dir, write_bytes, write_text
+from terrascape.export._common import (
+    ExportOptions,
+    check_out_dir,
+    one_unit,
+    write_bytes,
+    write_text,
+)
 from terrascape.export._geo import GeoGrid, geo_grid, mercator_tile_lonlat, mercator_tile_range
 from terrascape.heightmap import Heightmap
 
@@ -77,6 +83,7 @@ def tile_heights(grid: GeoGrid, z: int, x: int, y: int) -> tuple[np.ndarray, np.
     return grid.sample(lon, lat)
 
 
+@one_unit
 def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     out = check_out_dir(out_dir)
     fmt = options.format or "mapbox"

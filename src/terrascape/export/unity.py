@@ -24,6 +24,7 @@ from terrascape.export._common import (
     check_out_dir,
     fit_to_sizes,
     layer_weights,
+    one_unit,
     split_tiles,
     tiled_sizes,
     uint16_codes,
@@ -40,6 +41,7 @@ SUMMARY = "Unity terrain: RAW 16-bit (2**n+1, 33…4097), RGBA alphamaps, Name_X
 SIZES = (33, 65, 129, 257, 513, 1025, 2049, 4097)
 
 
+@one_unit
 def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     out = check_out_dir(out_dir)
     name = check_name(options.name)

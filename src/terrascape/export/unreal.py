@@ -21,6 +21,7 @@ from terrascape.export._common import (
     check_out_dir,
     fit_to_sizes,
     layer_weights,
+    one_unit,
     split_tiles,
     tiled_sizes,
     uint16_codes,
@@ -45,6 +46,7 @@ def z_scale(lo: float, hi: float) -> float:
     return max(hi - lo, 1e-6) * 100.0 / 512.0
 
 
+@one_unit
 def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     out = check_out_dir(out_dir)
     name = check_name(options.name)

@@ -17,7 +17,13 @@ import json
 from importlib import resources
 from pathlib import Path
 
-from terrascape.export._common import ExportOptions, check_out_dir, write_bytes, write_text
+from terrascape.export._common import (
+    ExportOptions,
+    check_out_dir,
+    one_unit,
+    write_bytes,
+    write_text,
+)
 from terrascape.heightmap import Heightmap
 
 NAME = "web"
@@ -63,6 +69,7 @@ def page_html(glb: bytes, *, title: str, sky: str = SKY) -> str:
     return html
 
 
+@one_unit
 def export(heightmap: Heightmap, out_dir, options: ExportOptions) -> list[Path]:
     from terrascape.export.glb import build_glb
     from terrascape.export.instances import objects_for

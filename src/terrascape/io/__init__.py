@@ -20,7 +20,7 @@ from terrascape._lazy import lazy_exports
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:
-    from terrascape.io.atomic import atomic_output, check_output_path
+    from terrascape.io.atomic import atomic_output, check_output_path, output_unit
     from terrascape.io.fill import fill_nodata
     from terrascape.io.heightmap_file import (
         FORMATS,
@@ -44,7 +44,7 @@ if TYPE_CHECKING:
     from terrascape.io.tiff import geographic_spacing, read_tiff, write_tiff
 
 __getattr__, __dir__ = lazy_exports(__name__, {
-    "atomic": ("atomic_output", "check_output_path"),
+    "atomic": ("atomic_output", "check_output_path", "output_unit"),
     "fill": ("fill_nodata",),
     "heightmap_file": ("FORMATS", "READ_EXTENSIONS", "WRITE_EXTENSIONS", "WRITE_FORMAT_NAMES",
                        "formats_help", "read_heightmap", "write_heightmap"),
@@ -67,6 +67,7 @@ __all__ = [
     "formats_help",
     "geographic_spacing",
     "luminance",
+    "output_unit",
     "read_heightmap",
     "read_image",
     "read_npy",

@@ -12,7 +12,10 @@ Guarantees (tested in ``tests/faults`` and ``tests/core/test_atomic.py``):
   sidecar, a set of splat maps) together: all appear or none does. The commit holds an
   exclusive :func:`fcntl.flock` on each output folder, so two terrascape writers never
   interleave their renames, and a failure half-way rolls the already renamed files back
-  (with ``force`` the previous files are restored from hard-link backups).
+  (with ``force`` the previous files are restored from hard-link backups). Inside
+  :func:`output_unit` (every export destination), every file written through these
+  functions waits for the end of the block and is committed with the others: a command
+  interrupted or failing half-way leaves none of its files, not the ones it had finished.
 * **Durable once committed.** Each temporary file is flushed to the disk (:func:`os.fsync`)
   before it gets its final name, and each output folder after the renames, so after a power
   loss a committed name holds the new bytes (or, before the folder's sync, the old state),
@@ -31,6 +34,7 @@ Guarantees (tested in ``tests/faults`` and ``tests/core/test_atomic.py``):
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import errno
 import os
 import re
@@ -323,14 +327,16 @@ def _signals_deferred() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
-def _commit(pairs: list[tuple[Path, Path]], force: bool) -> None:
-    """Rename every ``tmp`` to its ``final`` under the folder locks; all or nothing."""
+def _commit(pairs: list[tuple[Path, Path]], force: bool | Sequence[bool]) -> None:
+    """Rename every ``tmp`` to its ``final`` under the folder locks; all or nothing
+    (``force`` for all pairs, or one per pair)."""
     done: list[tuple[Path, Path | None]] = []  # (final, backup of the old file or None)
     backups: list[Path] = []
+    forced = [force] * len(pairs) if isinstance(force, bool) else list(force)
     with _signals_deferred(), commit_lock([final.parent for _tmp, final in pairs]):
         try:
-            for tmp, final in pairs:
-                if force:
+            for (tmp, final), force_one in zip(pairs, forced, strict=True):
+                if force_one:
                     backup = None
                     if len(pairs) > 1 and os.path.lexists(final):
                         backup = _make_temp(final, "bak")
@@ -432,17 +438,90 @@ def atomic_outputs(
                 os.chmod(tmp, mode)
             # The bytes are on the disk before the names point at them.
             _each(_fsync_path, tmps, sync_threads)
-            _commit(list(zip(tmps, finals, strict=True)), force)
-            _COMMITTED.extend(finals)
-            # The new names survive a power loss.
-            _each(_fsync_folder, list(dict.fromkeys(final.parent for final in finals)),
-                  sync_threads)
-        except TerrascapeError:
-            raise
         except OSError as exc:
             raise os_error_to_terrascape(exc, finals[0]) from None
+        unit = _UNIT.get()
+        if unit is not None:
+            # committed with the unit's other files at its end (or removed with them)
+            unit.add(list(zip(tmps, finals, strict=True)), force)
+            tmps = []
+            return
+        _commit_and_sync(list(zip(tmps, finals, strict=True)), force, sync_threads)
     finally:
         for tmp in tmps:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+
+
+def _commit_and_sync(pairs: list[tuple[Path, Path]], force: bool | Sequence[bool],
+                     sync_threads: int) -> None:
+    """:func:`_commit`, then the folders flushed so that the new names survive a power loss;
+    an OSError becomes the typed error."""
+    finals = [final for _tmp, final in pairs]
+    try:
+        _commit(pairs, force)
+        _COMMITTED.extend(finals)
+        _each(_fsync_folder, list(dict.fromkeys(final.parent for final in finals)),
+              sync_threads)
+    except TerrascapeError:
+        raise
+    except OSError as exc:
+        raise os_error_to_terrascape(exc, finals[0]) from None
+
+
+class _Unit:
+    """The files written inside one :func:`output_unit`, waiting for its commit."""
+
+    def __init__(self) -> None:
+        self.pairs: list[tuple[Path, Path]] = []
+        self.forced: list[bool] = []
+        self.keys: set[str] = set()
+
+    def add(self, pairs: list[tuple[Path, Path]], force: bool) -> None:
+        for tmp, final in pairs:
+            key = os.path.abspath(final)
+            if key in self.keys:  # its writer removes the temporary files it made
+                raise FileFormatError(f"{final} was written twice by one command")
+            self.keys.add(key)
+            self.pairs.append((tmp, final))
+            self.forced.append(force)
+
+
+_UNIT: contextvars.ContextVar[_Unit | None] = contextvars.ContextVar("terrascape_output_unit",
+                                                                    default=None)
+
+
+@contextlib.contextmanager
+def output_unit(*, sync_threads: int = 1) -> Iterator[None]:
+    """Commit every file written inside the block (through :func:`atomic_output` and
+    :func:`atomic_outputs`) together, when the block ends without an error.
+
+    Each file is still written to its temporary file, checked and flushed to the disk as
+    it is finished; its final name waits for the block's end. Then all are renamed under
+    the folders' locks, all or none (as one :func:`atomic_outputs`), each with its own
+    ``force``. If the block raises (a signal, a full disk, a refused overwrite), every
+    temporary file is removed and no final name appears, not even those of the files
+    finished first. A block inside another one joins the outer unit.
+
+    Parameters
+    ----------
+    sync_threads
+        Threads that flush the output folders after the commit.
+    """
+    if _UNIT.get() is not None:
+        yield
+        return
+    unit = _Unit()
+    token = _UNIT.set(unit)
+    try:
+        try:
+            yield
+        finally:
+            _UNIT.reset(token)
+        if unit.pairs:
+            _commit_and_sync(unit.pairs, unit.forced, sync_threads)
+    finally:
+        for tmp, _final in unit.pairs:
             with contextlib.suppress(OSError):
                 tmp.unlink()
 

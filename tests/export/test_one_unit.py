@@ -1,0 +1,155 @@
+"""Every export destination writes its files as one unit: interrupted or failing half-way,
+it leaves none of them, not even those it had finished, and with ``force`` the previous
+export's files stay byte for byte."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from terrascape import Heightmap
+from terrascape.errors import Interrupted, OutputExistsError
+from terrascape.export import ExportOptions, destinations, get_destination
+from terrascape.io import atomic
+from terrascape.io.atomic import output_unit
+
+# options that each destination takes for a small map (the engines crop it to a size they
+# accept, the globes place it somewhere)
+OPTIONS = {"cesium": {"lonlat": (15.9, 45.8), "max_zoom": 12},
+           "terrain_rgb": {"lonlat": (15.9, 45.8), "max_zoom": 12}}
+
+
+def _map() -> Heightmap:
+    rng = np.random.default_rng(7)
+    y, x = np.mgrid[0:130, 0:130] / 130.0
+    heights = 300.0 * np.sin(3 * x) * np.cos(2 * y) + rng.random((130, 130)) * 5.0
+    return Heightmap(heights.astype(np.float32), (30.0, 30.0))
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _export(name: str, folder: Path, *, force: bool = False, stop_at: int | None = None,
+            monkeypatch=None) -> int:
+    """Export to ``folder``; with ``stop_at``, an interrupt as its ``stop_at``-th batch of
+    files is finished (written, about to be committed or handed to the unit: every batch
+    reads the umask then). Returns how many batches it wrote."""
+    batches = []
+    real_umask = atomic._current_umask
+
+    def umask():
+        batches.append(1)
+        if stop_at is not None and len(batches) == stop_at:
+            raise Interrupted(signal.SIGTERM)
+        return real_umask()
+
+    monkeypatch.setattr(atomic, "_current_umask", umask)
+    options = ExportOptions(name="T", fit="crop", force=force, **OPTIONS.get(name, {}))
+    try:
+        get_destination(name).export(_map(), folder, options)
+    finally:
+        monkeypatch.setattr(atomic, "_current_umask", real_umask)
+    return len(batches)
+
+
+@pytest.mark.parametrize("name", destinations())
+def test_an_export_interrupted_at_its_last_file_leaves_none(tmp_path, monkeypatch, name):
+    whole = tmp_path / "whole"
+    whole.mkdir()
+    batches = _export(name, whole, monkeypatch=monkeypatch)
+    written = _files(whole)
+    assert batches >= 2 and len(written) >= 2, "a destination of one file tests nothing here"
+
+    cut = tmp_path / "cut"
+    cut.mkdir()
+    with pytest.raises(Interrupted):
+        _export(name, cut, stop_at=batches, monkeypatch=monkeypatch)
+    assert _files(cut) == {}, "files finished before the interrupt were left"
+
+    # over the complete export with force: the old files stay, byte for byte
+    with pytest.raises(Interrupted):
+        _export(name, whole, force=True, stop_at=batches, monkeypatch=monkeypatch)
+    assert _files(whole) == written
+    # and uninterrupted with force, the same bytes again (no temporary file left)
+    assert _export(name, whole, force=True, monkeypatch=monkeypatch) == batches
+    assert _files(whole) == written
+
+
+@pytest.mark.parametrize("name", ["unreal", "web"])
+def test_an_existing_file_without_force_stops_the_export_before_any_file(tmp_path,
+                                                                           monkeypatch, name):
+    whole = tmp_path / "whole"
+    whole.mkdir()
+    _export(name, whole, monkeypatch=monkeypatch)
+    last = max(whole.rglob("*"), key=lambda p: p.stat().st_mtime_ns)
+    taken = tmp_path / "taken"
+    (taken / last.relative_to(whole)).parent.mkdir(parents=True, exist_ok=True)
+    (taken / last.relative_to(whole)).write_bytes(b"mine")
+    with pytest.raises(OutputExistsError):
+        _export(name, taken, monkeypatch=monkeypatch)
+    assert _files(taken) == {str(last.relative_to(whole)): b"mine"}
+
+
+def test_a_unit_commits_at_its_end_and_joins_an_outer_one(tmp_path):
+    a, b = tmp_path / "a.txt", tmp_path / "b.txt"
+    with output_unit():
+        with atomic.atomic_output(a) as tmp:
+            Path(tmp).write_text("A")
+        assert not a.exists()  # waits for the unit
+        with output_unit(), atomic.atomic_output(b) as tmp:  # joins the outer unit
+            Path(tmp).write_text("B")
+        assert not b.exists()
+    assert a.read_text() == "A" and b.read_text() == "B"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.txt"]
+    with pytest.raises(Exception, match="written twice"), output_unit():
+        for _ in range(2):
+            with atomic.atomic_output(tmp_path / "c.txt") as tmp:
+                Path(tmp).write_text("C")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.txt"]
+
+
+# `export unreal` whose second PNG pauses half-way and says so: the signal lands while the
+# first PNG is finished and waiting for the unit
+SLOW_SECOND_PNG = """
+import sys, time
+from PIL import Image
+real = Image.Image.save
+count = [0]
+def slow(self, fp, *args, **kwargs):
+    count[0] += 1
+    if count[0] == 2:
+        print("writing", flush=True)
+        time.sleep(30)
+    return real(self, fp, *args, **kwargs)
+Image.Image.save = slow
+from terrascape.cli import main
+main()
+"""
+
+
+def test_sigterm_mid_export_leaves_the_old_export_byte_for_byte(tmp_path):
+    np.save(tmp_path / "m.npy", _map().heights)
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2] / "src")}
+    command = ["export", "unreal", str(tmp_path / "m.npy"), "-o", str(tmp_path / "ue"),
+               "--tiles", "2", "--layers", "--fit", "pad"]
+    first = subprocess.run([sys.executable, "-c", SLOW_SECOND_PNG.replace("== 2", "== -1"),
+                            *command], capture_output=True, text=True, env=env, timeout=300)
+    assert first.returncode == 0, first.stderr
+    old = _files(tmp_path / "ue")
+    assert len(old) >= 3
+    proc = subprocess.Popen([sys.executable, "-c", SLOW_SECOND_PNG, *command, "--force"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    assert proc.stdout.readline().strip() == "writing"
+    proc.send_signal(signal.SIGTERM)
+    _out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "nothing was written" in err and "Traceback" not in err
+    assert _files(tmp_path / "ue") == old  # no new file, no temporary, the old bytes
