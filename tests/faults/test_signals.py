@@ -282,9 +282,9 @@ except KeyboardInterrupt:
 """
 
 
-# the cone map's delay lets its numpy preparation (about a second; 6 s, and under load
-# more than the delay, while it reduced a stack of the four corners) end first: Ctrl-C
-# then lands in the compiled search (a search not handed over took 26.1 s); the
+# the cone map's delay lets its numpy preparation (about a second; several seconds, and
+# under load more than the delay, while it reduced a stack of the four corners) end first:
+# Ctrl-C then lands in the compiled search (a search not handed over took 26.1 s); the
 # resample's lands where one scipy zoom call (the resample before its bands) was past its
 # interruptible first steps (Ctrl-C took 22.5 s)
 @pytest.mark.parametrize(("call", "side", "delay"),
