@@ -153,3 +153,40 @@ def test_sigterm_mid_export_leaves_the_old_export_byte_for_byte(tmp_path):
     assert proc.returncode == 143, err
     assert "nothing was written" in err and "Traceback" not in err
     assert _files(tmp_path / "ue") == old  # no new file, no temporary, the old bytes
+
+
+def _limited(fsize: int):
+    def limit():
+        import resource
+
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # EFBIG instead of a core dump
+        resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
+    return limit
+
+
+CLI_OPTIONS = {"cesium": ["--lonlat", "15,45", "--max-zoom", "12"],
+               "terrain_rgb": ["--lonlat", "15,45", "--max-zoom", "12"],
+               "unreal": ["--fit", "pad", "--layers"], "unity": ["--layers"]}
+
+
+@pytest.mark.parametrize("name", destinations())
+def test_a_file_too_large_in_an_export_is_one_line_and_leaves_nothing(tmp_path, name):
+    """Files of at most 700 bytes can be written, larger ones fail with EFBIG (a real
+    kernel write failure, in whatever library writes the file: Pillow, tifffile, OpenEXR,
+    trimesh): one line, exit 1, and no file nor the folder the command made. (Which file
+    fails first depends on the destination's order; the interrupt tests above put the
+    failure after finished files.)"""
+    rng = np.random.default_rng(3)
+    np.save(tmp_path / "m.npy", (rng.random((257, 257)) * 50).astype(np.float32))
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2] / "src")}
+    out = tmp_path / "out"
+    proc = subprocess.run(
+        [sys.executable, "-c", "from terrascape.cli import main; main()", "export", name,
+         str(tmp_path / "m.npy"), "-o", str(out), "-q", *CLI_OPTIONS.get(name, [])],
+        capture_output=True, text=True, env=env, preexec_fn=_limited(700), timeout=300)
+    errors = [line for line in proc.stderr.splitlines() if line.startswith("error")]
+    assert proc.returncode == 1, proc.stderr
+    assert len(errors) == 1 and errors[0].startswith("error: cannot write"), proc.stderr
+    assert "File too large" in errors[0] or "the disk is probably full" in errors[0]
+    assert "Traceback" not in proc.stderr
+    assert not out.exists(), sorted(str(p) for p in out.rglob("*"))

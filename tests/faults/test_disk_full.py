@@ -111,7 +111,7 @@ def _cli(args, *, fsize: int | None = None, cwd=None):
     )
 
 
-@pytest.mark.parametrize("ext", [".png", ".r16", ".tif", ".npy", ".ter"])
+@pytest.mark.parametrize("ext", [".png", ".r16", ".tif", ".npy", ".ter", ".exr"])
 def test_file_too_large_is_one_line_exit_1_and_nothing_written(tmp_path, ext):
     out = tmp_path / f"big{ext}"
     proc = _cli(["generate", "diamond-square", "--size", "257", "-o", str(out), "-q"],

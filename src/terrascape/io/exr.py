@@ -13,6 +13,7 @@ half's largest finite value, 65504.
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -89,8 +90,27 @@ def write_exr(
         _META_ATTRIBUTE: json.dumps(record, separators=(",", ":")),
     }
     with atomic_output(path, force=force) as tmp, openexr.File(header, {"Y": pixels}) as exr:
-        exr.write(str(tmp))
+        try:
+            exr.write(str(tmp))
+        except RuntimeError as exc:
+            raise _write_failure(exc, tmp) from None
     return Path(path)
+
+
+#: What a failed write can tell: OpenEXR raises RuntimeError with the system's reason in
+#: its text ("Failed to write pixel data to image file "…". File too large."), no errno.
+_WRITE_ERRNOS = (errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS, errno.EACCES,
+                 errno.EPERM, errno.EIO)
+
+
+def _write_failure(exc: RuntimeError, tmp: Path) -> OSError:
+    """The OSError behind OpenEXR's failed write, found by its reason's text (the atomic
+    writer turns it into one line naming the output), or EIO with OpenEXR's text."""
+    text = str(exc)
+    for number in _WRITE_ERRNOS:
+        if os.strerror(number) in text:
+            return OSError(number, os.strerror(number), str(tmp))
+    return OSError(errno.EIO, f"OpenEXR could not write it ({text})", str(tmp))
 
 
 def write_exr_half(heightmap: Heightmap, path: str | os.PathLike, *, force: bool = False) -> Path:
