@@ -162,3 +162,56 @@ def test_writer_oserror_becomes_typed_error_naming_the_output(tmp_path):
             atomic_output(target) as tmp:
         raise OSError(errno.ENOSPC, "No space left on device", str(tmp))
     assert list(tmp_path.iterdir()) == []
+
+
+# a unit of one small file in each of N folders, forced over the same files, in a process
+# allowed 200 open files
+_MANY_FOLDERS = """
+import resource, sys
+from pathlib import Path
+from terrascape.io.atomic import atomic_output, output_unit
+root, n = Path(sys.argv[1]), int(sys.argv[2])
+resource.setrlimit(resource.RLIMIT_NOFILE, (200, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+for run in range(2):
+    with output_unit():
+        for i in range(n):
+            (root / str(i)).mkdir(exist_ok=True)
+            with atomic_output(root / str(i) / "t.bin", force=run == 1) as tmp:
+                Path(tmp).write_bytes(bytes([run]) * 10)
+print(sorted({p.read_bytes() for p in root.rglob("t.bin")}))
+"""
+
+
+def test_a_forced_unit_over_more_folders_than_open_files_commits(tmp_path):
+    """A tile pyramid's unit spans thousands of ``z/x`` folders. Locked one open file per
+    folder, they took every file the process may open (often 1,024), and the forced
+    commit's backups then failed ("Too many open files"); they are locked through their
+    common folder instead."""
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", _MANY_FOLDERS, str(tmp_path), "500"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == repr([bytes([1]) * 10])
+    assert not [p for p in tmp_path.rglob("*") if p.name.startswith(".")]  # no temporary
+
+
+def test_commit_lock_takes_the_common_folder_of_many(tmp_path, monkeypatch):
+    from terrascape.io import atomic
+
+    opened = []
+    real_open = os.open
+    monkeypatch.setattr(os, "open", lambda path, *a, **k: opened.append(path) or
+                        real_open(path, *a, **k))
+    few = [tmp_path / "a", tmp_path / "b" / "c"]
+    many = [tmp_path / str(i) / str(j) for i in range(3) for j in range(30)]
+    for folder in few + many:
+        folder.mkdir(parents=True, exist_ok=True)
+    with atomic.commit_lock(few):
+        pass
+    assert sorted(opened) == sorted(str(f) for f in few)
+    opened.clear()
+    with atomic.commit_lock(many):
+        pass
+    assert opened == [str(tmp_path)]

@@ -228,6 +228,10 @@ def _make_temp(final: Path, kind: str = "part") -> Path:
     return Path(name)
 
 
+#: Folders :func:`commit_lock` locks one by one; more are locked through their common folder.
+_MAX_LOCKED_FOLDERS = 64
+
+
 @contextlib.contextmanager
 def commit_lock(folders: Sequence[str | os.PathLike], *, shared: bool = False) -> Iterator[None]:
     """Hold an :func:`fcntl.flock` on each folder (sorted, so two holders never deadlock).
@@ -235,11 +239,21 @@ def commit_lock(folders: Sequence[str | os.PathLike], *, shared: bool = False) -
     Writers commit under an exclusive lock, readers of a file pair (RAW + sidecar) read under
     a shared one, so a terrascape reader never sees half of a commit. Best effort: a folder
     that cannot be locked (no flock on this file system) is skipped.
+
+    More than :data:`_MAX_LOCKED_FOLDERS` folders (a tile pyramid's ``z/x`` folders) are
+    locked through their deepest common folder instead: one open file rather than one per
+    folder, which the process's limit on open files (often 1,024) would not hold, and
+    which the backups of a forced commit then could not be made beside. An export's unit
+    holds its output folder either way (its ``layer.json``, its import note), so two
+    exports into one folder still exclude each other.
     """
     fds = []
+    unique = sorted({os.path.abspath(f) for f in folders})
+    if len(unique) > _MAX_LOCKED_FOLDERS:
+        unique = [os.path.commonpath(unique)]
     try:
         if fcntl is not None:
-            for folder in sorted({os.path.abspath(f) for f in folders}):
+            for folder in unique:
                 try:
                     fd = os.open(folder, os.O_RDONLY)
                 except OSError:
