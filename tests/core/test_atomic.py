@@ -215,3 +215,32 @@ def test_commit_lock_takes_the_common_folder_of_many(tmp_path, monkeypatch):
     with atomic.commit_lock(many):
         pass
     assert opened == [str(tmp_path)]
+
+
+def test_a_unit_removes_what_its_finder_names_at_the_commit(tmp_path):
+    """The files to remove are asked for at the commit, under the folders' lock (a writer
+    that committed meanwhile is seen), never a file the unit writes, and kept when the
+    commit fails."""
+    from pathlib import Path
+
+    from terrascape.io.atomic import output_unit, remove_with_unit
+
+    old, late, mine = tmp_path / "old.txt", tmp_path / "late.txt", tmp_path / "new.txt"
+    old.write_text("old")
+    (tmp_path / "sub").mkdir()
+    with output_unit():
+        removed = remove_with_unit(lambda: [old, late, mine, tmp_path / "sub"])
+        with atomic_output(mine) as tmp:
+            Path(tmp).write_text("new")
+        late.write_text("committed by another writer meanwhile")
+        assert old.exists() and removed == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["new.txt", "sub"]
+    assert removed == [old, late] and mine.read_text() == "new"
+
+    old.write_text("old")
+    with pytest.raises(OutputExistsError), output_unit():
+        remove_with_unit(lambda: [old])
+        with atomic_output(tmp_path / "x.txt") as tmp:
+            Path(tmp).write_text("x")
+        (tmp_path / "x.txt").write_text("someone else's")  # the commit fails on it
+    assert old.read_text() == "old" and (tmp_path / "x.txt").read_text() == "someone else's"

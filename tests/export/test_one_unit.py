@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from terrascape import Heightmap
+from terrascape.cli import run_app
 from terrascape.errors import Interrupted, OutputExistsError
 from terrascape.export import ExportOptions, destinations, get_destination
 from terrascape.io import atomic
@@ -89,7 +90,9 @@ def test_an_existing_file_without_force_stops_the_export_before_any_file(tmp_pat
     whole = tmp_path / "whole"
     whole.mkdir()
     _export(name, whole, monkeypatch=monkeypatch)
-    last = max(whole.rglob("*"), key=lambda p: p.stat().st_mtime_ns)
+    # the last file written, not the hidden manifest that follows it
+    last = max((p for p in whole.rglob("*") if not p.name.startswith(".")),
+               key=lambda p: p.stat().st_mtime_ns)
     taken = tmp_path / "taken"
     (taken / last.relative_to(whole)).parent.mkdir(parents=True, exist_ok=True)
     (taken / last.relative_to(whole)).write_bytes(b"mine")
@@ -190,3 +193,63 @@ def test_a_file_too_large_in_an_export_is_one_line_and_leaves_nothing(tmp_path, 
     assert "File too large" in errors[0] or "the disk is probably full" in errors[0]
     assert "Traceback" not in proc.stderr
     assert not out.exists(), sorted(str(p) for p in out.rglob("*"))
+
+
+def _export_cli(src: Path, folder: Path, name: str, *options: str) -> int:
+    return run_app(["export", name, str(src), "-o", str(folder), "-q", *options])
+
+
+def test_a_forced_export_replaces_the_previous_one_not_mixes_with_it(tmp_path):
+    """Four tiles, then two tiles with --force: the folder holds the two-tile export, the
+    same bytes as one made in an empty folder, and the user's own files."""
+    np.save(tmp_path / "m.npy", _map().heights)
+    src = tmp_path / "m.npy"
+    ue = tmp_path / "ue"
+    assert _export_cli(src, ue, "unreal", "--fit", "pad", "--tiles", "4", "--layers") == 0
+    four = _files(ue)
+    assert "m_x3_y3.png" in four and "m_x3_y3_layer_grass.png" in four
+    (ue / "mine.txt").write_text("mine")
+    (ue / "m_x9_y9.png").write_bytes(b"not from an export")  # never listed: never removed
+    assert _export_cli(src, ue, "unreal", "--fit", "pad", "--tiles", "2", "--layers",
+                       "--force") == 0
+    fresh = tmp_path / "fresh"
+    assert _export_cli(src, fresh, "unreal", "--fit", "pad", "--tiles", "2", "--layers") == 0
+    assert _files(ue) == {**_files(fresh), "mine.txt": b"mine",
+                          "m_x9_y9.png": b"not from an export"}
+    assert not [p for p in ue.iterdir() if ".part" in p.name or ".bak" in p.name]
+
+
+def test_a_forced_export_that_fails_at_its_commit_keeps_the_previous_one(tmp_path,
+                                                                         monkeypatch):
+    np.save(tmp_path / "m.npy", _map().heights)
+    src = tmp_path / "m.npy"
+    ue = tmp_path / "ue"
+    assert _export_cli(src, ue, "unreal", "--fit", "pad", "--tiles", "4") == 0
+    four = _files(ue)
+    real_replace = os.replace
+
+    def replace(source, target, *args, **kwargs):
+        # the last stale tile's removal fails: everything renamed or removed goes back
+        if Path(source).name == "m_x3_y3.png":
+            raise OSError(28, "No space left on device", str(source))
+        return real_replace(source, target, *args, **kwargs)
+
+    monkeypatch.setattr(os, "replace", replace)
+    assert _export_cli(src, ue, "unreal", "--fit", "pad", "--tiles", "2", "--force") == 1
+    monkeypatch.setattr(os, "replace", real_replace)
+    assert _files(ue) == four
+
+
+def test_a_forced_pyramid_with_fewer_levels_leaves_no_deeper_tile(tmp_path):
+    np.save(tmp_path / "m.npy", _map().heights)
+    src = tmp_path / "m.npy"
+    tiles = tmp_path / "tiles"
+    assert _export_cli(src, tiles, "cesium", "--lonlat", "15,45", "--max-zoom", "12") == 0
+    assert (tiles / "12").is_dir()
+    assert _export_cli(src, tiles, "cesium", "--lonlat", "15,45", "--max-zoom", "9",
+                       "--force") == 0
+    fresh = tmp_path / "fresh"
+    assert _export_cli(src, fresh, "cesium", "--lonlat", "15,45", "--max-zoom", "9") == 0
+    assert _files(tiles) == _files(fresh)
+    assert sorted(p.name for p in tiles.iterdir() if p.is_dir()) == [str(z) for z in
+                                                                     sorted(range(10), key=str)]

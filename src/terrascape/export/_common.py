@@ -3,7 +3,9 @@ tiles and atomic writes of the small "how to import" text files."""
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import json
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -16,7 +18,13 @@ from PIL import Image
 from terrascape.errors import HeightmapSizeError, InvalidParameterError
 from terrascape.filters.resample import resample_cubic
 from terrascape.heightmap import Heightmap
-from terrascape.io.atomic import atomic_output, atomic_outputs, output_unit
+from terrascape.io.atomic import (
+    atomic_output,
+    atomic_outputs,
+    output_unit,
+    remove_with_unit,
+    unit_outputs,
+)
 from terrascape.io.image import PNG16_COMPRESS_LEVEL
 
 FITS = ("pad", "resample", "crop")
@@ -224,21 +232,95 @@ def write_bytes(path: Path, data: bytes, *, force: bool) -> Path:
 SYNC_THREADS = 8
 
 
+def manifest_path(out_dir: str | os.PathLike, destination: str, name: str) -> Path:
+    """The hidden list of the files an export of ``destination`` named ``name`` wrote into
+    ``out_dir`` (read by the next ``force`` export of the same name and destination)."""
+    return Path(out_dir) / f".{name}.{destination}-export.json"
+
+
+def _listed_files(manifest: Path, out: Path) -> list[Path]:
+    """The files a previous export's manifest lists, inside ``out`` only; none when the
+    manifest is missing or unreadable (then nothing is removed)."""
+    try:
+        listed = json.loads(manifest.read_text(encoding="utf-8"))["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    files = []
+    top = out.resolve()
+    for rel in listed if isinstance(listed, list) else []:
+        if not isinstance(rel, str) or not rel or os.path.isabs(rel):
+            continue
+        path = out / rel
+        with contextlib.suppress(OSError, ValueError):
+            path.parent.resolve().relative_to(top)  # never outside the output folder
+            files.append(path)
+    return files
+
+
+def _remove_empty_folders(files: list[Path], out: Path) -> None:
+    """Remove the folders below ``out`` that removing ``files`` left empty (a pyramid's
+    levels and columns no longer written)."""
+    folders = {f.parent for f in files}
+    for folder in sorted(folders, key=lambda f: -len(f.parts)):
+        while folder != out and out in folder.parents:
+            try:
+                folder.rmdir()
+            except OSError:
+                break
+            folder = folder.parent
+
+
 def one_unit(export: Callable[[Heightmap, Any, ExportOptions], list[Path]]
              ) -> Callable[[Heightmap, Any, ExportOptions], list[Path]]:
     """A destination's ``export`` whose files all appear when it ends, or none do
     (:func:`terrascape.io.atomic.output_unit`): interrupted or failing half-way (a signal,
     a full disk, an existing file without ``force``), it leaves no file of its own, not
     even those it had finished; with ``force``, the previous export's files stay as they
-    were."""
+    were.
+
+    The export also lists its files in a hidden manifest (:func:`manifest_path`). With
+    ``force``, the files the previous export of the same name and destination listed and
+    this one does not write (tiles of another count, levels no longer written) are
+    removed in the same commit: the folder then holds one export, not a mix of two. No
+    other file is ever removed."""
+    destination = export.__module__.rsplit(".", 1)[-1]
 
     @functools.wraps(export)
     def export_as_one_unit(heightmap: Heightmap, out_dir: Any,
                            options: ExportOptions) -> list[Path]:
         with output_unit(sync_threads=SYNC_THREADS):
-            return export(heightmap, out_dir, options)
+            written = export(heightmap, out_dir, options)
+            removed = record_export(Path(out_dir), destination, options.name, unit_outputs(),
+                                    force=options.force)
+        _remove_empty_folders(removed, Path(out_dir))
+        return written
 
     return export_as_one_unit
+
+
+def record_export(out: Path, destination: str, name: str, files: Sequence[Path], *,
+                  force: bool) -> list[Path]:
+    """Inside an :func:`~terrascape.io.atomic.output_unit`: write the manifest of an export
+    of ``files`` into ``out``, and with ``force`` have the unit's commit remove the files
+    the previous manifest listed and ``files`` lacks. Returns the list the removed files
+    are put in once the unit has committed (then :func:`_remove_empty_folders`)."""
+    manifest = manifest_path(out, destination, name)
+    removed = remove_with_unit(lambda: _listed_files(manifest, out)) if force else []
+    listed = sorted(path.relative_to(out).as_posix() for path in map(Path, files)
+                    if out in path.parents)
+    record = {"destination": destination, "name": name, "files": listed}
+    # the bookkeeping of this folder's exports: replaced whatever ``force`` says
+    write_text(manifest, json.dumps(record, indent=0) + "\n", force=True)
+    return removed
+
+
+def finish_export(out: Path, destination: str, name: str, files: Sequence[Path], *,
+                  force: bool) -> None:
+    """:func:`record_export` as a unit of its own, for an export whose files were
+    committed already (a world's, tile batch by tile batch on dask workers)."""
+    with output_unit(sync_threads=SYNC_THREADS):
+        removed = record_export(out, destination, name, files, force=force)
+    _remove_empty_folders(removed, out)
 
 
 def write_many(items: list[tuple[Path, bytes]], *, force: bool) -> list[Path]:

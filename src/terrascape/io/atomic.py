@@ -40,7 +40,7 @@ import os
 import re
 import signal
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from terrascape.errors import (
@@ -341,14 +341,19 @@ def _signals_deferred() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
-def _commit(pairs: list[tuple[Path, Path]], force: bool | Sequence[bool]) -> None:
-    """Rename every ``tmp`` to its ``final`` under the folder locks; all or nothing
-    (``force`` for all pairs, or one per pair)."""
+def _commit(pairs: list[tuple[Path, Path]], force: bool | Sequence[bool],
+            find_removals: Callable[[], list[Path]] | None = None) -> list[Path]:
+    """Rename every ``tmp`` to its ``final`` under the folder locks, then remove the files
+    ``find_removals()`` names (asked under the locks); all or nothing (``force`` for all
+    pairs, or one per pair). Returns the removed files."""
     done: list[tuple[Path, Path | None]] = []  # (final, backup of the old file or None)
     backups: list[Path] = []
     forced = [force] * len(pairs) if isinstance(force, bool) else list(force)
+    removals: list[Path] = []
     with _signals_deferred(), commit_lock([final.parent for _tmp, final in pairs]):
         try:
+            if find_removals is not None:
+                removals = find_removals()
             for (tmp, final), force_one in zip(pairs, forced, strict=True):
                 if force_one:
                     backup = None
@@ -362,6 +367,13 @@ def _commit(pairs: list[tuple[Path, Path]], force: bool | Sequence[bool]) -> Non
                 else:
                     _link_new(tmp, final)
                     done.append((final, None))
+            for gone in removals:
+                # kept as a backup until the commit is whole: a failure puts it back
+                backup = _make_temp(gone, "bak")
+                os.unlink(backup)
+                os.replace(gone, backup)
+                backups.append(backup)
+                done.append((gone, backup))
         except BaseException:
             for final, backup in reversed(done):
                 with contextlib.suppress(OSError):
@@ -374,6 +386,7 @@ def _commit(pairs: list[tuple[Path, Path]], force: bool | Sequence[bool]) -> Non
             for backup in backups:
                 with contextlib.suppress(OSError):
                     os.unlink(backup)
+    return removals
 
 
 def _fsync_folder(path: Path) -> None:
@@ -468,28 +481,44 @@ def atomic_outputs(
 
 
 def _commit_and_sync(pairs: list[tuple[Path, Path]], force: bool | Sequence[bool],
-                     sync_threads: int) -> None:
+                     sync_threads: int,
+                     find_removals: Callable[[], list[Path]] | None = None) -> list[Path]:
     """:func:`_commit`, then the folders flushed so that the new names survive a power loss;
-    an OSError becomes the typed error."""
+    an OSError becomes the typed error. Returns the removed files."""
     finals = [final for _tmp, final in pairs]
     try:
-        _commit(pairs, force)
+        removals = _commit(pairs, force, find_removals)
         _COMMITTED.extend(finals)
-        _each(_fsync_folder, list(dict.fromkeys(final.parent for final in finals)),
-              sync_threads)
+        folders = [path.parent for path in (*finals, *removals)]
+        _each(_fsync_folder, list(dict.fromkeys(folders)), sync_threads)
     except TerrascapeError:
         raise
     except OSError as exc:
         raise os_error_to_terrascape(exc, finals[0]) from None
+    return removals
 
 
 class _Unit:
-    """The files written inside one :func:`output_unit`, waiting for its commit."""
+    """The files written inside one :func:`output_unit`, waiting for its commit, and the
+    files it replaces by removing them."""
 
     def __init__(self) -> None:
         self.pairs: list[tuple[Path, Path]] = []
         self.forced: list[bool] = []
         self.keys: set[str] = set()
+        self.finders: list[Callable[[], Sequence[Path]]] = []
+        self.removed: list[Path] = []
+
+    def removals(self) -> list[Path]:
+        """The files the finders name that this unit does not write and that are files
+        (asked at the commit, under its locks)."""
+        found = []
+        for find in self.finders:
+            for path in map(Path, find()):
+                if (os.path.abspath(path) not in self.keys and path.is_file()
+                        and not path.is_symlink()):
+                    found.append(path)
+        return list(dict.fromkeys(found))
 
     def add(self, pairs: list[tuple[Path, Path]], force: bool) -> None:
         for tmp, final in pairs:
@@ -499,6 +528,27 @@ class _Unit:
             self.keys.add(key)
             self.pairs.append((tmp, final))
             self.forced.append(force)
+
+
+def unit_outputs() -> list[Path]:
+    """The final paths of the files written so far in the current :func:`output_unit`
+    (empty outside one)."""
+    unit = _UNIT.get()
+    return [] if unit is None else [final for _tmp, final in unit.pairs]
+
+
+def remove_with_unit(find: Callable[[], Sequence[str | os.PathLike]]) -> list[Path]:
+    """Remove the files ``find()`` names (files this unit's writer made before and no
+    longer writes) when the current :func:`output_unit` commits, under the same
+    all-or-nothing: if the commit fails, they stay. ``find`` is called at the commit,
+    under the folders' locks, so that a writer that committed meanwhile is seen. A path
+    the unit writes, or that is not a file, is left alone. Returns the list the removed
+    files are put in once the unit has committed."""
+    unit = _UNIT.get()
+    if unit is None:
+        raise RuntimeError("remove_with_unit needs an output_unit")
+    unit.finders.append(find)
+    return unit.removed
 
 
 _UNIT: contextvars.ContextVar[_Unit | None] = contextvars.ContextVar("terrascape_output_unit",
@@ -533,7 +583,8 @@ def output_unit(*, sync_threads: int = 1) -> Iterator[None]:
         finally:
             _UNIT.reset(token)
         if unit.pairs:
-            _commit_and_sync(unit.pairs, unit.forced, sync_threads)
+            unit.removed.extend(_commit_and_sync(unit.pairs, unit.forced, sync_threads,
+                                                 unit.removals if unit.finders else None))
     finally:
         for tmp, _final in unit.pairs:
             with contextlib.suppress(OSError):

@@ -240,7 +240,7 @@ def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str =
     """Terrain-RGB (``fmt="mapbox"``) or Terrarium PNG tiles of the world (one task per
     :data:`RGB_TILES_PER_TASK` tiles), plus ``tiles.json``; zooms ``min_zoom`` (0) to
     ``max_zoom`` (as dense as the world)."""
-    from terrascape.export._common import check_out_dir, write_text
+    from terrascape.export._common import check_out_dir, finish_export, write_text
     from terrascape.export._geo import GeoGrid, mercator_tile_range
     from terrascape.export.terrain_rgb import FORMATS, finest_zoom
 
@@ -274,6 +274,9 @@ def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str =
                 "bounds": [w, s, e, n], "encoding": fmt, "tileSize": TILE}
     written.append(write_text(out / "tiles.json", json.dumps(tilejson, indent=1) + "\n",
                               force=force))
+    # the manifest the in-memory export writes too; with force, the earlier export's tiles
+    # this one does not write go
+    finish_export(out, "terrain_rgb", name, written, force=force)
     return written
 
 
@@ -346,7 +349,7 @@ def export_quantized_mesh(path, out_dir, *, lonlat: tuple[float, float],
     for a map: the same tiles, levels and per-level errors, meshed by the same static
     mesher (``mesher``; ``None``: the default); zooms ``min_zoom`` (0) to ``max_zoom``
     (the first as dense as the world)."""
-    from terrascape.export._common import check_out_dir
+    from terrascape.export._common import check_out_dir, finish_export
     from terrascape.export.cesium import finest_level, tile_jobs, write_metadata
     from terrascape.lod.static_meshers import static_mesher
 
@@ -369,6 +372,7 @@ def export_quantized_mesh(path, out_dir, *, lonlat: tuple[float, float],
     written = [Path(p) for batch in results for p, _ in batch]
     written += write_metadata(out, name, bottom, top, available, max_error, grid.bounds,
                               force=force, mesher=mesher)
+    finish_export(out, "cesium", name, written, force=force)
     return written
 
 
