@@ -199,7 +199,7 @@ def _export_cli(src: Path, folder: Path, name: str, *options: str) -> int:
     return run_app(["export", name, str(src), "-o", str(folder), "-q", *options])
 
 
-def test_a_forced_export_replaces_the_previous_one_not_mixes_with_it(tmp_path):
+def test_a_forced_export_replaces_the_previous_one_not_mixes_with_it(tmp_path, capsys):
     """Four tiles, then two tiles with --force: the folder holds the two-tile export, the
     same bytes as one made in an empty folder, and the user's own files."""
     np.save(tmp_path / "m.npy", _map().heights)
@@ -210,8 +210,12 @@ def test_a_forced_export_replaces_the_previous_one_not_mixes_with_it(tmp_path):
     assert "m_x3_y3.png" in four and "m_x3_y3_layer_grass.png" in four
     (ue / "mine.txt").write_text("mine")
     (ue / "m_x9_y9.png").write_bytes(b"not from an export")  # never listed: never removed
+    capsys.readouterr()
     assert _export_cli(src, ue, "unreal", "--fit", "pad", "--tiles", "2", "--layers",
                        "--force") == 0
+    # 16 tiles and their 5 layers each, against 4 tiles: 72 files said to be removed
+    assert ("removed 72 files of the previous unreal export named m that this one no longer "
+            "writes") in capsys.readouterr().out
     fresh = tmp_path / "fresh"
     assert _export_cli(src, fresh, "unreal", "--fit", "pad", "--tiles", "2", "--layers") == 0
     assert _files(ue) == {**_files(fresh), "mine.txt": b"mine",

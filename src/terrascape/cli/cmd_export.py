@@ -213,3 +213,8 @@ def export_command(
         written = module.export(hm, output, options)
     for path in written:
         out.print(f"{path} ({path.stat().st_size:,} bytes)")
+    removed = getattr(written, "removed", [])
+    if removed:
+        shown = ", ".join(str(path) for path in removed[:3]) + (", …" if len(removed) > 3 else "")
+        out.print(f"removed {len(removed):,} files of the previous {destination} export named "
+                  f"{options.name} that this one no longer writes: {shown}", markup=False)

@@ -270,6 +270,13 @@ def _remove_empty_folders(files: list[Path], out: Path) -> None:
             folder = folder.parent
 
 
+class ExportedFiles(list):
+    """The files an export wrote (a list of paths), and in ``removed`` those of the previous
+    export of its name that a ``force`` export removed because it no longer writes them."""
+
+    removed: list[Path]
+
+
 def one_unit(export: Callable[[Heightmap, Any, ExportOptions], list[Path]]
              ) -> Callable[[Heightmap, Any, ExportOptions], list[Path]]:
     """A destination's ``export`` whose files all appear when it ends, or none do
@@ -293,7 +300,9 @@ def one_unit(export: Callable[[Heightmap, Any, ExportOptions], list[Path]]
             removed = record_export(Path(out_dir), destination, options.name, unit_outputs(),
                                     force=options.force)
         _remove_empty_folders(removed, Path(out_dir))
-        return written
+        files = ExportedFiles(written)
+        files.removed = list(removed)
+        return files
 
     return export_as_one_unit
 
