@@ -257,3 +257,25 @@ def test_a_forced_pyramid_with_fewer_levels_leaves_no_deeper_tile(tmp_path):
     assert _files(tiles) == _files(fresh)
     assert sorted(p.name for p in tiles.iterdir() if p.is_dir()) == [str(z) for z in
                                                                      sorted(range(10), key=str)]
+
+
+def test_the_cli_sums_up_a_pyramids_tiles_and_lists_a_few(tmp_path, capsys):
+    rng = np.random.default_rng(5)
+    np.save(tmp_path / "m.npy", (rng.random((257, 257)) * 50).astype(np.float32))
+    src = tmp_path / "m.npy"
+    capsys.readouterr()
+    assert _export_cli(src, tmp_path / "c", "cesium", "--lonlat", "15,45") == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    tiles = list((tmp_path / "c").rglob("*.terrain"))
+    assert len(tiles) > 20
+    size = sum(p.stat().st_size for p in tiles)
+    deepest = max(int(p.relative_to(tmp_path / "c").parts[0]) for p in tiles)
+    assert lines[-1] == (f"{tmp_path / 'c' / '0'} … {tmp_path / 'c' / str(deepest)}: "
+                         f"{len(tiles):,} files ({size:,} bytes)")
+    assert not [line for line in lines if ".terrain (" in line]
+    assert any(line.startswith(f"{tmp_path / 'c' / 'layer.json'} (") for line in lines)
+    # a few tiles are listed one by one
+    assert _export_cli(src, tmp_path / "r", "terrain_rgb", "--lonlat", "15,45",
+                       "--max-zoom", "12") == 0
+    listed = [line for line in capsys.readouterr().out.splitlines() if ".png (" in line]
+    assert len(listed) == len(list((tmp_path / "r").rglob("*.png"))) == 13

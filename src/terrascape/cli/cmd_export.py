@@ -43,6 +43,27 @@ def _no_empty_folder(folder: Path) -> Iterator[None]:
         raise
 
 
+#: Files in the output's sub-folders listed one by one up to this many; a tile pyramid's
+#: thousands are summed up in one line.
+_LISTED_TILES = 20
+
+
+def _print_written(written: list[Path], output: Path) -> None:
+    """One line per file of the output folder itself, then those of its sub-folders (a
+    pyramid's tiles) one by one when they are few, or as one line of count and size."""
+    top = [path for path in written if path.parent == output]
+    below = [path for path in written if path.parent != output]
+    shown = top + below if len(below) <= _LISTED_TILES else top
+    for path in shown:
+        out.print(f"{path} ({path.stat().st_size:,} bytes)", markup=False)
+    if len(below) > _LISTED_TILES:
+        size = sum(path.stat().st_size for path in below)
+        levels = sorted({path.relative_to(output).parts[0] for path in below},
+                        key=lambda level: (len(level), level))
+        out.print(f"{output / levels[0]} … {output / levels[-1]}: {len(below):,} files "
+                  f"({size:,} bytes)", markup=False)
+
+
 def _destinations_help() -> str:
     from terrascape.export import get_destination
 
@@ -211,8 +232,7 @@ def export_command(
     with timed(f"export {destination}", quiet=quiet, slow_note=compiles), \
             _no_empty_folder(output):
         written = module.export(hm, output, options)
-    for path in written:
-        out.print(f"{path} ({path.stat().st_size:,} bytes)")
+    _print_written(written, output)
     removed = getattr(written, "removed", [])
     if removed:
         shown = ", ".join(str(path) for path in removed[:3]) + (", …" if len(removed) > 3 else "")
