@@ -248,8 +248,8 @@ def test_bad_input_raises_typed_errors():
 
 def test_region_weights_rows_do_not_begin_once_told_to_stop():
     """The weights' kernel leaves rows not yet begun unwritten once the stop flag is set
-    (Ctrl-C during a large map's weights: tests/faults/test_signals.py), and otherwise
-    gives region_weights' values."""
+    (Ctrl-C during a large map's weights, measured in docs/reliability.md §3), and
+    otherwise gives region_weights' values."""
     from terrascape.texture import regions as module
 
     h = np.linspace(0.0, 100.0, 40 * 30, dtype=np.float32).reshape(40, 30)

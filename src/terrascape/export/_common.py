@@ -333,9 +333,10 @@ def finish_export(out: Path, destination: str, name: str, files: Sequence[Path],
 
 
 def write_many(items: list[tuple[Path, bytes]], *, force: bool) -> list[Path]:
-    """Write every ``(path, bytes)`` as one atomic unit (all files or none), flushed to the
-    disk by :data:`SYNC_THREADS` threads: for the thousands of small files of a tile
-    pyramid, a flush and a commit per file would take longer than making the tiles."""
+    """Write every ``(path, bytes)`` as one atomic unit (all files or none; inside an
+    export's unit, with the export's other files), flushed to the disk by
+    :data:`SYNC_THREADS` threads: for the thousands of small files of a tile pyramid, a
+    flush and a commit per file would take longer than making the tiles."""
     if not items:
         return []
     for path, _ in items:

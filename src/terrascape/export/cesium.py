@@ -56,8 +56,9 @@ _WGS84_A = 6378137.0
 # gzip level 1: tiles a tenth larger than at level 6, compressed 2.3 times faster (measured on
 # a 1025² pyramid); compression was a third of the time of a tile at level 6
 _GZIP_LEVEL = 1
-#: Tiles written (and flushed to the disk) as one unit: a flush and a commit per tile took
-#: 20 ms of waiting on the disk each, longer than making the tile (3 ms of CPU).
+#: Tiles written and flushed to the disk together, by several threads, before they join the
+#: export's unit: a flush per tile took 20 ms of waiting on the disk each, longer than
+#: making the tile (3 ms of CPU).
 WRITE_BATCH = 256
 
 
