@@ -361,7 +361,13 @@ def _light_in_bands(day: Daylight, normals: np.ndarray, vis: np.ndarray,
         n = normals[rows].astype(np.float64)
         radiance = day.surface_irradiance(n, vis[rows], svf_rows(rows)) / math.pi
         rgb = day.display(radiance).astype(np.float32)
-        out[rows] = rgb if out.ndim == 3 else rgb @ luma
+        if out.ndim == 3:
+            out[rows] = rgb
+        else:
+            # sample by sample in a fixed order: a BLAS product (rgb @ luma) rounds the
+            # vector's tail differently from its SIMD body (seen with AVX-512), so a flat map
+            # would not light evenly and bands would not give the whole map's values
+            out[rows] = rgb[..., 0] * luma[0] + rgb[..., 1] * luma[1] + rgb[..., 2] * luma[2]
 
     for_each_band(band, range(0, out.shape[0], band_rows), parallel, stop)
 
