@@ -125,9 +125,11 @@ def test_ctrl_c_stops_a_long_erosion_within_seconds(tmp_path):
     assert waited < 10.0, f"Ctrl-C took {waited:.1f} s"
 
 
-def test_signal_after_one_of_two_outputs_says_what_was_kept(tmp_path, capsys, monkeypatch):
-    """generate -o X --preview P, the signal arrives while P is written: X is complete and
-    named as kept, P's temporary file is gone, exit 143."""
+def test_signal_while_the_second_of_two_outputs_is_written_leaves_neither(tmp_path, capsys,
+                                                                         monkeypatch):
+    """generate -o X --preview P, the signal arrives while P is written: the two are one
+    unit, so X is not left alone either (nor its spacing sidecar), and with --force over an
+    earlier X the earlier bytes stay. Exit 143, "nothing was written"."""
     import terrascape.cli.cmd_generate
     from terrascape.cli.app import run_app
     from terrascape.errors import Interrupted
@@ -138,16 +140,47 @@ def test_signal_after_one_of_two_outputs_says_what_was_kept(tmp_path, capsys, mo
             tmp.write_bytes(b"half a preview")
             raise Interrupted(signal.SIGTERM)
 
-    monkeypatch.setattr(terrascape.cli.cmd_generate, "write_preview", interrupted_preview)
     out, preview = tmp_path / "hm.npy", tmp_path / "p.png"
-    code = run_app(["generate", "diamond-square", "--size", "33", "-o", str(out),
-                    "--preview", str(preview), "-q"])
+    argv = ["generate", "diamond-square", "--size", "33", "-o", str(out), "--preview",
+            str(preview), "-q"]
+    monkeypatch.setattr(terrascape.cli.cmd_generate, "write_preview", interrupted_preview)
+    code = run_app(argv)
     err = capsys.readouterr().err
     assert code == 143
-    assert "interrupted (SIGTERM)" in err and "kept" in err and "hm.npy" in err
-    assert "nothing was written" not in err
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["hm.npy", "hm.npy.json"]  # + spacing
-    assert np.load(out).shape == (33, 33)
+    assert "interrupted (SIGTERM); nothing was written" in err and "kept" not in err
+    assert list(tmp_path.iterdir()) == []
+
+    monkeypatch.undo()
+    assert run_app([*argv[:-1], "--seed", "7", "-q"]) == 0
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert sorted(before) == ["hm.npy", "hm.npy.json", "p.png"]
+    monkeypatch.setattr(terrascape.cli.cmd_generate, "write_preview", interrupted_preview)
+    assert run_app([*argv, "--force"]) == 143
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+def test_signal_after_finished_demo_files_says_what_was_kept(tmp_path, capsys, monkeypatch):
+    """The demo writes its files one by one: interrupted in its texture stage, the line
+    names the generate stage's files, which stay complete, and exits 143."""
+    import terrascape.cli.demo
+    from terrascape.cli.app import run_app
+    from terrascape.errors import Interrupted
+    from terrascape.io import read_heightmap
+
+    def interrupted_stage(*args, **kwargs):
+        raise Interrupted(signal.SIGTERM)
+
+    monkeypatch.setattr(terrascape.cli.demo, "texture_stage", interrupted_stage)
+    code = run_app(["demo", "-o", str(tmp_path), "--size", "33", "--stages",
+                    "generate,texture"])
+    err = capsys.readouterr().err
+    assert code == 143
+    assert "interrupted (SIGTERM); finished before the signal and kept:" in err
+    written = sorted(p for p in tmp_path.iterdir() if p.is_file())
+    assert written and all(p.name in err for p in written)
+    heightmaps = [p for p in written if p.name.endswith("_heightmap.png")]
+    assert heightmaps and all(read_heightmap(p).shape == (33, 33) for p in heightmaps)
+    assert not [p for p in written if ".part" in p.name]
 
 
 def test_a_signal_stops_a_long_one_order_mesh_within_seconds(tmp_path):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -161,3 +162,43 @@ def test_cli_equals_registry_with_defaults(tmp_path: Path) -> None:
                         "-o", str(out), "-q"]) == 0
         ref = generate(name, 33, seed=5, spacing=2.0)
         assert np.load(out).tobytes() == ref.heights.tobytes(), name
+
+
+def test_erode_masks_and_heightmap_are_one_unit(tmp_path: Path, monkeypatch) -> None:
+    """A forced erode whose renames fail half-way (the second of the two kinds of output,
+    masks or heightmap, whichever comes second) puts the earlier heightmap and masks back
+    byte for byte: never a new heightmap beside old masks, or new masks beside an old one."""
+    src, out, masks = tmp_path / "in.npy", tmp_path / "out.npy", tmp_path / "masks"
+    masks.mkdir()
+
+    def files() -> dict[str, bytes]:
+        return {str(p.relative_to(tmp_path)): p.read_bytes()
+                for p in sorted(tmp_path.rglob("*")) if p.is_file() and p != src}
+
+    argv = ["erode", str(src), str(out), "--masks", str(masks), "-q"]
+    np.save(src, diamond_square(33, seed=3).scaled(20.0).heights)
+    assert run_app(argv) == 0
+    before = files()
+    assert "out.npy" in before and len(before) > 3
+    np.save(src, diamond_square(33, seed=4).scaled(20.0).heights)  # other outputs
+    real_replace = os.replace
+    renamed: list[str] = []
+    failed: list[str] = []
+
+    def replace(source, target, *args, **kwargs):
+        name = Path(target).name
+        kind = "mask" if Path(target).parent == masks else "heightmap"
+        if not failed and name.endswith(".npy") and renamed and renamed[0] != kind:
+            failed.append(name)
+            raise OSError(28, "No space left on device", str(target))
+        if name.endswith(".npy") and kind not in renamed:
+            renamed.append(kind)
+        return real_replace(source, target, *args, **kwargs)
+
+    monkeypatch.setattr(os, "replace", replace)
+    assert run_app([*argv, "--force"]) == 1
+    monkeypatch.setattr(os, "replace", real_replace)
+    assert failed and len(renamed) == 1  # one kind renamed, the other's rename failed
+    assert files() == before
+    assert not [p for p in tmp_path.rglob("*") if ".part" in p.name or ".bak" in p.name]
+    assert run_app([*argv, "--force"]) == 0 and files() != before

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +13,7 @@ from terrascape.cli.cmd_generate import _FORCE, _QUIET, _SEED, _check_outputs, _
 from terrascape.errors import InvalidParameterError
 from terrascape.filters import MASK_NAMES, MODELS, erode, hydraulic_erosion, thermal_erosion
 from terrascape.filters.erosion_models import DEFAULT_DEPOSITION
-from terrascape.io import atomic_output, check_output_path, read_heightmap
+from terrascape.io import atomic_output, check_output_path, output_unit, read_heightmap
 from terrascape.memory import check_grid
 
 
@@ -136,12 +135,11 @@ def erode_cmd(
             result_masks["deposition"] = np.maximum(dh, 0.0).astype(np.float32)
             result_masks["wear"] = np.maximum(-dh, 0.0).astype(np.float32)
 
-    # Masks go to temporary files first and are renamed only once the heightmap is written:
-    # an error anywhere leaves none of the outputs behind.
-    with contextlib.ExitStack() as stack:
+    # The masks and the heightmap are one unit: all appear together, and an error or a
+    # signal anywhere, their final renames included, leaves none of them behind.
+    with output_unit():
         for name, path in mask_paths.items():
-            tmp = stack.enter_context(atomic_output(path, force=force))
-            with open(tmp, "wb") as fh:
+            with atomic_output(path, force=force) as tmp, open(tmp, "wb") as fh:
                 np.save(fh, np.ascontiguousarray(result_masks[name], dtype=np.float32))
         _finish(hm, output, None, None, force, quiet)
     if mask_paths:

@@ -26,6 +26,7 @@ from terrascape.io import (
     WRITE_EXTENSIONS,
     check_output_path,
     formats_help,
+    output_unit,
     read_heightmap,
     write_heightmap,
     write_preview,
@@ -99,7 +100,9 @@ def _finish(hm: Heightmap, output: Path, preview: Path | None, height_scale: flo
             force: bool, quiet: bool) -> None:
     if height_scale is not None:
         hm = hm.normalised(0.0, check_positive(height_scale, "--height-scale"))
-    with timed("write", quiet=quiet):
+    # one unit: the heightmap and its preview appear together or not at all (a command
+    # stopped between the two leaves neither)
+    with timed("write", quiet=quiet), output_unit():
         write_heightmap(hm, output, force=force)
         if preview is not None:
             write_preview(hm, preview, force=force)
