@@ -100,6 +100,46 @@ def test_day_cycle_mp4_has_its_frames_and_follows_the_sun(gl_ctx, npy_map, tmp_p
     assert not [p for p in tmp_path.iterdir() if ".part" in p.name]
 
 
+# SIGTERM handled while ffmpeg is being started: after the fork, before the writer holds
+# the process (inside subprocess.Popen)
+SIGNAL_WHILE_FFMPEG_STARTS = """
+import os, signal, subprocess, sys, time
+from terrascape.cli.app import run_app
+
+real_popen = subprocess.Popen
+
+class InterruptedStart(real_popen):
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        if kwargs.get("stdin") == subprocess.PIPE:  # ffmpeg, fed frames on its input
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(100_000):  # the handler runs at one of these bytecodes
+                pass
+
+subprocess.Popen = InterruptedStart
+print(run_app(sys.argv[1:]))
+"""
+
+
+def test_sigterm_while_ffmpeg_starts_leaves_no_video(npy_map, tmp_path):
+    """Interrupted inside the start of ffmpeg, the writer never held the process: it ran on,
+    read the end of its input and wrote its file after the command had removed the
+    unfinished one (a stray `.day.PID-….part.mp4`, seen once in a loaded test run). The
+    start is now shielded: the interruption comes right after it, the writer closes
+    ffmpeg's input and waits for it, and only then is the file removed."""
+    out = tmp_path / "day.mp4"
+    before = sorted(p.name for p in tmp_path.iterdir())
+    proc = subprocess.run(
+        [sys.executable, "-c", SIGNAL_WHILE_FFMPEG_STARTS, "render", str(npy_map), "-o",
+         str(out), "--size", "64x40", "-q", "--technique", "plain", "--day-cycle", "24h",
+         "--frames", "4"], capture_output=True, text=True, timeout=120,
+        env={**os.environ, "PYTHONPATH": SRC})
+    assert proc.stdout.strip() == str(128 + signal.SIGTERM), proc.stderr
+    assert "nothing was written" in proc.stderr
+    time.sleep(2.0)  # a stray ffmpeg writes its file within this
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
 def test_sigterm_during_a_day_cycle_leaves_nothing(npy_map, tmp_path):
     out = tmp_path / "day.mp4"
     before = sorted(p.name for p in tmp_path.iterdir())

@@ -14,12 +14,13 @@ import importlib
 import inspect
 import os
 import signal
+import sys
 import threading
 import time
 import types
 import warnings
 from collections.abc import Callable, Iterable, Iterator
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import typer
 
@@ -31,6 +32,7 @@ from rich.markup import escape
 from typer.core import TyperCommand, TyperGroup, TyperOption
 
 from terrascape import __version__
+from terrascape._interrupts import defer_interrupt
 from terrascape._output import LineProgress, make_console
 from terrascape.cli.commands import COMMANDS
 from terrascape.cli.quick_help import DESCRIPTION
@@ -284,26 +286,68 @@ _SIGNALS = tuple(s for s in (getattr(signal, n, None) for n in ("SIGINT", "SIGTE
                  if s is not None)
 
 
-# numba turns a compiled call's result into Python objects in C, calling back into this
-# module's functions (array types, constants), and cannot pass on an exception raised there:
-# a signal handled at that moment gave a SystemError with a traceback, or a crash
-# (segmentation fault) when the result held several arrays
+_resend_pending = False
+_previous_unraisable_hook: Callable[[Any], None] = sys.__unraisablehook__
+
+
+def _send_again_soon(signum: int) -> None:
+    """The signal again a millisecond later, from another thread (sent from this one, it
+    would be handled at once, where it was), to the main thread: by then the call in the
+    way has returned. At most one is on its way: a signal handled while one is needs none
+    of its own, and two would interrupt the first one's clean-up."""
+    global _resend_pending
+    if _resend_pending:
+        return
+    _resend_pending = True
+
+    def send() -> None:
+        global _resend_pending
+        _resend_pending = False
+        signal.pthread_kill(threading.main_thread().ident, signum)
+
+    threading.Timer(0.001, send).start()
+
+
+def _unraisable_hook(unraisable: Any) -> None:
+    """``sys.unraisablehook`` while a command runs: a dropped :class:`Interrupted` is sent
+    again.
+
+    Python cannot pass on an exception raised in a callback from C (ctypes: numba's
+    compiler calls one for every kernel it loads from its cache or compiles, for most of a
+    command's first second) or in a finaliser (``__del__``): it prints "Exception ignored"
+    and goes on. A signal handled there was lost, and the command ran to its end (seen:
+    SIGTERM while `render --day-cycle` loaded its kernels, exit 0 and the video written).
+    Sent again a millisecond later, it is handled after the callback has returned. Other
+    dropped exceptions go to the hook that was there before."""
+    if isinstance(unraisable.exc_value, Interrupted):
+        _send_again_soon(unraisable.exc_value.signum)
+        return
+    _previous_unraisable_hook(unraisable)
+
+
+# Code where the exception cannot be raised: it is sent again instead. numba turns a
+# compiled call's result into Python objects in C, calling back into this module's
+# functions (array types, constants), and cannot pass on an exception raised there: a
+# signal handled at that moment gave a SystemError with a traceback, or a crash
+# (segmentation fault) when the result held several arrays. And raised in the sending
+# again itself (the hook above, a timer's start), it would be dropped for good.
 _NUMBA_BOXING = os.path.join("numba", "core", "serialize.py")
+_SENDING_AGAIN = (_unraisable_hook.__code__, _send_again_soon.__code__)
 
 
-def _in_numba_boxing(frame: types.FrameType | None) -> bool:
+def _raised_later(frame: types.FrameType | None) -> bool:
     while frame is not None:
-        if frame.f_code.co_filename.endswith(_NUMBA_BOXING):
+        if frame.f_code in _SENDING_AGAIN or frame.f_code.co_filename.endswith(_NUMBA_BOXING):
             return True
         frame = frame.f_back
     return False
 
 
 def _raise_interrupted(signum: int, frame: types.FrameType | None) -> None:
-    if _in_numba_boxing(frame):
-        # sent again a millisecond later from another thread (sent from this one, it would
-        # be handled at once, here): by then the compiled call has returned
-        threading.Timer(0.001, os.kill, (os.getpid(), signum)).start()
+    if defer_interrupt(signum):  # raised when the short section in the way ends
+        return
+    if _raised_later(frame):
+        _send_again_soon(signum)
         return
     raise Interrupted(signum)
 
@@ -316,12 +360,18 @@ def _signals_raise() -> Iterator[None]:
     are removed (``io.atomic``); the previous handlers come back afterwards.
     """
     previous = {}
+    previous_hook = sys.unraisablehook
     try:
         for sig in _SIGNALS:
             with contextlib.suppress(ValueError, OSError):  # not the main thread
                 previous[sig] = signal.signal(sig, _raise_interrupted)
+        if previous:
+            global _previous_unraisable_hook
+            _previous_unraisable_hook = previous_hook
+            sys.unraisablehook = _unraisable_hook
         yield
     finally:
+        sys.unraisablehook = previous_hook
         for sig, handler in previous.items():
             with contextlib.suppress(ValueError, OSError, TypeError):
                 signal.signal(sig, handler)

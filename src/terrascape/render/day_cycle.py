@@ -16,7 +16,7 @@ import numpy as np
 
 from terrascape._validate import check_positive
 from terrascape.camera import Camera
-from terrascape.errors import FileFormatError, InvalidParameterError
+from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.io.atomic import atomic_output
 from terrascape.lighting.solar_position import SkyState
@@ -67,32 +67,18 @@ def write_day_cycle(
     progress: Callable[[int, int], None] | None = None,
 ) -> Path:
     """Render ``states`` to an MP4 (H.264, yuv420p) at ``output``; returns its path."""
-    try:
-        import imageio.v2 as imageio
-    except ImportError as exc:  # pragma: no cover - install extra
-        raise FileFormatError(f"MP4 output needs imageio + imageio-ffmpeg: {exc}") from None
+    from terrascape.render.video import check_mp4_size, write_mp4
+
     fps = check_positive(fps, "fps")
     out = Path(output)
     if out.suffix.lower() != ".mp4":
         raise InvalidParameterError(f"a day cycle is written as .mp4, got {out.name!r}")
-    w, h = size
-    if w % 2 or h % 2:
-        raise InvalidParameterError(f"MP4 (H.264, yuv420p) needs an even size, got {w}×{h}")
+    check_mp4_size(size)
     with atomic_output(out, force=force) as tmp:
-        writer = imageio.get_writer(tmp, format="FFMPEG", mode="I", fps=fps, codec="libx264",
-                                    macro_block_size=1, pixelformat="yuv420p",
-                                    output_params=["-loglevel", "error"])
-        try:
-            frames = day_cycle_frames(heightmap, states, ctx=ctx, camera=camera,
-                                      technique=technique, size=size,
-                                      exaggeration=exaggeration, params=params,
-                                      quality=quality)
-            for k, img in enumerate(frames):
-                writer.append_data(img[..., :3])
-                if progress:
-                    progress(k + 1, len(states))
-        finally:
-            writer.close()
+        frames = day_cycle_frames(heightmap, states, ctx=ctx, camera=camera,
+                                  technique=technique, size=size, exaggeration=exaggeration,
+                                  params=params, quality=quality)
+        write_mp4(tmp, frames, size, fps, total=len(states), progress=progress)
     return out
 
 

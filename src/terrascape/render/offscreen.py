@@ -18,7 +18,7 @@ import numpy as np
 
 from terrascape._validate import check_int, check_positive, check_range
 from terrascape.camera import Camera, frame_landscape, frame_terrain
-from terrascape.errors import FileFormatError, InvalidParameterError
+from terrascape.errors import InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.io.atomic import atomic_output, atomic_outputs, check_output_path
 from terrascape.render.context import with_current_context
@@ -438,13 +438,9 @@ def turntable(
                 if progress:
                     progress(k + 1, len(targets))
         return targets
-    try:
-        import imageio.v2 as imageio
-    except ImportError as exc:  # pragma: no cover - install extra
-        raise FileFormatError(f"MP4 output needs imageio + imageio-ffmpeg: {exc}") from None
-    w, h = size
-    if w % 2 or h % 2:
-        raise InvalidParameterError(f"MP4 (H.264, yuv420p) needs an even size, got {w}×{h}")
+    from terrascape.render.video import check_mp4_size, write_mp4
+
+    check_mp4_size(size)
     with atomic_output(out, force=force) as tmp:
         frames = render_frames(
             heightmap,
@@ -458,23 +454,7 @@ def turntable(
             quality=quality,
             objects=objects,
         )
-        writer = imageio.get_writer(
-            tmp,
-            format="FFMPEG",
-            mode="I",
-            fps=fps,
-            codec="libx264",
-            macro_block_size=1,
-            pixelformat="yuv420p",
-            output_params=["-loglevel", "error"],
-        )
-        try:
-            for k, img in enumerate(frames):
-                writer.append_data(img[..., :3])
-                if progress:
-                    progress(k + 1, len(cams))
-        finally:
-            writer.close()
+        write_mp4(tmp, frames, size, fps, total=len(cams), progress=progress)
     return [out]
 
 
