@@ -301,6 +301,47 @@ def test_a_signal_in_a_callback_from_c_or_a_finaliser_is_not_lost():
     assert "Exception ignored" not in proc.stderr and "Error" not in proc.stderr
 
 
+SIGNAL_IN_LLVMLITE = """
+import os, signal, time
+from terrascape.cli.app import _signals_raise
+from terrascape.errors import Interrupted
+
+# a step of numba's compiler (llvmlite) that frees an object and then marks it freed
+SOURCE = "\\n".join([
+    "def close(state):",
+    "    os.kill(os.getpid(), signal.SIGTERM)",
+    "    state.append('freed')",
+    "    for _ in range(100_000):  # the handler runs at one of these bytecodes",
+    "        pass",
+    "    state.append('marked')",
+])
+steps = {"os": os, "signal": signal}
+exec(compile(SOURCE, os.path.join(os.sep, "venv", "llvmlite", "binding", "ffi.py"), "exec"),
+     steps)
+state = []
+with _signals_raise():
+    try:
+        steps["close"](state)
+        for _ in range(500):
+            time.sleep(0.01)
+        print("no signal")
+    except Interrupted as exc:
+        print("interrupted", exc.signum, "after", state)
+"""
+
+
+def test_a_signal_never_cuts_a_step_of_numbas_compiler_in_two():
+    """llvmlite frees its objects in steps: an exception between "freed" and "marked"
+    left an object that its finaliser freed again at the interpreter's exit (a segmentation
+    fault, or an AttributeError traceback, after "nothing was written"). A signal handled
+    in llvmlite's code is sent again and raised after the step."""
+    proc = subprocess.run([sys.executable, "-c", SIGNAL_IN_LLVMLITE], capture_output=True,
+                          text=True, env=ENV, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == (f"interrupted {int(signal.SIGTERM)} after "
+                                   "['freed', 'marked']")
+
+
 @pytest.mark.parametrize("model", ["thermal", "grid"])
 def test_a_signal_stops_a_long_erosion_in_one_compiled_run_within_seconds(tmp_path, model):
     """The thermal and grid models make all their iterations in one compiled run (about a

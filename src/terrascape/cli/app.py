@@ -325,19 +325,25 @@ def _unraisable_hook(unraisable: Any) -> None:
     _previous_unraisable_hook(unraisable)
 
 
-# Code where the exception cannot be raised: it is sent again instead. numba turns a
-# compiled call's result into Python objects in C, calling back into this module's
-# functions (array types, constants), and cannot pass on an exception raised there: a
-# signal handled at that moment gave a SystemError with a traceback, or a crash
-# (segmentation fault) when the result held several arrays. And raised in the sending
-# again itself (the hook above, a timer's start), it would be dropped for good.
-_NUMBA_BOXING = os.path.join("numba", "core", "serialize.py")
+# Code where the exception cannot be raised: it is sent again instead, until it lands
+# elsewhere. numba turns a compiled call's result into Python objects in C, calling back
+# into Python, and cannot pass on an exception raised there: a SystemError with a
+# traceback, or a crash when the result held several arrays. llvmlite (numba's compiler)
+# frees its objects in steps that an exception can cut in two: freed but not marked so, an
+# object is freed again by its finaliser at the interpreter's exit (`render` signalled
+# 0.3–1.2 s after its start: a segmentation fault after "nothing was written" in 1 run of
+# 30, an AttributeError traceback from `ffi.py` `detach` in 1 of 25; `python
+# scripts/signal_at_random.py --after-start --command "render …"`). Its Python steps
+# around its C calls are short. And raised in the sending again itself (the
+# hook above, a timer's start), it would be dropped for good.
+_HELD_BY = (os.path.join("numba", "core", "serialize.py"), f"{os.sep}llvmlite{os.sep}")
 _SENDING_AGAIN = (_unraisable_hook.__code__, _send_again_soon.__code__)
 
 
 def _raised_later(frame: types.FrameType | None) -> bool:
     while frame is not None:
-        if frame.f_code in _SENDING_AGAIN or frame.f_code.co_filename.endswith(_NUMBA_BOXING):
+        code = frame.f_code
+        if code in _SENDING_AGAIN or any(part in code.co_filename for part in _HELD_BY):
             return True
         frame = frame.f_back
     return False
