@@ -17,7 +17,7 @@ from collections.abc import Iterator
 
 from terrascape.errors import Interrupted
 
-_pending: list[int] = []
+_pending: int | None = None  # the first signal held back
 _depth = 0
 
 
@@ -26,7 +26,7 @@ def interrupts_deferred() -> Iterator[None]:
     """Hold back the CLI's :class:`Interrupted` until the block ends, then raise it (in
     place of any exception the block raised). Only the main thread handles signals; in
     another thread the block runs as it is."""
-    global _depth
+    global _depth, _pending
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -35,16 +35,17 @@ def interrupts_deferred() -> Iterator[None]:
         yield
     finally:
         _depth -= 1
-        if _depth == 0 and _pending:
-            signum = _pending[0]
-            _pending.clear()
+        if _depth == 0 and _pending is not None:
+            signum, _pending = _pending, None
             raise Interrupted(signum)
 
 
 def defer_interrupt(signum: int) -> bool:
     """For the CLI's signal handler: True when a deferred section is open, the signal then
     recorded for its end."""
+    global _pending
     if _depth > 0:
-        _pending.append(signum)
+        if _pending is None:
+            _pending = signum
         return True
     return False

@@ -432,3 +432,30 @@ def test_ctrl_c_stops_a_long_library_call_at_once(call, side, delay):
     assert out.strip() == "KeyboardInterrupt", err
     assert proc.returncode == 0 and "Error" not in err
     assert waited < 6.0, f"Ctrl-C took {waited:.1f} s"
+
+
+def test_nested_signal_handlers_pass_other_dropped_exceptions_on_once():
+    """A command run inside another's handlers (``run_app`` called in-process) installs the
+    dropped-signal hook once: another dropped exception reaches the hook that was there
+    before exactly once (installed twice, the hook passed it on to itself for ever)."""
+    import threading
+    import types
+
+    from terrascape.cli.app import _signals_raise
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signal handlers are installed from the main thread only")
+    seen = []
+    recorder = seen.append
+    previous = sys.unraisablehook
+    sys.unraisablehook = recorder
+    try:
+        with _signals_raise():
+            with _signals_raise():
+                assert sys.unraisablehook is not recorder
+                sys.unraisablehook(types.SimpleNamespace(exc_value=ValueError("dropped")))
+            assert sys.unraisablehook is not recorder
+        assert sys.unraisablehook is recorder
+    finally:
+        sys.unraisablehook = previous
+    assert [str(u.exc_value) for u in seen] == ["dropped"]

@@ -371,7 +371,7 @@ def _signals_raise() -> Iterator[None]:
         for sig in _SIGNALS:
             with contextlib.suppress(ValueError, OSError):  # not the main thread
                 previous[sig] = signal.signal(sig, _raise_interrupted)
-        if previous:
+        if previous and previous_hook is not _unraisable_hook:  # not again when nested
             global _previous_unraisable_hook
             _previous_unraisable_hook = previous_hook
             sys.unraisablehook = _unraisable_hook
