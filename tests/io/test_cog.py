@@ -3,6 +3,8 @@ independent reader of the layout), read back by rasterio with its georeference a
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -97,3 +99,20 @@ def test_convert_cog_from_the_command_line(tmp_path, rng, capsys):
                     "--cog"]) == 2
     assert "--cog writes a .tif" in capsys.readouterr().err
     assert not (tmp_path / "web.png").exists()
+
+
+def test_a_local_map_at_spacing_one_is_written_without_gdals_warning(tmp_path, rng, capsys):
+    # Spacing 1 and no CRS make GDAL's identity-like transform, which rasterio warns "may be
+    # ignored": it is kept (read back below), so the user must not be told otherwise.
+    hm = Heightmap(rng.random((40, 50)).astype(np.float32) * 9, (1.0, 1.0))
+    np.save(tmp_path / "m.npy", hm.heights)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        write_cog(hm, tmp_path / "api.tif")
+    assert run_app(["convert", str(tmp_path / "m.npy"), str(tmp_path / "cli.tif"),
+                    "--cog"]) == 0
+    assert "warning" not in capsys.readouterr().err.lower()
+    for name in ("api.tif", "cli.tif"):
+        with rasterio.open(tmp_path / name) as ds:
+            assert ds.transform == Affine(1, 0, 0, 0, -1, 0) and ds.crs is None
+        np.testing.assert_array_equal(read_heightmap(tmp_path / name).heights, hm.heights)

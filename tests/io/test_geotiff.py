@@ -149,3 +149,18 @@ def test_degrees_without_crs_warn_naming_the_fix(tmp_path, capsys):
     captured = capsys.readouterr()
     assert "looks like degrees" not in captured.err
     assert "EPSG:4326" in captured.out
+
+
+@pytest.mark.parametrize("dtype", [np.uint16, np.float32])
+def test_a_plain_tiff_from_an_image_editor_is_read_the_right_way_up(tmp_path, dtype):
+    # No geotransform at all (what image editors and many terrain tools write): GDAL reports
+    # the identity, whose row step is +1, but the rows are in file order, first row north —
+    # as the reader without rasterio reads them.
+    import tifffile
+
+    data = (np.arange(35).reshape(5, 7) * 3).astype(dtype)
+    tifffile.imwrite(tmp_path / "plain.tif", data, photometric="minisblack", metadata=None)
+    hm = read_heightmap(tmp_path / "plain.tif")
+    np.testing.assert_array_equal(hm.heights, data.astype(np.float32))
+    np.testing.assert_array_equal(hm.heights, read_tiff(tmp_path / "plain.tif").heights)
+    assert hm.spacing == (1.0, 1.0) and hm.crs is None and hm.origin == (0.0, 0.0)

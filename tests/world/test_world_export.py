@@ -316,3 +316,24 @@ def test_quantized_mesh_of_a_world_takes_the_static_mesher(world, tmp_path):
     with pytest.raises(InvalidParameterError, match="unknown static mesher"):
         export_quantized_mesh(world, tmp_path / "b", lonlat=LONLAT, mesher="bogus")
     assert not (tmp_path / "b").exists()
+
+
+def test_a_world_at_spacing_one_exports_without_gdals_warning(tmp_path):
+    # the transform of spacing 1 is one rasterio warns "may be ignored"; it is kept, so the
+    # user must not be told otherwise
+    import warnings
+
+    import rasterio
+
+    recipe = recipe_from_dict({"size": [70, 90], "seed": 3, "chunk": 64,
+                               "generator": {"name": "fbm", "relief": 20.0, "scale": 30.0}})
+    store = tmp_path / "w.zarr"
+    assert build_world(recipe, store).complete
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        export_geotiff(store, tmp_path / "g.tif")
+        export_cog(store, tmp_path / "c.tif", blocksize=64)
+    for name in ("g.tif", "c.tif"):
+        with rasterio.open(tmp_path / name) as src:
+            assert src.transform == rasterio.Affine(1, 0, 0, 0, -1, 0) and src.crs is None
+            assert np.array_equal(src.read(1), _heights(store))

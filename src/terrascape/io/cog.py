@@ -28,6 +28,7 @@ from terrascape.errors import FileFormatError, InvalidParameterError
 from terrascape.heightmap import Heightmap
 from terrascape.io._common import check_heightmap
 from terrascape.io.atomic import atomic_output
+from terrascape.io.geotiff import geotransform, quiet_not_georeferenced, restore_nodata
 
 #: Pixels per side of a COG tile (GDAL's default, and the usual web-map tile multiple).
 COG_BLOCK = 512
@@ -83,7 +84,7 @@ def copy_to_cog(source: str | os.PathLike, path: str | os.PathLike, *, force: bo
     _check_tif(path)
     options = cog_creation_options(blocksize=blocksize, resampling=resampling)
     with (atomic_output(path, force=force) as tmp, rasterio.Env(GDAL_NUM_THREADS="1"),
-          rasterio.open(source) as src):
+          quiet_not_georeferenced(), rasterio.open(source) as src):
         gdal_copy(src, tmp, driver="COG", **options)
     return path
 
@@ -97,7 +98,6 @@ def write_cog(heightmap: Heightmap, path: str | os.PathLike, *, force: bool = Fa
     from rasterio.io import MemoryFile
     from rasterio.shutil import copy as gdal_copy
 
-    from terrascape.io.geotiff import geotransform, restore_nodata
 
     check_heightmap(heightmap)
     path = Path(path)
@@ -114,7 +114,7 @@ def write_cog(heightmap: Heightmap, path: str | os.PathLike, *, force: bool = Fa
                "transform": rasterio.Affine(*geotransform(heightmap)),
                "nodata": heightmap.nodata}
     sp = heightmap.spacing
-    with atomic_output(path, force=force) as tmp, MemoryFile() as memory:
+    with atomic_output(path, force=force) as tmp, quiet_not_georeferenced(), MemoryFile() as memory:
         with memory.open(**profile) as mem:
             mem.write(restore_nodata(heightmap), 1)
             # Local maps (no CRS) keep their spacing in world units as a tag too.

@@ -17,9 +17,11 @@ like degrees (the renderer would draw a needle 0.3 units wide and 800 tall).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +42,7 @@ __all__ = [
     "crs_pixel_size",
     "degree_warning",
     "geotransform",
+    "quiet_not_georeferenced",
     "rasterio_available",
     "read_geotiff",
     "reproject",
@@ -55,6 +58,21 @@ def rasterio_available() -> bool:
     except ImportError:
         return False
     return True
+
+
+@contextlib.contextmanager
+def quiet_not_georeferenced() -> Iterator[None]:
+    """Rasterio's "not georeferenced" warning silenced while a GeoTIFF is read or written.
+
+    A map without a CRS at spacing 1 has the transform (1, 0, 0, 0, −1, 0), which rasterio
+    warns "may be ignored" on writing; GDAL's GeoTIFF and COG drivers keep it (read back
+    equal), and a plain TIFF read is not georeferenced by design: neither is the user's
+    problem."""
+    import rasterio.errors
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+        yield
 
 
 def _require_rasterio(what: str):
@@ -160,19 +178,16 @@ def read_geotiff(
     spacing_t = normalise_spacing(spacing)
     vscale = check_vertical_scale(vertical_scale)
     try:
-        with warnings.catch_warnings():
-            # GDAL warns "not georeferenced" for plain TIFFs: that is not the user's problem.
-            warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
-            with rasterio.open(p) as ds:
-                if ds.count != 1:
-                    raise FileFormatError(
-                        f"expected a single-band 2-D TIFF in {p}, got {ds.count} bands"
-                    )
-                data = ds.read(1)
-                nodata = ds.nodata
-                transform = ds.transform
-                crs = ds.crs
-                georeferenced = ds.crs is not None or not transform.is_identity
+        with quiet_not_georeferenced(), rasterio.open(p) as ds:
+            if ds.count != 1:
+                raise FileFormatError(
+                    f"expected a single-band 2-D TIFF in {p}, got {ds.count} bands"
+                )
+            data = ds.read(1)
+            nodata = ds.nodata
+            transform = ds.transform
+            crs = ds.crs
+            georeferenced = ds.crs is not None or not transform.is_identity
     except TerrascapeError:
         raise
     except (RasterioError, OSError, ValueError) as exc:
@@ -186,7 +201,9 @@ def read_geotiff(
         )
     nodata = None if nodata is None or (isinstance(nodata, float) and math.isnan(nodata)) \
         else float(nodata)
-    if transform.e > 0:  # south-up raster: flip to the north-up row order
+    # a south-up raster is flipped to the north-up row order; a TIFF without a geotransform
+    # (GDAL's identity, whose row step is +1 too) keeps its rows in file order, first north
+    if georeferenced and transform.e > 0:
         data = data[::-1]
         transform = rasterio.Affine(transform.a, 0, transform.c, 0, -transform.e,
                                     transform.f + transform.e * data.shape[0])
@@ -250,7 +267,8 @@ def write_geotiff(heightmap: Heightmap, path: str | os.PathLike, *, force: bool 
         "transform": rasterio.Affine(*geotransform(heightmap)),
         "nodata": heightmap.nodata,
     }
-    with atomic_output(path, force=force) as tmp, rasterio.open(tmp, "w", **profile) as ds:
+    with (atomic_output(path, force=force) as tmp, quiet_not_georeferenced(),
+          rasterio.open(tmp, "w", **profile) as ds):
         ds.write(data, 1)
     return Path(path)
 

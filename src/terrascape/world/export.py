@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from terrascape.errors import InvalidParameterError
+from terrascape.io.geotiff import quiet_not_georeferenced
 from terrascape.world.store import open_world
 from terrascape.world.window import level_shape, read_level
 
@@ -122,7 +123,7 @@ def _write_tiled_geotiff(path, group, recipe, target: Path, client) -> None:
                "dtype": "float32", "tiled": True, "blockxsize": b, "blockysize": b,
                "compress": "deflate", "predictor": 3, "transform": Affine(sp, 0, 0, 0, -sp, 0),
                "BIGTIFF": "IF_SAFER"}
-    with rasterio.open(target, "w", **profile) as dst:
+    with quiet_not_georeferenced(), rasterio.open(target, "w", **profile) as dst:
         dst.update_tags(terrascape_world=group.attrs["recipe_hash"],
                         spacing=str(sp), seed=str(recipe.seed))
         for (_, r0, r1, c0, c1), data in zip(blocks, _in_order(client, _tiff_block, blocks),
