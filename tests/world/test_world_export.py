@@ -337,3 +337,91 @@ def test_a_world_at_spacing_one_exports_without_gdals_warning(tmp_path):
         with rasterio.open(tmp_path / name) as src:
             assert src.transform == rasterio.Affine(1, 0, 0, 0, -1, 0) and src.crs is None
             assert np.array_equal(src.read(1), _heights(store))
+
+
+@pytest.mark.parametrize("kind", ["quantized-mesh", "terrain_rgb"])
+@pytest.mark.parametrize("on_cluster", [False, True])
+def test_an_interrupted_world_export_leaves_nothing_and_keeps_the_earlier_one(
+        world, client, tmp_path, monkeypatch, kind, on_cluster):
+    """The tiles of a world's pyramid appear all together or not at all: a failure in a
+    tile of the second batch (a full disk here; a signal takes the same way out) leaves no
+    tile of the batch finished before it, in a new folder, and over an earlier export
+    (``force``) leaves the earlier files as they were."""
+    import errno
+
+    import terrascape.world.export as world_export
+
+    def export(out, **kw):
+        if kind == "quantized-mesh":
+            return export_quantized_mesh(world, out, lonlat=LONLAT, min_zoom=14, name="w",
+                                         client=client if on_cluster else None, **kw)
+        return export_terrain_rgb(world, out, lonlat=LONLAT, name="w",
+                                  client=client if on_cluster else None, **kw)
+
+    earlier = export(tmp_path / "old")
+    fail_at = (world_export.QM_TILES_PER_TASK if kind == "quantized-mesh"
+               else world_export.RGB_TILES_PER_TASK) + 2
+    assert len(earlier) > fail_at + 1
+    before = _files(tmp_path / "old")
+    name = "_quantized_mesh_tile" if kind == "quantized-mesh" else "_rgb_tile"
+    make = getattr(world_export, name)
+    calls = [0]
+
+    def failing(*args, **kwargs):
+        calls[0] += 1
+        if calls[0] == fail_at:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return make(*args, **kwargs)
+
+    monkeypatch.setattr(world_export, name, failing)
+    for out, force in ((tmp_path / "new", False), (tmp_path / "old", True)):
+        calls[0] = 0
+        with pytest.raises(OSError, match="No space"):
+            export(out, force=force)
+        assert calls[0] >= fail_at
+        if force:
+            assert _files(out) == before
+            assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == \
+                sorted(p.name for p in (tmp_path / "old").iterdir() if p.name.startswith("."))
+        else:
+            assert not out.exists() or not any(out.rglob("*")), sorted(out.rglob("*"))[:5]
+
+
+def test_a_signal_during_a_world_export_leaves_no_folder_and_after_it_counts_the_tiles(
+        world, tmp_path, monkeypatch, capsys):
+    """Interrupted while the tiles are made, ``world export`` leaves neither a tile nor the
+    folder it made; interrupted once they were committed, it says how many files it kept
+    and where, in one line, not thousands of names."""
+    import signal
+
+    import terrascape.export._common
+    import terrascape.world.export as world_export
+    from terrascape.cli.app import run_app
+    from terrascape.errors import Interrupted
+
+    def interrupted(*args, **kwargs):
+        raise Interrupted(signal.SIGTERM)
+
+    command = ["world", "export", str(world), "", "--format", "quantized-mesh", "--lonlat",
+               "15,45", "--min-zoom", "14", "--threads"]
+    command[3] = str(tmp_path / "during")
+    run = world_export._run
+
+    def tiles_made_then_interrupted(*args):
+        run(*args)  # every tile is made and staged: the signal comes before their commit
+        interrupted()
+
+    with monkeypatch.context() as m:
+        m.setattr(world_export, "_run", tiles_made_then_interrupted)
+        assert run_app(command) == 143
+    assert "nothing was written" in capsys.readouterr().err
+    assert not (tmp_path / "during").exists()
+    command[3] = str(tmp_path / "after")
+    # after the unit's commit, before the command returns
+    monkeypatch.setattr(terrascape.export._common, "_remove_empty_folders", interrupted)
+    assert run_app(command) == 143
+    err = capsys.readouterr().err
+    tiles = sorted((tmp_path / "after").rglob("*.terrain"))
+    assert len(tiles) > 100 and (tmp_path / "after" / "layer.json").exists()
+    assert f"kept: {len(tiles) + 3:,} files in {tmp_path / 'after'}" in err, err
+    assert len(err.splitlines()) == 1

@@ -397,6 +397,10 @@ def _error(message: str) -> None:
     console.print(f"[bold red]error:[/] {escape(message)}", markup=True, highlight=False)
 
 
+#: Outputs kept after a signal listed one by one up to this many.
+_LISTED_KEPT = 50
+
+
 def run_app(argv: list[str] | None = None) -> int:
     """Run the typer app and map every failure to one line on stderr and an exit code.
 
@@ -421,6 +425,8 @@ def run_app(argv: list[str] | None = None) -> int:
         done = committed_outputs()
         if done:  # e.g. the heightmap was written, its --preview was not
             kept = ", ".join(str(p) for p in done)
+            if len(done) > _LISTED_KEPT:  # a tile pyramid's thousands: counted, not listed
+                kept = f"{len(done):,} files in {os.path.commonpath([str(p) for p in done])}"
             console.print(f"[red]interrupted ({exc.signal_name})[/]; finished before the "
                           f"signal and kept: {escape(kept)}; unfinished outputs were removed")
         else:

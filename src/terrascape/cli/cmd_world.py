@@ -95,6 +95,8 @@ def world_export_cmd(
     """Export a world tile by tile on a dask cluster (the same bytes as one process)."""
     import time
 
+    from terrascape.cli.cmd_export import _no_empty_folder
+    from terrascape.cli.parsing import parse_floats
     from terrascape.errors import InvalidParameterError
     from terrascape.world import connect, open_world
     from terrascape.world.export import (
@@ -116,23 +118,20 @@ def world_export_cmd(
         check_output_path(output, force=force)
     elif lonlat is None:
         raise InvalidParameterError("tiles need --lonlat LON,LAT to place the world on the globe")
+    else:
+        ll = tuple(parse_floats(lonlat, 2, name="--lonlat"))  # before a cluster starts
     start = time.perf_counter()
-    with connect(scheduler, workers=workers, memory_limit="2GB", processes=processes) as client:
+    with (_no_empty_folder(output),
+          connect(scheduler, workers=workers, memory_limit="2GB", processes=processes) as client):
         if fmt == "geotiff":
             written = [export_geotiff(store, output, client=client, force=force)]
         elif fmt == "cog":
             written = [export_cog(store, output, client=client, force=force)]
         elif fmt == "quantized-mesh":
-            from terrascape.cli.parsing import parse_floats
-
-            ll = tuple(parse_floats(lonlat, 2, name="--lonlat"))
             written = export_quantized_mesh(store, output, lonlat=ll, min_zoom=min_zoom,
                                             max_zoom=max_zoom, max_error=max_error,
                                             name=store.stem, client=client, force=force)
         else:
-            from terrascape.cli.parsing import parse_floats
-
-            ll = tuple(parse_floats(lonlat, 2, name="--lonlat"))
             written = export_terrain_rgb(store, output, lonlat=ll, fmt=fmt, min_zoom=min_zoom,
                                          max_zoom=max_zoom, name=store.stem, client=client,
                                          force=force)

@@ -323,15 +323,6 @@ def record_export(out: Path, destination: str, name: str, files: Sequence[Path],
     return removed
 
 
-def finish_export(out: Path, destination: str, name: str, files: Sequence[Path], *,
-                  force: bool) -> None:
-    """:func:`record_export` as a unit of its own, for an export whose files were
-    committed already (a world's, tile batch by tile batch on dask workers)."""
-    with output_unit(sync_threads=SYNC_THREADS):
-        removed = record_export(out, destination, name, files, force=force)
-    _remove_empty_folders(removed, out)
-
-
 def write_many(items: list[tuple[Path, bytes]], *, force: bool) -> list[Path]:
     """Write every ``(path, bytes)`` as one atomic unit (all files or none; inside an
     export's unit, with the export's other files), flushed to the disk by

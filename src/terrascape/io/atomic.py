@@ -530,6 +530,29 @@ class _Unit:
             self.forced.append(force)
 
 
+def flush_files(paths: Sequence[Path], *, threads: int = 1) -> None:
+    """Flush the files ``paths`` to the disk, on up to ``threads`` threads."""
+    _each(_fsync_path, list(paths), threads)
+
+
+def in_output_unit() -> bool:
+    """True inside an :func:`output_unit` (whose commit is at the outermost one's end)."""
+    return _UNIT.get() is not None
+
+
+def commit_with_unit(pairs: Sequence[tuple[Path, Path]], *, force: bool) -> None:
+    """Inside an :func:`output_unit`: give the finished files ``tmp`` of ``pairs`` their
+    ``final`` names at the unit's commit, with its other files, all or none (if the unit
+    fails, they are removed). The files were written and flushed to the disk elsewhere (by
+    the workers of a cluster) in a folder on the final names' file system; the finals'
+    folders must exist by the commit. Without ``force`` an existing final fails the
+    commit."""
+    unit = _UNIT.get()
+    if unit is None:
+        raise RuntimeError("commit_with_unit needs an output_unit")
+    unit.add([(Path(tmp), Path(final)) for tmp, final in pairs], force)
+
+
 def unit_outputs() -> list[Path]:
     """The final paths of the files written so far in the current :func:`output_unit`
     (empty outside one)."""

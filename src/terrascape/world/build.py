@@ -12,6 +12,7 @@ killed and run again skips the finished chunks and gives the same bytes.
 from __future__ import annotations
 
 import contextlib
+import logging
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -75,8 +76,11 @@ def connect(scheduler: str = "local", *, workers: int = 2, memory_limit: str | N
         # The workers' statistical profiler samples the running task every 10 ms: a few
         # per cent of a core per worker that a build does not need.
         with dask.config.set({"distributed.worker.profile.enabled": False}):
+            # silence_logs: the workers' warnings (a task cancelled while the cluster
+            # closes after Ctrl-C, memory use) are not the user's to read; errors reach the
+            # caller as exceptions
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
-                                   processes=processes,
+                                   processes=processes, silence_logs=logging.ERROR,
                                    memory_limit=memory_limit if processes else None,
                                    dashboard_address=":0")
         try:

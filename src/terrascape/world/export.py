@@ -1,10 +1,14 @@
 """Export a world in parallel, tile by tile: a tiled GeoTIFF or Cloud-Optimized GeoTIFF,
 Terrain-RGB/Terrarium tiles and the Cesium quantized-mesh pyramid.
 
-Each GeoTIFF block, and each group of tiles (16 Terrain-RGB or 64 quantized-mesh tiles,
-written as one unit), is one task on the cluster (``client.map``); with no client the same
-function runs in a loop here. A task reads only the window of the store its tile needs, so
-memory stays bounded whatever the world's size, and both ways give the same bytes:
+Each GeoTIFF block, and each group of tiles (16 Terrain-RGB or 64 quantized-mesh tiles),
+is one task on the cluster (``client.map``); with no client the same function runs in a
+loop here. The tasks write their tiles into a hidden folder of the output folder, and this
+process gives all of them their names at the end, with the pyramid's metadata, as one
+unit: an export interrupted or failed half-way leaves no tile, and over an earlier export
+(``force``) the earlier files as they were. A task reads only the window of the store its
+tile needs, so memory stays bounded whatever the world's size, and both ways give the same
+bytes:
 
 * **GeoTIFF** (tiled, deflate with the floating-point predictor, BigTIFF when needed): the
   workers read and pack the blocks; this process writes them with rasterio windows *in
@@ -25,14 +29,20 @@ memory stays bounded whatever the world's size, and both ways give the same byte
 
 from __future__ import annotations
 
+import atexit
+import contextlib
 import io
 import json
 import math
+import shutil
+import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from terrascape.errors import InvalidParameterError
+from terrascape.io.atomic import commit_with_unit, flush_files, output_unit
 from terrascape.io.geotiff import quiet_not_georeferenced
 from terrascape.world.store import open_world
 from terrascape.world.window import level_shape, read_level
@@ -49,6 +59,72 @@ def _run(client, fn, args: list[tuple]) -> list:
     if not args:
         return []
     return client.gather(client.map(fn, *zip(*args, strict=True), pure=False))
+
+
+def _stage(folder: str, named: list[tuple[str, bytes]]) -> None:
+    """Write each ``(name, bytes)`` into the staging ``folder`` and flush them to the disk (a
+    worker's part of :func:`_staged_tiles`). The folder is never created here: once the
+    command has removed it (interrupted), a late task writes nothing."""
+    from terrascape.export._common import SYNC_THREADS
+
+    paths = []
+    for name, data in named:
+        path = Path(folder) / name
+        with open(path, "xb") as f:
+            f.write(data)
+        paths.append(path)
+    flush_files(paths, threads=SYNC_THREADS)
+
+
+def _staged_name(z: int, x: int, y: int, suffix: str) -> str:
+    return f"{z}-{x}-{y}{suffix}"
+
+
+@contextlib.contextmanager
+def _staged_tiles(out: Path, tiles: list[tuple[str, Path]], *, force: bool) -> Iterator[Path]:
+    """A hidden folder in ``out`` for the workers' tiles, inside an output unit that gives
+    each tile written there as ``name`` its ``final`` name (``tiles``: ``(name, final)``)
+    when the block ends without an error, with the block's other files (the metadata, the
+    manifest). Otherwise every tile goes with the folder, and so do the tile folders made
+    for the commit.
+
+    An existing final without ``force`` is refused before any work, and again at the commit
+    (another writer). A task still running after an interruption finds the folder gone;
+    what it may have written in between is removed again at exit."""
+    from terrascape.export._common import SYNC_THREADS
+    from terrascape.io.atomic import check_output_path, in_output_unit
+
+    folders: dict[Path, bool] = {}
+    for _, final in tiles:
+        if folders.setdefault(final.parent, final.parent.is_dir()):
+            check_output_path(final, force=force)
+    # inside a caller's unit the tiles keep their staged names until its end
+    nested = in_output_unit()
+    staging = Path(tempfile.mkdtemp(prefix=".tiles-", suffix=".part", dir=out))
+    made: list[Path] = []
+    try:
+        with output_unit(sync_threads=SYNC_THREADS):
+            yield staging
+            for folder in dict.fromkeys(final.parent for _, final in tiles):
+                missing = []
+                while not folder.is_dir():
+                    missing.append(folder)
+                    folder = folder.parent
+                for new in reversed(missing):
+                    new.mkdir(exist_ok=True)
+                    made.append(new)
+            commit_with_unit([(staging / name, final) for name, final in tiles], force=force)
+    except BaseException:
+        for folder in reversed(made):
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        atexit.register(shutil.rmtree, staging, True)
+        raise
+    finally:
+        if nested:
+            atexit.register(shutil.rmtree, staging, True)
+        else:
+            shutil.rmtree(staging, ignore_errors=True)
 
 
 def _tiff_block(path: str, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
@@ -171,16 +247,11 @@ def _geo(recipe, lonlat) -> tuple[float, float, float, float]:
 RGB_TILES_PER_TASK = 16
 
 
-def _rgb_tiles(path: str, geo, tiles: list, fmt: str, out_dir: str, force: bool
-               ) -> list[str]:
-    """Encode the tiles ``(z, x, y)`` and write them as one unit; returns their paths."""
-    from terrascape.export._common import write_many
-
+def _rgb_tiles(path: str, geo, tiles: list, fmt: str, staging: str) -> None:
+    """Encode the tiles ``(z, x, y)`` and write them into the ``staging`` folder."""
     group, recipe = open_world(path)
-    out = Path(out_dir)
-    items = [(out / str(z) / str(x) / f"{y}.png", _rgb_tile(group, recipe, geo, z, x, y, fmt))
-             for z, x, y in tiles]
-    return [str(p) for p in write_many(items, force=force)]
+    _stage(staging, [(_staged_name(z, x, y, ".png"), _rgb_tile(group, recipe, geo, z, x, y, fmt))
+                     for z, x, y in tiles])
 
 
 def _level_window(recipe, group, row, col, pixel: float):
@@ -241,7 +312,12 @@ def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str =
     """Terrain-RGB (``fmt="mapbox"``) or Terrarium PNG tiles of the world (one task per
     :data:`RGB_TILES_PER_TASK` tiles), plus ``tiles.json``; zooms ``min_zoom`` (0) to
     ``max_zoom`` (as dense as the world)."""
-    from terrascape.export._common import check_out_dir, finish_export, write_text
+    from terrascape.export._common import (
+        _remove_empty_folders,
+        check_out_dir,
+        record_export,
+        write_text,
+    )
     from terrascape.export._geo import GeoGrid, mercator_tile_range
     from terrascape.export.terrain_rgb import FORMATS, finest_zoom
 
@@ -266,18 +342,22 @@ def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str =
         x0, y0, x1, y1 = mercator_tile_range(z, grid.bounds)
         tiles += [(z, x, y) for x in range(x0, x1 + 1) for y in range(y0, y1 + 1)]
     n = RGB_TILES_PER_TASK
-    results = _run(client, _rgb_tiles, [(str(path), geo, tiles[k:k + n], fmt, str(out), force)
-                                        for k in range(0, len(tiles), n)])
-    written = [Path(p) for batch in results for p in batch]
-    w, s, e, n = grid.bounds
+    staged = [(_staged_name(z, x, y, ".png"), out / str(z) / str(x) / f"{y}.png")
+              for z, x, y in tiles]
+    w, s, e, nn = grid.bounds
     tilejson = {"tilejson": "2.2.0", "name": name, "scheme": "xyz",
                 "tiles": ["{z}/{x}/{y}.png"], "minzoom": bottom, "maxzoom": top,
-                "bounds": [w, s, e, n], "encoding": fmt, "tileSize": TILE}
-    written.append(write_text(out / "tiles.json", json.dumps(tilejson, indent=1) + "\n",
-                              force=force))
-    # the manifest the in-memory export writes too; with force, the earlier export's tiles
-    # this one does not write go
-    finish_export(out, "terrain_rgb", name, written, force=force)
+                "bounds": [w, s, e, nn], "encoding": fmt, "tileSize": TILE}
+    with _staged_tiles(out, staged, force=force) as staging:
+        _run(client, _rgb_tiles, [(str(path), geo, tiles[k:k + n], fmt, str(staging))
+                                  for k in range(0, len(tiles), n)])
+        written = [final for _, final in staged]
+        written.append(write_text(out / "tiles.json", json.dumps(tilejson, indent=1) + "\n",
+                                  force=force))
+        # the manifest the in-memory export writes too; with force, the earlier export's
+        # tiles this one does not write go
+        removed = record_export(out, "terrain_rgb", name, written, force=force)
+    _remove_empty_folders(removed, out)
     return written
 
 
@@ -297,22 +377,17 @@ def _world_grid(recipe, lonlat):
 QM_TILES_PER_TASK = 64
 
 
-def _quantized_mesh_tiles(path: str, lonlat, jobs: list, out_dir: str, force: bool,
-                          mesher: str | None = None) -> list[tuple[str, int]]:
-    """Make and write the tiles ``jobs`` (``(z, x, y, error)`` each), meshed by the static
-    mesher ``mesher``, as one unit; returns each tile's path and triangle count."""
+def _quantized_mesh_tiles(path: str, lonlat, jobs: list, staging: str,
+                          mesher: str | None = None) -> None:
+    """Make the tiles ``jobs`` (``(z, x, y, error)`` each), meshed by the static mesher
+    ``mesher``, and write them into the ``staging`` folder."""
     import numba
-
-    from terrascape.export._common import write_many
 
     numba.set_num_threads(1)  # one task = one core, as in a build
     group, recipe = open_world(path)
-    made = [_quantized_mesh_tile(group, recipe, lonlat, *job, mesher) for job in jobs]
-    out = Path(out_dir)
-    paths = write_many([(out / str(z) / str(x) / f"{y}.terrain", data)
-                        for (z, x, y, _), (data, _) in zip(jobs, made, strict=True)],
-                       force=force)
-    return [(str(p), n) for p, (_, n) in zip(paths, made, strict=True)]
+    _stage(staging, [(_staged_name(z, x, y, ".terrain"),
+                      _quantized_mesh_tile(group, recipe, lonlat, z, x, y, error, mesher)[0])
+                     for z, x, y, error in jobs])
 
 
 def _quantized_mesh_tile(group, recipe, lonlat, z: int, x: int, y: int, error: float,
@@ -350,7 +425,7 @@ def export_quantized_mesh(path, out_dir, *, lonlat: tuple[float, float],
     for a map: the same tiles, levels and per-level errors, meshed by the same static
     mesher (``mesher``; ``None``: the default); zooms ``min_zoom`` (0) to ``max_zoom``
     (the first as dense as the world)."""
-    from terrascape.export._common import check_out_dir, finish_export
+    from terrascape.export._common import _remove_empty_folders, check_out_dir, record_export
     from terrascape.export.cesium import finest_level, tile_jobs, write_metadata
     from terrascape.lod.static_meshers import static_mesher
 
@@ -367,13 +442,16 @@ def export_quantized_mesh(path, out_dir, *, lonlat: tuple[float, float],
     jobs, available = tile_jobs(grid, bottom, top, max_error)
     ll = tuple(float(v) for v in lonlat)
     n = QM_TILES_PER_TASK
-    results = _run(client, _quantized_mesh_tiles,
-                   [(str(path), ll, jobs[k:k + n], str(out), force, mesher)
-                    for k in range(0, len(jobs), n)])
-    written = [Path(p) for batch in results for p, _ in batch]
-    written += write_metadata(out, name, bottom, top, available, max_error, grid.bounds,
-                              force=force, mesher=mesher)
-    finish_export(out, "cesium", name, written, force=force)
+    staged = [(_staged_name(z, x, y, ".terrain"), out / str(z) / str(x) / f"{y}.terrain")
+              for z, x, y, _ in jobs]
+    with _staged_tiles(out, staged, force=force) as staging:
+        _run(client, _quantized_mesh_tiles, [(str(path), ll, jobs[k:k + n], str(staging), mesher)
+                                             for k in range(0, len(jobs), n)])
+        written = [final for _, final in staged]
+        written += write_metadata(out, name, bottom, top, available, max_error, grid.bounds,
+                                  force=force, mesher=mesher)
+        removed = record_export(out, "cesium", name, written, force=force)
+    _remove_empty_folders(removed, out)
     return written
 
 
