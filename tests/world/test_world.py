@@ -282,3 +282,52 @@ def test_a_worker_process_is_one_core(tmp_path):
             "distributed.worker.profile.enabled"))
     assert len(pools) == 2 and all(v == 1 for v in pools.values()), pools
     assert all(v is False for v in profile.values()), profile
+
+
+def test_a_new_store_appears_whole_or_not_at_all(tmp_path, monkeypatch):
+    """A store is made in a hidden folder and renamed into place once its arrays and recipe
+    are written: interrupted while it is made, nothing is left (a half-made store was "not a
+    terrascape world" to the next run, which asked for --force); and a second build of the
+    same recipe that made the store meanwhile is joined, not refused."""
+    import signal
+
+    import terrascape.world.store as store
+    from terrascape.errors import Interrupted
+
+    recipe = recipe_from_dict({"size": [40, 50], "seed": 1, "chunk": 32,
+                               "generator": {"name": "fbm"}})
+    path = tmp_path / "w.zarr"
+    add = store._add_missing_arrays
+    calls = [0]
+
+    def interrupted(group, r):
+        add(group, r)
+        raise Interrupted(signal.SIGTERM)
+
+    monkeypatch.setattr(store, "_add_missing_arrays", interrupted)
+    with pytest.raises(Interrupted):
+        store.create_or_resume(path, recipe)
+    assert list(tmp_path.iterdir()) == []
+
+    def another_build_meanwhile(group, r):
+        add(group, r)
+        calls[0] += 1
+        if calls[0] == 1:
+            monkeypatch.setattr(store, "_add_missing_arrays", add)
+            theirs = store.create_or_resume(path, recipe)
+            theirs["done/height"][0, 0] = 1  # their first finished chunk
+
+    monkeypatch.setattr(store, "_add_missing_arrays", another_build_meanwhile)
+    group = store.create_or_resume(path, recipe)
+    assert group.attrs["recipe_hash"] == recipe.digest()
+    assert group["done/height"][0, 0] == 1  # theirs, resumed
+    assert [p.name for p in tmp_path.iterdir()] == ["w.zarr"]
+    assert (path.stat().st_mode & 0o777) == 0o777 & ~_umask()
+
+
+def _umask() -> int:
+    import os
+
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask

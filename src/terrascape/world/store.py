@@ -21,8 +21,11 @@ Attributes: ``terrascape_world`` (format version), ``recipe`` (canonical JSON),
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 import shutil
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -101,6 +104,9 @@ def create_or_resume(path: str | Path, recipe: Recipe, *, force: bool = False) -
 
     A store made by the same recipe is resumed (its finished chunks are kept); one made by
     another recipe, or anything else at ``path``, is refused unless ``force`` (then replaced).
+    A new store is made in a hidden folder next to ``path`` and renamed into place once its
+    arrays and recipe are written: a store interrupted while it is made leaves nothing, and
+    when another build made the same store meanwhile, that one is resumed.
     """
     p = Path(path)
     if p.exists():
@@ -122,20 +128,35 @@ def create_or_resume(path: str | Path, recipe: Recipe, *, force: bool = False) -
             shutil.rmtree(p)
         else:
             p.unlink()
-    group = zarr.open_group(str(p), mode="w")
-    _add_missing_arrays(group, recipe)
-    group.attrs.update({
-        "terrascape_world": FORMAT_VERSION,
-        "recipe": recipe.canonical_json(),
-        "recipe_hash": recipe.digest(),
-        "spacing": recipe.spacing,
-        "seed": recipe.seed,
-        "shape": list(recipe.shape),
-        "chunk": recipe.chunk,
-        "levels": len(level_shapes(recipe)),
-        "complete": False,
-    })
-    return group
+    p.parent.mkdir(parents=True, exist_ok=True)
+    made = Path(tempfile.mkdtemp(prefix=f".{p.name[:40]}.", suffix=".part", dir=p.parent))
+    try:
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(made, 0o777 & ~mask)  # a folder's usual permissions, not mkdtemp's 0700
+        group = zarr.open_group(str(made), mode="w")
+        _add_missing_arrays(group, recipe)
+        group.attrs.update({
+            "terrascape_world": FORMAT_VERSION,
+            "recipe": recipe.canonical_json(),
+            "recipe_hash": recipe.digest(),
+            "spacing": recipe.spacing,
+            "seed": recipe.seed,
+            "shape": list(recipe.shape),
+            "chunk": recipe.chunk,
+            "levels": len(level_shapes(recipe)),
+            "complete": False,
+        })
+        try:
+            os.rename(made, p)
+        except OSError as exc:
+            if exc.errno not in (errno.EEXIST, errno.ENOTEMPTY):
+                raise
+            # another build made the store meanwhile: resume it (or refuse it) as above
+            return create_or_resume(p, recipe)
+    finally:
+        shutil.rmtree(made, ignore_errors=True)
+    return zarr.open_group(str(p), mode="r+")
 
 
 def _add_missing_arrays(group: zarr.Group, recipe: Recipe) -> None:
