@@ -425,3 +425,34 @@ def test_a_signal_during_a_world_export_leaves_no_folder_and_after_it_counts_the
     assert len(tiles) > 100 and (tmp_path / "after" / "layer.json").exists()
     assert f"kept: {len(tiles) + 3:,} files in {tmp_path / 'after'}" in err, err
     assert len(err.splitlines()) == 1
+
+
+def test_a_world_export_failing_after_its_tiles_are_placed_takes_them_back(world, tmp_path,
+                                                                          monkeypatch):
+    """The tiles are named before the metadata's commit: when that commit fails (a full
+    disk), the new tiles go and the earlier export's come back, byte for byte."""
+    import errno
+
+    import terrascape.io.atomic as atomic
+
+    export_quantized_mesh(world, tmp_path / "old", lonlat=LONLAT, min_zoom=15, name="w")
+    before = _files(tmp_path / "old")
+    commit = atomic._commit
+
+    def full_disk(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(atomic, "_commit", full_disk)
+    for out, kw in ((tmp_path / "new", {}), (tmp_path / "old", {"force": True}),
+                    (tmp_path / "old", {"force": True, "min_zoom": 16})):
+        args = {"lonlat": LONLAT, "min_zoom": 14, "name": "w", **kw}
+        with pytest.raises(Exception, match="No space|space"):
+            export_quantized_mesh(world, out, **args)
+        if out.name == "old":
+            assert _files(out) == before
+        else:
+            assert not out.exists() or not any(out.rglob("*"))
+    monkeypatch.setattr(atomic, "_commit", commit)
+    again = export_quantized_mesh(world, tmp_path / "old", lonlat=LONLAT, min_zoom=14,
+                                  name="w", force=True)
+    assert len(again) > len([k for k in before if k.endswith(".terrain")])

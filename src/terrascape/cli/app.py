@@ -409,7 +409,12 @@ def run_app(argv: list[str] | None = None) -> int:
     turned into a typed error → 1; SIGINT/SIGTERM/SIGHUP → 128 + signal number, after the
     temporary files of unfinished outputs were removed.
     """
-    from terrascape.io.atomic import committed_outputs, describe_os_error, reset_committed
+    from terrascape.io.atomic import (
+        committed_in_bulk,
+        committed_outputs,
+        describe_os_error,
+        reset_committed,
+    )
 
     reset_committed()
     use_max_memory(None)  # a previous in-process run's --max-memory does not carry over
@@ -423,10 +428,13 @@ def run_app(argv: list[str] | None = None) -> int:
                 raise Interrupted(signal.SIGINT) from None
     except Interrupted as exc:
         done = committed_outputs()
-        if done:  # e.g. the heightmap was written, its --preview was not
+        bulk = committed_in_bulk()
+        if done or bulk:  # e.g. the heightmap was written, its --preview was not
             kept = ", ".join(str(p) for p in done)
-            if len(done) > _LISTED_KEPT:  # a tile pyramid's thousands: counted, not listed
-                kept = f"{len(done):,} files in {os.path.commonpath([str(p) for p in done])}"
+            total = len(done) + sum(count for count, _ in bulk)
+            if total > _LISTED_KEPT:  # a tile pyramid's thousands: counted, not listed
+                where = os.path.commonpath([str(p) for p in done] + [str(f) for _, f in bulk])
+                kept = f"{total:,} files in {where}"
             console.print(f"[red]interrupted ({exc.signal_name})[/]; finished before the "
                           f"signal and kept: {escape(kept)}; unfinished outputs were removed")
         else:

@@ -69,14 +69,30 @@ _TEMP_RE = re.compile(r"^\.(?P<stem>.*)\.(?P<pid>\d+)-[A-Za-z0-9_]+\.(?:part|bak
 _COMMITTED: list[Path] = []
 
 
+#: Files committed in bulk (:func:`place_files`): ``(count, folder)``, not each path.
+_COMMITTED_BULK: list[tuple[int, Path]] = []
+
+
 def committed_outputs() -> list[Path]:
     """The files :func:`atomic_outputs` committed since the last :func:`reset_committed`."""
     return list(_COMMITTED)
 
 
+def committed_in_bulk() -> list[tuple[int, Path]]:
+    """How many files were committed in bulk since the last :func:`reset_committed`, and
+    in which folder, per :func:`record_bulk_commit`."""
+    return list(_COMMITTED_BULK)
+
+
+def record_bulk_commit(count: int, folder: Path) -> None:
+    """Count ``count`` files below ``folder`` as committed (their unit committed)."""
+    _COMMITTED_BULK.append((count, Path(folder)))
+
+
 def reset_committed() -> None:
     """Forget the committed outputs (the CLI calls this when a command starts)."""
     _COMMITTED.clear()
+    _COMMITTED_BULK.clear()
 
 
 def describe_os_error(
@@ -535,22 +551,71 @@ def flush_files(paths: Sequence[Path], *, threads: int = 1) -> None:
     _each(_fsync_path, list(paths), threads)
 
 
+class PlacedFiles:
+    """Files :func:`place_files` gave their final names: :meth:`undo` takes them back (and
+    puts back the files they replaced) until the caller's unit has committed."""
+
+    def __init__(self, pair_at: Callable[[int], tuple[str, str]], aside: Path) -> None:
+        self._pair_at = pair_at
+        self._aside = aside
+        self.done = 0
+        self.replaced = bytearray()  # 1 where an earlier file was moved aside
+
+    def _place(self, count: int, force: bool) -> None:
+        self.replaced = bytearray(count)
+        for i in range(count):
+            tmp, final = self._pair_at(i)
+            if force:
+                if os.path.lexists(final):
+                    os.replace(final, self._aside / str(i))
+                    self.replaced[i] = 1
+                os.replace(tmp, final)
+            else:
+                _link_new(Path(tmp), Path(final))
+            self.done = i + 1
+
+    def undo(self) -> None:
+        """Remove the placed files, newest first, and put back the ones they replaced."""
+        with _signals_deferred():
+            for i in reversed(range(self.done)):
+                _tmp, final = self._pair_at(i)
+                with contextlib.suppress(OSError):
+                    os.unlink(final)
+                    if self.replaced[i]:
+                        os.replace(self._aside / str(i), final)
+            self.done = 0
+
+
+def place_files(count: int, pair_at: Callable[[int], tuple[str, str]], aside: Path, *,
+                force: bool, sync_threads: int = 1) -> PlacedFiles:
+    """Give ``count`` finished files their final names: ``pair_at(i)`` is the ``i``-th
+    ``(tmp, final)`` (written and flushed to the disk, on the finals' file system; the
+    finals' folders exist). All or none: a failure takes back the files placed so far; the
+    files replaced (``force``) wait in the folder ``aside`` until the caller, once its own
+    unit has committed, removes it, or until :meth:`PlacedFiles.undo`. Without ``force`` an
+    existing final (another writer's) fails it. Made for the millions of tiles of a pyramid:
+    each pair is made when it is needed, not held.
+
+    Signals wait until the files are placed or taken back; the finals' folders are flushed
+    to the disk afterwards on ``sync_threads`` threads."""
+    placed = PlacedFiles(pair_at, Path(aside))
+    try:
+        with _signals_deferred():
+            placed._place(count, force)
+        folders = dict.fromkeys(os.path.dirname(pair_at(i)[1]) for i in range(count))
+        _each(_fsync_folder, [Path(f) for f in folders], sync_threads)
+    except BaseException as exc:
+        where = pair_at(min(placed.done, count - 1))[1] if count else None
+        placed.undo()
+        if isinstance(exc, OSError) and not isinstance(exc, TerrascapeError):
+            raise os_error_to_terrascape(exc, where) from None
+        raise
+    return placed
+
+
 def in_output_unit() -> bool:
     """True inside an :func:`output_unit` (whose commit is at the outermost one's end)."""
     return _UNIT.get() is not None
-
-
-def commit_with_unit(pairs: Sequence[tuple[Path, Path]], *, force: bool) -> None:
-    """Inside an :func:`output_unit`: give the finished files ``tmp`` of ``pairs`` their
-    ``final`` names at the unit's commit, with its other files, all or none (if the unit
-    fails, they are removed). The files were written and flushed to the disk elsewhere (by
-    the workers of a cluster) in a folder on the final names' file system; the finals'
-    folders must exist by the commit. Without ``force`` an existing final fails the
-    commit."""
-    unit = _UNIT.get()
-    if unit is None:
-        raise RuntimeError("commit_with_unit needs an output_unit")
-    unit.add([(Path(tmp), Path(final)) for tmp, final in pairs], force)
 
 
 def unit_outputs() -> list[Path]:

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from terrascape.errors import InvalidParameterError
-from terrascape.io.atomic import commit_with_unit, flush_files, output_unit
+from terrascape.io.atomic import flush_files, output_unit
 from terrascape.io.geotiff import quiet_not_georeferenced
 from terrascape.world.store import open_world
 from terrascape.world.window import level_shape, read_level
@@ -81,31 +81,51 @@ def _staged_name(z: int, x: int, y: int, suffix: str) -> str:
 
 
 @contextlib.contextmanager
-def _staged_tiles(out: Path, tiles: list[tuple[str, Path]], *, force: bool) -> Iterator[Path]:
-    """A hidden folder in ``out`` for the workers' tiles, inside an output unit that gives
-    each tile written there as ``name`` its ``final`` name (``tiles``: ``(name, final)``)
-    when the block ends without an error, with the block's other files (the metadata, the
-    manifest). Otherwise every tile goes with the folder, and so do the tile folders made
-    for the commit.
+def _staged_tiles(out: Path, tiles: np.ndarray, suffix: str, *,
+                  force: bool) -> Iterator[Path]:
+    """A hidden folder in ``out`` for the workers' tiles (``tiles``: rows ``z, x, y``, each
+    written there as :func:`_staged_name`), inside an output unit for the block's other
+    files (the metadata, the manifest). When the block ends without an error the tiles get
+    their names ``z/x/y`` + ``suffix``, then the unit commits; if either fails, or the block
+    does, no tile is left and, over an earlier export (``force``), the files it replaced
+    are put back.
 
-    An existing final without ``force`` is refused before any work, and again at the commit
-    (another writer). A task still running after an interruption finds the folder gone;
-    what it may have written in between is removed again at exit."""
+    An existing tile without ``force`` is refused before any work, and again when it is
+    placed (another writer). A task still running after an interruption finds the folder
+    gone; what it may have written in between is removed again at exit. The tiles are
+    held as three numbers each, not as paths: a pyramid has millions."""
     from terrascape.export._common import SYNC_THREADS
-    from terrascape.io.atomic import check_output_path, in_output_unit
+    from terrascape.io.atomic import (
+        check_output_path,
+        in_output_unit,
+        place_files,
+        record_bulk_commit,
+    )
 
-    folders: dict[Path, bool] = {}
-    for _, final in tiles:
-        if folders.setdefault(final.parent, final.parent.is_dir()):
-            check_output_path(final, force=force)
-    # inside a caller's unit the tiles keep their staged names until its end
-    nested = in_output_unit()
+    def final(i: int) -> str:
+        z, x, y = tiles[i]
+        return f"{out}/{z}/{x}/{y}{suffix}"
+
+    folders, in_folder = np.unique(tiles[:, :2], axis=0, return_inverse=True)
+    folders = [out / str(z) / str(x) for z, x in folders.tolist()]
+    existing = np.array([folder.is_dir() for folder in folders], np.bool_)
+    for i in np.flatnonzero(existing[in_folder.reshape(-1)]):
+        check_output_path(final(i), force=force)
+    if in_output_unit():  # its commit comes after this block's tiles are placed
+        raise RuntimeError("a world's tiles are their own output unit")
     staging = Path(tempfile.mkdtemp(prefix=".tiles-", suffix=".part", dir=out))
+    aside = staging / "replaced"
     made: list[Path] = []
+    placed = None
+
+    def pair(i: int) -> tuple[str, str]:
+        z, x, y = tiles[i]
+        return f"{staging}/{_staged_name(z, x, y, suffix)}", final(i)
+
     try:
         with output_unit(sync_threads=SYNC_THREADS):
             yield staging
-            for folder in dict.fromkeys(final.parent for _, final in tiles):
+            for folder in folders:
                 missing = []
                 while not folder.is_dir():
                     missing.append(folder)
@@ -113,18 +133,20 @@ def _staged_tiles(out: Path, tiles: list[tuple[str, Path]], *, force: bool) -> I
                 for new in reversed(missing):
                     new.mkdir(exist_ok=True)
                     made.append(new)
-            commit_with_unit([(staging / name, final) for name, final in tiles], force=force)
+            aside.mkdir()
+            placed = place_files(len(tiles), pair, aside, force=force,
+                                 sync_threads=SYNC_THREADS)
     except BaseException:
+        if placed is not None:
+            placed.undo()
         for folder in reversed(made):
             with contextlib.suppress(OSError):
                 folder.rmdir()
         atexit.register(shutil.rmtree, staging, True)
         raise
     finally:
-        if nested:
-            atexit.register(shutil.rmtree, staging, True)
-        else:
-            shutil.rmtree(staging, ignore_errors=True)
+        shutil.rmtree(staging, ignore_errors=True)
+    record_bulk_commit(len(tiles), out)
 
 
 def _tiff_block(path: str, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
@@ -342,16 +364,15 @@ def export_terrain_rgb(path, out_dir, *, lonlat: tuple[float, float], fmt: str =
         x0, y0, x1, y1 = mercator_tile_range(z, grid.bounds)
         tiles += [(z, x, y) for x in range(x0, x1 + 1) for y in range(y0, y1 + 1)]
     n = RGB_TILES_PER_TASK
-    staged = [(_staged_name(z, x, y, ".png"), out / str(z) / str(x) / f"{y}.png")
-              for z, x, y in tiles]
+    zxy = np.array(tiles, np.int64).reshape(-1, 3)
     w, s, e, nn = grid.bounds
     tilejson = {"tilejson": "2.2.0", "name": name, "scheme": "xyz",
                 "tiles": ["{z}/{x}/{y}.png"], "minzoom": bottom, "maxzoom": top,
                 "bounds": [w, s, e, nn], "encoding": fmt, "tileSize": TILE}
-    with _staged_tiles(out, staged, force=force) as staging:
+    with _staged_tiles(out, zxy, ".png", force=force) as staging:
         _run(client, _rgb_tiles, [(str(path), geo, tiles[k:k + n], fmt, str(staging))
                                   for k in range(0, len(tiles), n)])
-        written = [final for _, final in staged]
+        written = [out / str(z) / str(x) / f"{y}.png" for z, x, y in tiles]
         written.append(write_text(out / "tiles.json", json.dumps(tilejson, indent=1) + "\n",
                                   force=force))
         # the manifest the in-memory export writes too; with force, the earlier export's
@@ -442,12 +463,11 @@ def export_quantized_mesh(path, out_dir, *, lonlat: tuple[float, float],
     jobs, available = tile_jobs(grid, bottom, top, max_error)
     ll = tuple(float(v) for v in lonlat)
     n = QM_TILES_PER_TASK
-    staged = [(_staged_name(z, x, y, ".terrain"), out / str(z) / str(x) / f"{y}.terrain")
-              for z, x, y, _ in jobs]
-    with _staged_tiles(out, staged, force=force) as staging:
+    zxy = np.array([job[:3] for job in jobs], np.int64).reshape(-1, 3)
+    with _staged_tiles(out, zxy, ".terrain", force=force) as staging:
         _run(client, _quantized_mesh_tiles, [(str(path), ll, jobs[k:k + n], str(staging), mesher)
                                              for k in range(0, len(jobs), n)])
-        written = [final for _, final in staged]
+        written = [out / str(z) / str(x) / f"{y}.terrain" for z, x, y, _ in jobs]
         written += write_metadata(out, name, bottom, top, available, max_error, grid.bounds,
                                   force=force, mesher=mesher)
         removed = record_export(out, "cesium", name, written, force=force)
