@@ -331,3 +331,28 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+def test_a_build_that_cannot_start_leaves_no_new_store(tmp_path, monkeypatch):
+    """A scheduler that does not answer (or a signal while the cluster starts) leaves no
+    store the build just made; a store that was there already stays, resumable."""
+    import terrascape.world.build as build
+    from terrascape.errors import EnvironmentFailure
+
+    def unreachable(*args, **kwargs):
+        raise EnvironmentFailure("no dask scheduler answers at tcp://127.0.0.1:1 within 5 s")
+
+    recipe = recipe_from_dict({"size": [40, 50], "seed": 1, "chunk": 32,
+                               "generator": {"name": "fbm"}})
+    path = tmp_path / "w.zarr"
+    with monkeypatch.context() as m:
+        m.setattr(build, "connect", unreachable)
+        with pytest.raises(EnvironmentFailure):
+            build_world(recipe, path, scheduler="tcp://127.0.0.1:1")
+        assert list(tmp_path.iterdir()) == []
+    assert not build_world(recipe, path, processes=False, max_chunks=1).complete
+    with monkeypatch.context() as m:
+        m.setattr(build, "connect", unreachable)
+        with pytest.raises(EnvironmentFailure):
+            build_world(recipe, path, scheduler="tcp://127.0.0.1:1")
+    assert build_world(recipe, path, processes=False).complete

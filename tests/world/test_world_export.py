@@ -446,7 +446,7 @@ def test_a_world_export_failing_after_its_tiles_are_placed_takes_them_back(world
     for out, kw in ((tmp_path / "new", {}), (tmp_path / "old", {"force": True}),
                     (tmp_path / "old", {"force": True, "min_zoom": 16})):
         args = {"lonlat": LONLAT, "min_zoom": 14, "name": "w", **kw}
-        with pytest.raises(Exception, match="No space|space"):
+        with pytest.raises(Exception, match="No space"):
             export_quantized_mesh(world, out, **args)
         if out.name == "old":
             assert _files(out) == before

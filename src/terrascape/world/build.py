@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
+import shutil
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -44,6 +46,10 @@ class BuildResult:
     #: task stream's times to the stages).
     stage_times: dict[str, tuple[float, float]] = field(default_factory=dict)
     height_range: tuple[float, float] | None = None
+
+
+def _any_chunk_done(group, recipe: Recipe) -> bool:
+    return any(np.asarray(group[f"done/{name}"][...]).any() for name in array_specs(recipe))
 
 
 @contextlib.contextmanager
@@ -139,11 +145,20 @@ def build_world(
     BuildResult
     """
     path = Path(path)
+    new_store = not os.path.lexists(path)
     group = create_or_resume(path, recipe, force=force)
     if client is None:
-        with connect(scheduler, workers=workers, memory_limit=memory_limit,
-                     processes=processes) as own:
-            return build_world(recipe, path, client=own, quiet=quiet, max_chunks=max_chunks)
+        try:
+            with connect(scheduler, workers=workers, memory_limit=memory_limit,
+                         processes=processes) as own:
+                return build_world(recipe, path, client=own, quiet=quiet,
+                                   max_chunks=max_chunks)
+        except BaseException:
+            # a store this call made and no chunk reached (the scheduler did not answer, a
+            # signal while the cluster started) is not kept: there is nothing to resume
+            if new_store and not _any_chunk_done(group, recipe):
+                shutil.rmtree(path, ignore_errors=True)
+            raise
     from distributed import progress
 
     result = BuildResult(path)
