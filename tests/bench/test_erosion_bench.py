@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from terrascape.analysis.drainage import drainage_statistics
@@ -13,6 +15,13 @@ def test_real_dem_drains_like_real_terrain() -> None:
     dem = bench_erosion.real_dem()
     assert dem.shape == (344, 403)
     assert 60.0 < dem.spacing[0] < dem.spacing[1] < 100.0  # 3″ at 36.6° N
+    # one DEM for every benchmark, its east–west spacing at the centre latitude (36.59° N)
+    from terrascape.bench import peers
+
+    assert peers.real_dem is bench_erosion.real_dem
+    assert dem.spacing[0] == pytest.approx(3 / 3600 * 111_320.0 * math.cos(math.radians(
+        36.5896)), rel=1e-5)
+    assert "_sample_dem" not in available_cases()
     st = drainage_statistics(dem)
     assert 0.40 <= st.beta <= 0.55
     assert st.depression_share < 0.10

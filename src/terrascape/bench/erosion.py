@@ -22,6 +22,7 @@ import time
 import numpy as np
 
 from terrascape.bench import BenchTable
+from terrascape.bench._sample_dem import real_dem
 
 FULL_SIZES = (1025, 2049, 4097)
 QUICK_SIZES = (257, 513)
@@ -38,20 +39,6 @@ def bench_terrain(side: int):
     octaves = max(3, 6 + round(math.log2(steps / 1024)))
     return fbm(side, scale=steps / 8, octaves=octaves, seed=1,
                spacing=4096.0 / steps).normalised(0.0, 300.0)
-
-
-def real_dem():
-    """Jacksboro fault DEM (matplotlib sample data) in metres, ~90 m × cos(lat) spacing."""
-    from matplotlib import cbook
-
-    from terrascape.heightmap import Heightmap
-
-    data = np.load(cbook.get_sample_data("jacksboro_fault_dem.npz", asfileobj=False))
-    lat = math.radians(0.5 * (float(data["ymin"]) + float(data["ymax"])))
-    metres_per_degree = 111_320.0
-    dz = float(data["dy"]) * metres_per_degree
-    dx = float(data["dx"]) * metres_per_degree * math.cos(lat)
-    return Heightmap(data["elevation"].astype(np.float32), (dx, dz))
 
 
 def _models(quick: bool) -> list[tuple[str, tuple[int, ...]]]:

@@ -56,6 +56,7 @@ import numba
 import numpy as np
 
 from terrascape.bench import BenchTable
+from terrascape.bench._sample_dem import real_dem
 from terrascape.bench.shade import terrain
 from terrascape.lighting import shadow_mask
 from terrascape.lighting._common import sun_above_horizon
@@ -187,22 +188,6 @@ TIN_LARGE = ("synthetic 4097²", 4097, 2.0)
 
 def _large_rounds(rounds: int) -> int:
     return max(3, rounds // 2)
-
-
-def real_dem():
-    """The Jacksboro fault DEM matplotlib ships: heights in metres, ~90 m spacing."""
-    from matplotlib import cbook
-
-    from terrascape.heightmap import Heightmap
-
-    with cbook.get_sample_data("jacksboro_fault_dem.npz") as data:
-        z = np.asarray(data["elevation"], dtype=np.float32)
-        dx_deg = float(data["dx"])
-        dy_deg = float(data["dy"])
-        lat = float(data["ymin"]) + 0.5 * z.shape[0] * dy_deg
-    metres = 111_320.0
-    spacing = (dx_deg * metres * float(np.cos(np.radians(lat))), dy_deg * metres)
-    return Heightmap(z, spacing=spacing)
 
 
 def _tin_rows(quick: bool, rounds: int, table: BenchTable) -> None:
