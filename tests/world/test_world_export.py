@@ -456,3 +456,21 @@ def test_a_world_export_failing_after_its_tiles_are_placed_takes_them_back(world
     again = export_quantized_mesh(world, tmp_path / "old", lonlat=LONLAT, min_zoom=14,
                                   name="w", force=True)
     assert len(again) > len([k for k in before if k.endswith(".terrain")])
+
+
+def test_a_task_run_again_rewrites_its_staged_tiles_and_a_late_one_writes_nothing(tmp_path):
+    """dask runs a task again when its worker died: the tiles the first run staged are
+    written over, not refused. A task that runs after the command removed its staging
+    folder (interrupted) fails without making the folder again."""
+    from terrascape.world.export import _stage
+
+    folder = tmp_path / ".tiles-x.part"
+    folder.mkdir()
+    _stage(str(folder), [("3-4-5.terrain", b"first")])
+    _stage(str(folder), [("3-4-5.terrain", b"again")])
+    assert (folder / "3-4-5.terrain").read_bytes() == b"again"
+    folder.joinpath("3-4-5.terrain").unlink()
+    folder.rmdir()
+    with pytest.raises(FileNotFoundError):
+        _stage(str(folder), [("3-4-5.terrain", b"late")])
+    assert list(tmp_path.iterdir()) == []

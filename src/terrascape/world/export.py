@@ -64,13 +64,14 @@ def _run(client, fn, args: list[tuple]) -> list:
 def _stage(folder: str, named: list[tuple[str, bytes]]) -> None:
     """Write each ``(name, bytes)`` into the staging ``folder`` and flush them to the disk (a
     worker's part of :func:`_staged_tiles`). The folder is never created here: once the
-    command has removed it (interrupted), a late task writes nothing."""
+    command has removed it (interrupted), a late task writes nothing. A file is replaced if
+    there: dask runs a task again when its worker died, and the bytes are the same."""
     from terrascape.export._common import SYNC_THREADS
 
     paths = []
     for name, data in named:
         path = Path(folder) / name
-        with open(path, "xb") as f:
+        with open(path, "wb") as f:
             f.write(data)
         paths.append(path)
     flush_files(paths, threads=SYNC_THREADS)
