@@ -244,3 +244,30 @@ def test_a_unit_removes_what_its_finder_names_at_the_commit(tmp_path):
             Path(tmp).write_text("x")
         (tmp_path / "x.txt").write_text("someone else's")  # the commit fails on it
     assert old.read_text() == "old" and (tmp_path / "x.txt").read_text() == "someone else's"
+
+
+def test_a_folder_lock_is_reentrant_in_its_thread_and_excludes_other_threads(tmp_path):
+    """A command that holds its output folder's lock around a long commit (a world's
+    tiles, then their metadata) takes it again for the inner commit without waiting on
+    itself; another thread still waits until it is released."""
+    import threading
+    import time
+
+    from terrascape.io.atomic import commit_lock
+
+    entered = []
+
+    def other():
+        with commit_lock([tmp_path]):
+            entered.append(time.monotonic())
+
+    with commit_lock([tmp_path]):
+        with commit_lock([tmp_path]):  # the same thread: no deadlock
+            pass
+        thread = threading.Thread(target=other)
+        thread.start()
+        time.sleep(0.3)
+        assert entered == []  # still held after the inner block
+        released = time.monotonic()
+    thread.join(10)
+    assert entered and entered[0] >= released

@@ -474,3 +474,32 @@ def test_a_task_run_again_rewrites_its_staged_tiles_and_a_late_one_writes_nothin
     with pytest.raises(FileNotFoundError):
         _stage(str(folder), [("3-4-5.terrain", b"late")])
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_world_export_holds_its_folder_while_its_tiles_are_named(world, tmp_path,
+                                                                   monkeypatch):
+    """From the tiles' naming to the end of the metadata's commit the output folder is
+    locked: another export (another process) into it waits instead of mixing its tiles
+    in."""
+    import subprocess
+    import sys
+
+    import terrascape.io.atomic as atomic
+
+    place = atomic.place_files
+    seen = []
+    probe = ("import fcntl, os, sys; fd = os.open(sys.argv[1], os.O_RDONLY)\n"
+             "try:\n    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB); print('free')\n"
+             "except BlockingIOError:\n    print('held')")
+
+    def probing(*args, **kwargs):
+        seen.append(subprocess.run([sys.executable, "-c", probe, str(tmp_path / "q")],
+                                   capture_output=True, text=True, timeout=60).stdout.strip())
+        return place(*args, **kwargs)
+
+    monkeypatch.setattr(atomic, "place_files", probing)
+    export_quantized_mesh(world, tmp_path / "q", lonlat=LONLAT, min_zoom=17, name="w")
+    assert seen == ["held"]
+    done = subprocess.run([sys.executable, "-c", probe, str(tmp_path / "q")],
+                          capture_output=True, text=True, timeout=60).stdout.strip()
+    assert done == "free"

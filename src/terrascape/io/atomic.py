@@ -40,6 +40,7 @@ import os
 import re
 import signal
 import tempfile
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
@@ -267,20 +268,37 @@ def commit_lock(folders: Sequence[str | os.PathLike], *, shared: bool = False) -
     unique = sorted({os.path.abspath(f) for f in folders})
     if len(unique) > _MAX_LOCKED_FOLDERS:
         unique = [os.path.commonpath(unique)]
+    # a folder this thread holds already is not locked again: a second flock on another
+    # open file of it would wait for this thread itself (a world export holds its folder
+    # around its tiles and the commit of its metadata)
+    held = _held_folders()
+    mine = [folder for folder in unique if folder not in held]
     try:
         if fcntl is not None:
-            for folder in unique:
+            for folder in mine:
                 try:
                     fd = os.open(folder, os.O_RDONLY)
                 except OSError:
                     continue
                 fds.append(fd)
+                held.add(folder)
                 with contextlib.suppress(OSError):
                     fcntl.flock(fd, fcntl.LOCK_SH if shared else fcntl.LOCK_EX)
         yield
     finally:
+        held.difference_update(mine)
         for fd in fds:
             os.close(fd)  # closing releases the lock
+
+
+_HELD = threading.local()
+
+
+def _held_folders() -> set[str]:
+    """The folders this thread holds a :func:`commit_lock` on."""
+    if not hasattr(_HELD, "folders"):
+        _HELD.folders = set()
+    return _HELD.folders
 
 
 def _link_new(tmp: Path, final: Path) -> None:

@@ -98,6 +98,7 @@ def _staged_tiles(out: Path, tiles: np.ndarray, suffix: str, *,
     from terrascape.export._common import SYNC_THREADS
     from terrascape.io.atomic import (
         check_output_path,
+        commit_lock,
         in_output_unit,
         place_files,
         record_bulk_commit,
@@ -124,22 +125,30 @@ def _staged_tiles(out: Path, tiles: np.ndarray, suffix: str, *,
         return f"{staging}/{_staged_name(z, x, y, suffix)}", final(i)
 
     try:
-        with output_unit(sync_threads=SYNC_THREADS):
-            yield staging
-            for folder in folders:
-                missing = []
-                while not folder.is_dir():
-                    missing.append(folder)
-                    folder = folder.parent
-                for new in reversed(missing):
-                    new.mkdir(exist_ok=True)
-                    made.append(new)
-            aside.mkdir()
-            placed = place_files(len(tiles), pair, aside, force=force,
-                                 sync_threads=SYNC_THREADS)
+        with contextlib.ExitStack() as locked:
+            try:
+                with output_unit(sync_threads=SYNC_THREADS):
+                    yield staging
+                    for folder in folders:
+                        missing = []
+                        while not folder.is_dir():
+                            missing.append(folder)
+                            folder = folder.parent
+                        for new in reversed(missing):
+                            new.mkdir(exist_ok=True)
+                            made.append(new)
+                    aside.mkdir()
+                    # the output folder is held from the tiles' naming to the end of the
+                    # metadata's commit (or the tiles' undoing): another export into it
+                    # waits, and the two never mix
+                    locked.enter_context(commit_lock([out]))
+                    placed = place_files(len(tiles), pair, aside, force=force,
+                                         sync_threads=SYNC_THREADS)
+            except BaseException:
+                if placed is not None:
+                    placed.undo()
+                raise
     except BaseException:
-        if placed is not None:
-            placed.undo()
         for folder in reversed(made):
             with contextlib.suppress(OSError):
                 folder.rmdir()
