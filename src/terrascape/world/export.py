@@ -34,8 +34,10 @@ import contextlib
 import io
 import json
 import math
+import os
 import shutil
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -152,11 +154,29 @@ def _staged_tiles(out: Path, tiles: np.ndarray, suffix: str, *,
         for folder in reversed(made):
             with contextlib.suppress(OSError):
                 folder.rmdir()
-        atexit.register(shutil.rmtree, staging, True)
         raise
     finally:
-        shutil.rmtree(staging, ignore_errors=True)
+        _remove_staging(staging)
     record_bulk_commit(len(tiles), out)
+
+
+def _remove_staging(staging: Path) -> None:
+    """Remove the staging folder so that no task still running (the export failed or was
+    interrupted while a worker thread of this process wrote a tile) can write into it
+    again: renamed first — a task's next file then fails to open — then removed, again
+    if a file being created at the moment of the rename made the first removal fail, and
+    at exit as a last resort."""
+    gone = staging.with_name(staging.name + "-gone")
+    try:
+        os.rename(staging, gone)
+    except OSError:
+        gone = staging
+    for _ in range(5):
+        shutil.rmtree(gone, ignore_errors=True)
+        if not os.path.lexists(gone):
+            return
+        time.sleep(0.02)
+    atexit.register(shutil.rmtree, gone, True)
 
 
 def _tiff_block(path: str, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
